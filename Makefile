@@ -1,0 +1,32 @@
+# Every target creates .venv and installs the package if needed, so each works on a fresh machine.
+PYTHON ?= python3
+VENV   ?= .venv
+PY     := $(VENV)/bin/python
+STAMP  := $(VENV)/.installed-stamp
+TARGET ?= emulator
+
+.PHONY: conformance test bench lint clean
+
+$(STAMP): pyproject.toml setup.py
+	test -x $(PY) || $(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install --quiet --upgrade pip
+	$(PY) -m pip install --quiet -e '.[dev]'
+	touch $(STAMP)
+
+## Run the conformance suite against the built-in emulator (or TARGET=...), writing reports/.
+conformance: $(STAMP)
+	$(VENV)/bin/buildhat-conformance run --target $(TARGET) --junit reports/junit.xml
+
+## The project's own tests.
+test: $(STAMP)
+	$(PY) -m pytest tests
+
+## Benchmarks: prints each figure next to its goal; never fails on wall-clock numbers.
+bench: $(STAMP)
+	$(VENV)/bin/buildhat-conformance bench
+
+lint: $(STAMP)
+	$(VENV)/bin/ruff check .
+
+clean:
+	rm -rf $(VENV) reports/*.xml reports/*.html reports/fuzz build *.egg-info

@@ -1,0 +1,1 @@
+"""Benchmarks: timing, throughput and fidelity figures, printed next to their goals."""

@@ -1,0 +1,1 @@
+"""pytest plugin for host libraries: a ``buildhat_emulator`` fixture (filled in by the emulator's pty runner)."""

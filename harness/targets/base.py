@@ -1,0 +1,96 @@
+"""The one small interface every target implements (cf. pyserial's transports).
+
+A target moves bytes; it knows nothing of lines or commands (that is the session's job).
+Targets that can change the world around the HAT (the emulator) also offer a
+:class:`Control` with the scenario format's world actions.
+"""
+from __future__ import annotations
+
+import abc
+from typing import FrozenSet, Optional
+
+__all__ = ["Target", "Control", "TargetError", "NeedsCapability"]
+
+
+class TargetError(RuntimeError):
+    """A target could not be opened or used. The message says what to do about it."""
+
+
+class NeedsCapability(TargetError):
+    """The test or script needs a world action the target cannot perform."""
+
+    def __init__(self, capability: str, target: str = ""):
+        self.capability = capability
+        super().__init__(f"needs {capability}" + (f" (target {target} has no such control)" if target else ""))
+
+
+class Control(abc.ABC):
+    """Out-of-band control of the world around the HAT (never in-band on the command port).
+
+    ``capabilities`` names what it can do: the scenario-script world actions (``plug``,
+    ``unplug``, ``data``, ``motorfault``, ``portfault``, ``button``, ``adc``, ``rate``,
+    ``hold``, ``pos``) plus ``reset`` and ``bootloader``.
+    """
+
+    capabilities: FrozenSet[str] = frozenset()
+
+    @abc.abstractmethod
+    def action(self, line: str) -> str:
+        """Perform one world action written as a script line, e.g. ``@plug 1 0x30``.
+        Returns the reply text; raises TargetError when the action failed."""
+
+    @property
+    def time_scale(self) -> float:
+        """How many times faster than real time the target runs (1.0 for hardware)."""
+        return 1.0
+
+    def reset(self, bootloader: bool = False) -> None:
+        """Reset the HAT (into its bootloader if asked), as the host's reset GPIO would."""
+        raise NeedsCapability("reset")
+
+
+class Target(abc.ABC):
+    """A HAT (or something pretending to be one) reachable through bytes."""
+
+    url: str = ""
+    #: What this target can do beyond bytes, e.g. {"control", "plug", ...}.
+    capabilities: FrozenSet[str] = frozenset()
+    control: Optional[Control] = None
+
+    @abc.abstractmethod
+    def open(self) -> None:
+        """Open the link. Raises TargetError with an actionable message on failure."""
+
+    @abc.abstractmethod
+    def write(self, data: bytes) -> None:
+        """Send bytes exactly as given (no line-ending translation)."""
+
+    @abc.abstractmethod
+    def read(self, timeout: float) -> bytes:
+        """Bytes received so far, waiting up to ``timeout`` seconds for the first one.
+        Returns b"" on timeout. Raises TargetError if the target has gone away."""
+
+    @abc.abstractmethod
+    def close(self) -> None:
+        """Close the link; safe to call twice."""
+
+    @property
+    def time_scale(self) -> float:
+        return self.control.time_scale if self.control else 1.0
+
+    def has(self, capability: str) -> bool:
+        return capability in self.capabilities or bool(self.control and capability in self.control.capabilities)
+
+    def require(self, capability: str) -> None:
+        if not self.has(capability):
+            raise NeedsCapability(capability, self.url)
+
+    def __enter__(self) -> "Target":
+        self.open()
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def __repr__(self) -> str:
+        return f"<{type(self).__name__} {self.url}>"

@@ -1,0 +1,121 @@
+"""Firmware release profiles (R1..R7) as data: command tables, help text, features.
+
+The JSON beside this module is transcribed from FIRMWARE-FACTS.md §0, §2, §4.3 and §11.
+A new firmware release is a new entry in ``profiles.json``, not new code.
+"""
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from functools import lru_cache
+from importlib import resources
+from typing import Any, Optional
+
+__all__ = ["Profile", "load_profiles", "get_profile", "resolve_version", "profile_numbers",
+           "bootloader_data", "DEFAULT_FIRMWARE"]
+
+
+@lru_cache(maxsize=1)
+def _raw() -> dict:
+    text = resources.files(__package__).joinpath("profiles.json").read_text(encoding="utf-8")
+    return json.loads(text)
+
+
+DEFAULT_FIRMWARE: int = int(_raw()["default"])
+
+
+@dataclass(frozen=True)
+class Profile:
+    """One firmware release as the command port shows it."""
+
+    name: str                 # "R1" .. "R7"
+    number: int               # the number `version` prints first, e.g. 1737564117
+    version_string: str       # text after "Firmware version: "
+    commands: tuple           # command table in the firmware's matching order
+    set_keywords: tuple       # `set` sub-keywords in matching order
+    help_lines: tuple         # exact help text, one entry per CRLF-terminated line
+    signature: Optional[bytes]  # the release's 64-byte signature, None if unknown
+    image_size: int
+    image_checksum: int
+    features: dict = field(default_factory=dict)
+
+    def has(self, command: str) -> bool:
+        return command in self.commands
+
+    def feature(self, key: str) -> Any:
+        return self.features[key]
+
+    @property
+    def document_language(self) -> bool:
+        """True when the command language is the 2021-10 document's (R1-R4)."""
+        return bool(self.features["document_language"])
+
+    @property
+    def help_bytes(self) -> bytes:
+        return b"".join(line.encode("utf-8") + b"\r\n" for line in self.help_lines)
+
+    def __str__(self) -> str:
+        return f"{self.name} ({self.number})"
+
+
+_CORE_KEYS = {"name", "number", "version_string", "commands", "set_keywords", "help_text",
+              "signature", "image_size", "image_checksum"}
+
+
+@lru_cache(maxsize=None)
+def load_profiles() -> dict:
+    """All known profiles, keyed by release number, in release order."""
+    raw = _raw()
+    out = {}
+    for num, p in raw["profiles"].items():
+        sig = bytes.fromhex(p["signature"]) if p.get("signature") else None
+        out[int(num)] = Profile(
+            name=p["name"], number=int(num), version_string=p["version_string"],
+            commands=tuple(p["commands"]), set_keywords=tuple(p["set_keywords"]),
+            help_lines=tuple(raw["help_texts"][p["help_text"]]), signature=sig,
+            image_size=p["image_size"], image_checksum=p["image_checksum"],
+            features={k: v for k, v in p.items() if k not in _CORE_KEYS},
+        )
+    return dict(sorted(out.items()))
+
+
+def profile_numbers() -> list:
+    return list(load_profiles())
+
+
+def get_profile(spec: "int | str | None" = None) -> Profile:
+    """Profile by release number, ``R<n>`` name or ``latest``/None (the default).
+
+    Raises ``KeyError`` with the list of known releases for anything else; use
+    :func:`resolve_version` for version numbers that may be unknown.
+    """
+    profiles = load_profiles()
+    if spec is None or str(spec).lower() in ("latest", "default", ""):
+        return profiles[DEFAULT_FIRMWARE]
+    s = str(spec).strip()
+    for p in profiles.values():
+        if s.upper() == p.name:
+            return p
+    try:
+        return profiles[int(s.split()[0])]
+    except (ValueError, KeyError):
+        known = ", ".join(f"{p.number} ({p.name})" for p in profiles.values())
+        raise KeyError(f"unknown firmware {spec!r}; known releases: {known}, or 'latest'") from None
+
+
+def resolve_version(number: int) -> "tuple[Profile, bool]":
+    """Profile for a version number seen on a target: (profile, exact).
+
+    Unknown numbers use the nearest earlier release (exact=False) so the caller can
+    say so; numbers before R1 use R1.
+    """
+    profiles = load_profiles()
+    if number in profiles:
+        return profiles[number], True
+    earlier = [n for n in profiles if n < number]
+    return profiles[max(earlier) if earlier else min(profiles)], False
+
+
+def bootloader_data() -> dict:
+    """Bootloader facts (FIRMWARE-FACTS §9): prompt, command order, help text, limits."""
+    return dict(_raw()["bootloader"])

@@ -1,0 +1,29 @@
+"""Maps the top-level folders into the ``buildhat_conformance`` namespace.
+
+The folders stay at the top of the repository (harness/, emulator/, ...) but install as
+``buildhat_conformance.harness`` etc., so nothing generic lands in site-packages.
+Sub-packages are found by walking each folder for ``__init__.py``.
+"""
+import os
+
+from setuptools import setup
+
+ROOT = "buildhat_conformance"
+FOLDERS = ["protocol", "harness", "emulator", "conformance", "fuzz", "bench"]
+DATA = ["*.json", "*.txt", "*.md", "*.script", "*.jsonl", "*.html", "*.css", "*.pem", "*.bin"]
+
+
+def packages():
+    found, dirs = [ROOT], {ROOT: ROOT}
+    for top in FOLDERS:
+        for here, _subdirs, files in os.walk(top):
+            if "__init__.py" not in files or "__pycache__" in here:
+                continue
+            name = ".".join([ROOT] + here.split(os.sep))
+            found.append(name)
+            dirs[name] = here
+    return found, dirs
+
+
+pkgs, pkg_dirs = packages()
+setup(packages=pkgs, package_dir=pkg_dirs, package_data={name: DATA for name in pkgs})
