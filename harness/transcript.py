@@ -18,7 +18,7 @@ __all__ = ["TranscriptWriter", "Transcript", "read_transcript", "iter_events", "
 CRLF = b"\r\n"
 
 
-def text_field(data: bytes) -> "tuple[str, Optional[str]]":
+def text_field(data: bytes) -> tuple[str, Optional[str]]:
     """(text, hex) for a byte string: valid UTF-8 decodes as is; otherwise every byte that
     is not part of a valid UTF-8 sequence becomes U+00XX and the raw bytes go in ``hex``."""
     try:
@@ -54,7 +54,7 @@ class TranscriptWriter:
         if "firmware" not in meta:
             meta = dict(meta, firmware="unknown")
         self._pending = bytearray()
-        self._pending_t = 0.0
+        self._pending_t: Optional[float] = None
         self._ended = False
         self._write(dict({"dir": "meta"}, **meta))
 
@@ -80,15 +80,13 @@ class TranscriptWriter:
     # -- public ------------------------------------------------------------------------
     def host(self, t: float, data: bytes) -> None:
         """Bytes the host sent. Pending HAT output becomes a ``partial`` first."""
-        self.flush_partial(t)
+        self.flush_partial()
         self._text_event(t, "bytes", bytes(data), kind="host")
 
     def hat(self, t: float, data: bytes) -> None:
         """Bytes received from the HAT, in any chunking; complete lines are written at once."""
         if not data:
             return
-        if not self._pending:
-            self._pending_t = t
         self._pending += data
         while True:
             i = self._pending.find(CRLF)
@@ -97,13 +95,16 @@ class TranscriptWriter:
             line = bytes(self._pending[:i])
             del self._pending[: i + 2]
             self._text_event(t, "line", line)
-            self._pending_t = t
+        # A partial is stamped with the time its last byte arrived, not when it is flushed.
+        self._pending_t = t
 
     def flush_partial(self, t: Optional[float] = None) -> None:
+        """Write pending output as a ``partial`` event, stamped with its own arrival time
+        (``t`` only when nothing better is known)."""
         if self._pending:
             data = bytes(self._pending)
             self._pending.clear()
-            self._text_event(self._pending_t if t is None else t, "partial", data)
+            self._text_event(self._pending_t if self._pending_t is not None else (t or 0.0), "partial", data)
 
     def event(self, kind: str, t: float, **fields) -> None:
         """Any other event kind (dev, devrx, pwm, led, note) with its fields."""
@@ -130,7 +131,7 @@ class TranscriptWriter:
         if self._owned and not self._fh.closed:
             self._fh.close()
 
-    def __enter__(self) -> "TranscriptWriter":
+    def __enter__(self) -> TranscriptWriter:
         return self
 
     def __exit__(self, *exc) -> None:

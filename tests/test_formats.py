@@ -19,7 +19,7 @@ def test_transcript_round_trips_exact_bytes():
     assert t.hat_bytes == stream
     assert t.host_bytes == b"vin\r\xfe"
     assert t.events[-1]["dir"] == "end"
-    assert any(e.get("partial") == "P0>" for e in t.events) is False  # prompt then CRLF: one line
+    assert not any("partial" in e and e["partial"].startswith("P0>") for e in t.events)  # ended by CRLF
     assert "P0>\u2013\u00ff" in t.hat_lines()
 
 
@@ -95,3 +95,12 @@ def test_format_action_round_trip():
 
 def test_raw_escapes():
     assert unescape_raw("\\r\\n\\t\\b\\\\\\s\\x7f") == b"\r\n\t\b\\ \x7f"
+
+
+def test_partial_keeps_its_arrival_time():
+    buf = io.StringIO()
+    w = TranscriptWriter(buf, {"firmware": "x"})
+    w.hat(5, b"\r\nP0>")
+    w.host(40, b"vin\r")
+    evs = read_transcript(io.StringIO(buf.getvalue())).events
+    assert [(e["t"], e["dir"]) for e in evs] == [(5, "hat"), (5, "hat"), (40, "host")]

@@ -1,1 +1,108 @@
-"""Targets: how bytes reach a HAT. One small module per kind, chosen by URL (see :func:`open_target`)."""
+"""Targets: how bytes reach a HAT. One small module per kind, chosen by URL.
+
+| URL | module |
+|---|---|
+| ``emulator``, ``emulator:<release|latest>[?speed=N&device=P=SPEC...]`` | ``emulator`` |
+| ``/dev/...`` or any existing path, ``serial:///dev/...?baud=115200`` | ``serial`` |
+| ``socket://``, ``rfc2217://``, ``loop://`` and other pyserial URLs | ``pyserial_url`` |
+| ``cmd:<command line>`` | ``cmd`` |
+| ``inprocess[:...]`` | ``inprocess`` |
+
+Each module provides ``from_url(url, **options) -> Target``; it is imported only when its
+URL is used. :func:`make_target` builds a target; :func:`open_target` also opens it.
+"""
+from __future__ import annotations
+
+import importlib
+import os
+from typing import Callable, Dict, List, Tuple
+
+from buildhat_conformance.harness.targets.base import Control, NeedsCapability, Target, TargetError
+
+__all__ = ["make_target", "open_target", "register", "url_forms", "Target", "Control", "TargetError",
+           "NeedsCapability"]
+
+_PKG = __name__
+
+# scheme -> module (in this package) providing from_url; "" marks a path.
+_SCHEMES: Dict[str, str] = {
+    "emulator": "emulator",
+    "inprocess": "inprocess",
+    "cmd": "cmd",
+    "serial": "serial",
+    "socket": "pyserial_url",
+    "rfc2217": "pyserial_url",
+    "loop": "pyserial_url",
+    "spy": "pyserial_url",
+    "hwgrep": "pyserial_url",
+    "alt": "pyserial_url",
+    "cp2110": "pyserial_url",
+}
+_FACTORIES: Dict[str, Callable[..., Target]] = {}
+
+_FORMS: List[Tuple[str, str]] = [
+    ("emulator[:<release|latest>][?speed=N&device=P=SPEC]", "the reference emulator on a pty"),
+    ("inprocess[:<release>][?device=P=SPEC]", "the reference emulator in this process, virtual time"),
+    ("/dev/ttyAMA0, /dev/serial0, /dev/ttyUSB0 ...", "a HAT on a local serial port"),
+    ("serial:///dev/ttyAMA0?baud=115200", "the same, with options"),
+    ("socket://HOST:PORT, rfc2217://HOST:PORT", "a HAT on another machine (ser2net)"),
+    ("loop://", "pyserial's loopback (echoes what is sent)"),
+    ("cmd:<command line>", "a program speaking the protocol on stdin/stdout"),
+]
+
+
+def register(scheme: str, factory: Callable[..., Target]) -> None:
+    """Add (or replace) the factory for a URL scheme: ``factory(url, **options) -> Target``."""
+    _FACTORIES[scheme] = factory
+
+
+def url_forms() -> List[Tuple[str, str]]:
+    """(form, meaning) of every URL this registry understands, for help texts."""
+    return list(_FORMS)
+
+
+def _scheme(url: str) -> str:
+    """The URL's scheme, or "" for a device path. Known schemes win over same-named paths
+    (a checkout has an ``emulator/`` folder; ``emulator`` still means the emulator)."""
+    head = url.split(":", 1)[0].split("?", 1)[0].lower()
+    if head in _SCHEMES or head in _FACTORIES:
+        return head
+    if url.startswith(("/", ".")) or os.path.exists(url):
+        return ""
+    return head
+
+
+def make_target(url: str, **options) -> Target:
+    """The target for a URL, not yet opened. Raises TargetError for URLs nobody handles."""
+    url = url.strip()
+    if not url:
+        raise TargetError("no target given; " + _known())
+    scheme = _scheme(url)
+    if scheme == "":
+        scheme = "serial"
+    factory = _FACTORIES.get(scheme)
+    if factory is None:
+        module_name = _SCHEMES.get(scheme)
+        if module_name is None:
+            close = [k for k in _SCHEMES if scheme.startswith(k)]
+            hint = f" (did you mean {close[0]}:{url[len(close[0]):]}?)" if close else ""
+            raise TargetError(f"unknown target {url!r}{hint}; " + _known())
+        try:
+            module = importlib.import_module(f"{_PKG}.{module_name}")
+        except ModuleNotFoundError as exc:
+            if exc.name and exc.name.endswith(module_name):
+                raise TargetError(f"target kind {scheme!r} is not available in this build") from exc
+            raise
+        factory = module.from_url
+    return factory(url, **options)
+
+
+def open_target(url: str, **options) -> Target:
+    """:func:`make_target`, opened. Raises TargetError with an actionable message on failure."""
+    target = make_target(url, **options)
+    target.open()
+    return target
+
+
+def _known() -> str:
+    return "known targets: " + "; ".join(f"{form} ({what})" for form, what in _FORMS)

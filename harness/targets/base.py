@@ -19,9 +19,11 @@ class TargetError(RuntimeError):
 class NeedsCapability(TargetError):
     """The test or script needs a world action the target cannot perform."""
 
-    def __init__(self, capability: str, target: str = ""):
+    def __init__(self, capability: str, target: str = "", detail: str = ""):
         self.capability = capability
-        super().__init__(f"needs {capability}" + (f" (target {target} has no such control)" if target else ""))
+        if not detail and target:
+            detail = f"target {target} has no such control"
+        super().__init__(f"needs {capability}" + (f" ({detail})" if detail else ""))
 
 
 class Control(abc.ABC):
@@ -56,6 +58,8 @@ class Target(abc.ABC):
     #: What this target can do beyond bytes, e.g. {"control", "plug", ...}.
     capabilities: FrozenSet[str] = frozenset()
     control: Optional[Control] = None
+    #: True between a successful open() and close(); the session opens a target only if False.
+    is_open: bool = False
 
     @abc.abstractmethod
     def open(self) -> None:
@@ -78,14 +82,22 @@ class Target(abc.ABC):
     def time_scale(self) -> float:
         return self.control.time_scale if self.control else 1.0
 
+    def diagnose(self, problem: str) -> str:
+        """Advice for a problem the session found at open: ``silent`` (no byte came back)
+        or ``garbage`` (bytes that are not the protocol's text). Targets override this
+        with what is likely wrong for their kind of link; "" when there is nothing to add."""
+        return ""
+
     def has(self, capability: str) -> bool:
-        return capability in self.capabilities or bool(self.control and capability in self.control.capabilities)
+        if capability in self.capabilities:
+            return True
+        return bool(self.control and capability in self.control.capabilities)
 
     def require(self, capability: str) -> None:
         if not self.has(capability):
             raise NeedsCapability(capability, self.url)
 
-    def __enter__(self) -> "Target":
+    def __enter__(self) -> Target:
         self.open()
         return self
 

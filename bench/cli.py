@@ -1,0 +1,150 @@
+"""``buildhat-conformance bench`` / ``make bench``: every figure with its goal.
+
+Measurements are grouped: one run of a group yields a dict from which several figures take
+their sample. Each group runs several times and each figure reports the median. Nothing
+here fails on a number: the machines are shared and noisy; the table says which goals were
+met on this run. A group that cannot run (a part missing, an error) blanks its figures and
+says why in the note column.
+"""
+from __future__ import annotations
+
+import argparse
+import datetime
+import os
+import platform
+from typing import Callable, List, Optional, Tuple
+
+from buildhat_conformance import __version__
+
+from .figures import Figure, render_table, write_json
+
+# (name, measure, [(figure, key)], most runs or None). A group whose one run takes minutes
+# (the suite at real time is over 200 s of waiting that no machine can shorten) runs once.
+Group = Tuple[str, Callable[[], dict], List[Tuple[Figure, str]], Optional[int]]
+
+# --quick: the suite on a subset (one file) instead of all of it.
+QUICK_SUITE = "test_commands"
+
+
+def _groups(quick: bool) -> List[Group]:
+    from . import cost, fidelity, suite, throughput
+
+    lines = 100_000 if quick else 1_000_000
+    secs = 2.0 if quick else 5.0
+    k = QUICK_SUITE if quick else None
+    scaled = f"--speed {suite.SCALED_SPEED:g}"
+    return [
+        ("suite at real time", lambda: suite.suite_run(scaled=False, keyword=k), [
+            (Figure("suite wall time, real time", "s"), "wall_s"),
+            (Figure("suite mandatory waits (sum)", "s"), "waits_s"),
+            (Figure("suite overhead above mandatory waits", "%", "<= 10 %", target=10.0),
+             "overhead_pct")], 1),
+        ("suite scaled", lambda: suite.suite_run(scaled=True, keyword=k), [
+            (Figure(f"suite wall time, {scaled}", "s", "<= 20 s", target=20.0), "wall_s"),
+            (Figure(f"suite overhead above mandatory waits, {scaled}", "%"), "overhead_pct")], 2),
+        ("fuzz in-process", lambda: throughput.inprocess(seconds=secs), [
+            (Figure("fuzz lines/s in-process", "lines/s", ">= 5,000", "higher", 5000.0),
+             "lines_per_s")], None),
+        ("fuzz over a pty", lambda: throughput.over_pty(seconds=secs), [
+            (Figure("fuzz lines/s over a pty", "lines/s", ">= 1,000", "higher", 1000.0),
+             "lines_per_s")], None),
+        ("fuzz over 3 ptys at once", lambda: throughput.parallel_ptys(3, seconds=secs), [
+            (Figure("fuzz lines/s, 3 emulators in parallel (sum)", "lines/s"), "lines_per_s")], None),
+        ("fuzz on a baud-paced link", lambda: throughput.baud_paced(seconds=secs + 3), [
+            (Figure("115200-baud wire share used", "%", ">= 90 %", "higher", 90.0), "wire_share_pct")], None),
+        ("fuzz campaign", lambda: throughput.campaign_rate(seconds=secs), [
+            (Figure("whole Hypothesis campaign, in-process", "lines/s"), "lines_per_s")], None),
+        ("report period", lambda: fidelity.report_period(seconds=secs), [
+            (Figure("select report period error, mean", "ms", "< 1 ms", target=1.0), "mean_ms"),
+            (Figure("select report period error, p99", "ms"), "p99_ms")], None),
+        ("square wave period", fidelity.waveform_period, [
+            (Figure("square wave period error, mean", "ms"), "mean_ms")], None),
+        ("pulse done", lambda: fidelity.pulse_lateness(repeats=2 if quick else 4), [
+            (Figure("pulse done lateness, mean", "ms"), "mean_ms"),
+            (Figure("pulse done lateness, max", "ms"), "max_ms")], None),
+        ("streaming cost", lambda: cost.streaming_cpu(seconds=secs), [
+            (Figure("CPU share, 4 ports streaming at 10 ms", "% of a core"), "cpu_pct")], None),
+        ("memory", lambda: cost.memory_after_lines(lines), [
+            (Figure(f"resident memory after {lines:,} lines", "MiB"), "rss_mib"),
+            (Figure(f"memory growth over {lines:,} lines", "MiB"), "rss_growth_mib")], 1),  # deterministic
+    ]
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--runs", type=int, default=3, help="repetitions per group (medians reported)")
+    parser.add_argument("--quick", action="store_true", help="one run each, shorter measurements")
+    parser.add_argument("-k", dest="only", default="", help="only groups whose name contains this text")
+    parser.add_argument("-o", "--output", default="reports/bench.json", help="where to write the figures")
+    parser.add_argument("--profile", metavar="DIR", default=None,
+                        help="also profile each group (cProfile) and write its hottest functions to DIR")
+
+
+def _loadavg() -> str:
+    try:
+        return " ".join(f"{x:.1f}" for x in os.getloadavg())
+    except OSError:
+        return "?"
+
+
+def _run(fn: Callable[[], dict], profile_to: Optional[str]) -> dict:
+    if profile_to is None:
+        return fn()
+    import cProfile
+    import io
+    import pstats
+
+    prof = cProfile.Profile()
+    try:
+        return prof.runcall(fn)
+    finally:
+        out = io.StringIO()
+        stats = pstats.Stats(prof, stream=out)
+        stats.sort_stats("tottime").print_stats(40)
+        stats.sort_stats("cumulative").print_stats(40)
+        os.makedirs(os.path.dirname(profile_to) or ".", exist_ok=True)
+        with open(profile_to, "w", encoding="utf-8") as fh:
+            fh.write(out.getvalue())
+
+
+def main(args: argparse.Namespace) -> int:
+    runs = 1 if args.quick else max(1, args.runs)
+    profile_dir = getattr(args, "profile", None)
+    figures: List[Figure] = []
+    loads: List[str] = [_loadavg()]
+    for group in _groups(args.quick):
+        name, fn, wanted = group[0], group[1], group[2]
+        cap = group[3] if len(group) > 3 else None
+        if args.only and args.only not in name:
+            continue
+        n = min(runs, cap) if cap else runs
+        print(f"measuring: {name} ({n} run{'s' if n > 1 else ''}) ...", flush=True)
+        notes: List[str] = []
+        for i in range(n):
+            where = None if profile_dir is None else \
+                os.path.join(profile_dir, f"{name.replace(' ', '-')}-{i}.txt")
+            try:
+                sample = _run(fn, where)
+            except Exception as exc:  # a benchmark reports, it does not crash the table
+                for fig, _key in wanted:
+                    fig.note = f"{type(exc).__name__}: {exc}"[:160]
+                break
+            for fig, key in wanted:
+                fig.samples.append(float(sample[key]))
+            if sample.get("note"):
+                notes.append(str(sample["note"]))
+        if notes:
+            for fig, _key in wanted:
+                fig.note = fig.note or "; ".join(sorted(set(notes)))[:160]
+        figures.extend(fig for fig, _key in wanted)
+        loads.append(_loadavg())
+    print()
+    print(render_table(figures))
+    meta = {"tool": f"buildhat-conformance {__version__}", "date": datetime.datetime.now().isoformat(),
+            "machine": platform.platform(), "cpus": os.cpu_count(), "runs": runs,
+            "python": platform.python_version(),
+            # Shared machines are noisy: the load average before and after each group says how much.
+            "loadavg": loads}
+    write_json(figures, args.output, meta)
+    print(f"\nload average (1, 5, 15 min) during the groups: {' | '.join(loads)}")
+    print(f"written: {args.output}")
+    return 0

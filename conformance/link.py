@@ -1,0 +1,354 @@
+"""The suite's view of a HAT: one :class:`Hat` around the harness Session.
+
+It adds what conformance checks need on top of the Session: the exact bytes a line produced
+(``exchange``), HAT-time waits and collection scaled by the target's time scale, the PID
+command in the profile's own syntax, and the cleanup fence run between test cases.
+"""
+from __future__ import annotations
+
+import re
+import time
+from dataclasses import dataclass, field
+from typing import Any, Callable, List, Union
+
+from buildhat_conformance.protocol.profiles import Profile
+
+__all__ = ["Hat", "Reply", "TargetGone"]
+
+FENCE_ANSWER = b"Firmware version: "
+MIN_WINDOW_S = 0.15
+
+# Lines the HAT may print at any time (FIRMWARE-FACTS §5, §6): a reply that contains one of
+# these was interleaved with something asynchronous and an exact comparison must retry.
+ASYNC_LINE = re.compile(
+    r"P[0-3]: (?:connecting|connected to|established|disconnected|timeout|checksum|too many|button|"
+    r"pulse done|ramp done|pv=|DATA)|P[0-3][MCV][0-9]*:|set baud rate|deltat=|Port power fault|"
+    r"Motor power fault| Port 4D|   [0-3]  |type [0-9A-F]{2}$|  nmodes|MQ overrun")
+
+
+class TargetGone(RuntimeError):
+    """The target stopped answering (closed, killed, unplugged)."""
+
+
+# Whole lines a HAT prints on its own between (never inside) command outputs: the R1 passive
+# re-connect every scan, data reports, PID debug, completion messages (FACTS §5-§7).
+# ``Reply.raw`` leaves them out so a reply can be compared byte for byte; ``Reply.wire`` keeps all.
+ASYNC_BYTES = re.compile(
+    rb"P[0-3]: (?:connected to passive ID [0-9]+|disconnected|button (?:pressed|released)|pulse done|"
+    rb"ramp done|timeout during data phase: disconnecting)\r\n|P[0-3][MCV][0-9]*:[^\r\n]*\r\n|"
+    rb"P[0-3]: (?:pv=|DATA )[^\r\n]*\r\n|deltat=[0-9A-F]{8}\r\n")
+
+
+_LIST_HEADER = re.compile(r"P([0-3]): (?:no device detected|connected to )")
+
+
+@dataclass
+class Reply:
+    """What one host line produced. ``wire``: every byte before the fence, CRLFs included;
+    ``raw``: the same without the asynchronous lines of ``ASYNC_BYTES``."""
+
+    sent: bytes
+    wire: bytes
+    events: List[Any] = field(default_factory=list)
+
+    @property
+    def raw(self) -> bytes:
+        return ASYNC_BYTES.sub(b"", self.wire)
+
+    @property
+    def lines(self) -> List[str]:
+        """Complete lines (CRLF-terminated) as text; a trailing prompt is not a line."""
+        parts = self.raw.split(b"\r\n")
+        return [p.decode("utf-8", errors="replace") for p in parts[:-1]]
+
+    def list_lines(self) -> List[str]:
+        """The lines of a ``list`` dump: asynchronous lines dropped, including a port header
+        out of sequence (R1 repeats ``P<n>: connected to passive ID`` on its own, FACTS §5)."""
+        out, expected = [], 0
+        for line in self.wire.split(b"\r\n")[:-1]:
+            text = line.decode("utf-8", errors="replace")
+            if not text or ASYNC_BYTES.fullmatch(line + b"\r\n") and not _LIST_HEADER.match(text):
+                continue
+            m = _LIST_HEADER.match(text)
+            if m:
+                if int(m.group(1)) != expected:
+                    continue
+                expected += 1
+            out.append(text)
+        return out
+
+    @property
+    def text_lines(self) -> List[str]:
+        """Lines without the blank ones (the CRLF every CR produces)."""
+        return [line for line in self.lines if line]
+
+    @property
+    def errors(self) -> int:
+        return self.lines.count("Error")
+
+    def kinds(self, kind: str) -> List[Any]:
+        return [e for e in self.events if getattr(e, "kind", None) == kind]
+
+
+def _index_of(events: List[Any], event: Any, start: int) -> int:
+    for i in range(len(events) - 1, start - 1, -1):
+        if events[i] is event:
+            return i
+    return start
+
+
+class Hat:
+    def __init__(self, session: Any, target: Any, url: str):
+        self.session = session
+        self.target = target
+        self.url = url
+        self._next = 0                  # first event not yet handed to the test
+        self._powered_checked = False
+        #: Ports whose drive the fence leaves alone (devices that need power to stay connected).
+        self.powered_ports: tuple[int, ...] = ()
+
+    # -- identity ----------------------------------------------------------------------
+    @property
+    def profile(self) -> Profile:
+        return self.session.profile
+
+    @property
+    def profile_exact(self) -> bool:
+        return bool(getattr(self.session, "profile_exact", True))
+
+    def feature(self, key: str) -> Any:
+        return self.profile.features[key]
+
+    def has(self, command: str) -> bool:
+        return command in self.profile.commands
+
+    @property
+    def time_scale(self) -> float:
+        return float(getattr(self.session, "time_scale", 1.0) or 1.0)
+
+    def seconds(self, hat_ms: float) -> float:
+        """Wall-clock seconds for a stretch of HAT time."""
+        return hat_ms / 1000.0 / self.time_scale
+
+    def can(self, capability: str) -> bool:
+        return bool(self.target.has(capability))
+
+    # -- traffic -----------------------------------------------------------------------
+    def send(self, text: Union[str, bytes]) -> None:
+        """One host line: text + CR (never CRLF). Bytes are sent exactly as given."""
+        if isinstance(text, bytes):
+            self.session.send_raw(text)
+        else:
+            self.session.send(text)
+
+    def exchange(self, text: Union[str, bytes], timeout_ms: float = 2000) -> Reply:
+        """Send a line (str: CR added; bytes: exactly these) and return what it produced.
+
+        A ``version`` line follows as the fence; its answer (and, with echo on, its echo and
+        prompt) is cut off the reply.
+        """
+        # Start at the beginning of any line still arriving (a PID line half received), so
+        # the reply holds whole lines and that line can be recognised as asynchronous.
+        lock = getattr(self.session, "_cond", None)
+        if lock is not None:
+            with lock:
+                mark = len(self.session.received) - len(self.session.partial)
+        else:
+            mark = len(self.session.received) - len(self.session.partial)
+        first_event = self.session.mark()
+        data = text if isinstance(text, bytes) else text.encode("latin-1") + b"\r"
+        self.send(data)
+        boundary, self._next = self.fence(max(2.0, self.seconds(timeout_ms)))
+        raw = bytes(self.session.received[mark:])
+        cut = raw.rfind(FENCE_ANSWER)
+        if cut >= 0:
+            head = raw[:cut]
+            # The fence line's own CR gives CRLF first; with echo on "version" is echoed before it.
+            if head.endswith(b"\r\n"):
+                head = head[:-2]
+            if head.endswith(b"version"):
+                head = head[: -len(b"version")]
+            raw = head
+        return Reply(data, raw, list(self.session.events[first_event:boundary]))
+
+    def fence(self, timeout: float) -> tuple[int, int]:
+        """Send ``version`` and wait for *its* answer: the first version line after the CRLF
+        of the fence's own line (a version line the test's own line printed does not count).
+        Returns (index of the fence's first event, index just after its answer)."""
+        s = self.session
+        start = s.mark()
+        line_no = s.send("version")
+        crlf = s.expect(lambda e: e.fields.get("host_line") == line_no, timeout=timeout, since=start)
+        boundary = _index_of(s.events, crlf, start)
+        answer = s.expect(lambda e: e.kind == "version", timeout=timeout, since=boundary + 1)
+        after = _index_of(s.events, answer, boundary) + 1
+        if crlf.kind == "echo":
+            # With echo on the prompt follows the answer; take it now so it does not open the
+            # next reply.
+            try:
+                prompt = s.expect(lambda e: e.kind == "prompt", timeout=min(timeout, 0.5), since=after)
+                after = _index_of(s.events, prompt, after) + 1
+            except AssertionError:
+                pass
+        return boundary, after
+
+    def exchange_quiet(self, text: Union[str, bytes], attempts: int = 3) -> Reply:
+        """``exchange``, repeated while asynchronous lines got mixed into the reply, so the
+        reply can be compared byte for byte."""
+        reply = self.exchange(text)
+        for _ in range(attempts - 1):
+            if not any(ASYNC_LINE.match(line) for line in reply.lines):
+                break
+            reply = self.exchange(text)
+        return reply
+
+    def lines(self, text: str) -> List[str]:
+        return self.exchange(text).text_lines
+
+    def _take(self) -> List[Any]:
+        """Events not yet handed to the test (since the last reply or collection)."""
+        events = self.session.events
+        end = len(events)
+        out = list(events[self._next:end])
+        self._next = end
+        return out
+
+    def collect_ms(self, hat_ms: float) -> List[Any]:
+        """Every event since the last reply or collection, waiting this much HAT time and at
+        least ``MIN_WINDOW_S`` of wall time (a fast target's short window would otherwise be
+        lost in the link's latency)."""
+        self._note_wait(hat_ms)          # H10: the window is mandatory waiting; its floor is not
+        time.sleep(max(MIN_WINDOW_S, self.seconds(hat_ms)))
+        self.session.wait_ms(0)          # raises if the target has gone away
+        return self._take()
+
+    def _note_wait(self, hat_ms: float) -> None:
+        """H10 (make bench): count HAT time a test must wait (see Session.note_wait)."""
+        note = getattr(self.session, "note_wait", None)
+        if note is not None:
+            note(hat_ms)
+
+    def wait_for(self, predicate: Callable[[Any], bool], count: int, max_hat_ms: float) -> List[Any]:
+        """Collect events until ``count`` of them satisfy ``predicate`` (or the time is up);
+        returns everything collected."""
+        out: List[Any] = []
+        began = time.monotonic()
+        deadline = began + max(1.0, self.seconds(max_hat_ms))
+        while time.monotonic() < deadline:
+            time.sleep(0.01)
+            self.session.wait_ms(0)
+            out += self._take()
+            if sum(1 for e in out if predicate(e)) >= count:
+                break
+        # H10: waiting for lines the HAT prints on its own schedule is mandatory waiting (at
+        # most what the test allowed: the one-second floor is not the protocol's).
+        self._note_wait(min(max_hat_ms, (time.monotonic() - began) * 1000.0 * self.time_scale))
+        return out
+
+    def mark(self) -> int:
+        """A position in the event stream, for :meth:`since`."""
+        return len(self.session.events)
+
+    def since(self, mark: int) -> List[Any]:
+        """Every event from ``mark`` on, whatever replies and collections happened meanwhile."""
+        return list(self.session.events[mark:])
+
+    def wait_ms(self, hat_ms: float) -> None:
+        self.session.wait_ms(hat_ms)
+
+    def expect(self, match: Union[str, Callable[[Any], bool]], hat_ms: float) -> Any:
+        """The first event (since the last reply or collection) matching ``match`` (an event
+        kind, a regular expression searched in the text, or a predicate); events after it stay
+        for the next collection. The deadline is HAT time with a one-second wall-clock floor."""
+        if callable(match):
+            pred = match
+        else:
+            rx = re.compile(match)
+            pred = (lambda e: e.kind == match or bool(rx.search(e.text)))  # noqa: E731
+        began = time.monotonic()
+        deadline = began + max(1.0, self.seconds(hat_ms))
+        i = self._next
+        while True:
+            events = self.session.events
+            while i < len(events):
+                if pred(events[i]):
+                    self._next = i + 1
+                    # H10: waiting for a line the HAT prints on its own schedule is mandatory.
+                    self._note_wait(min(hat_ms, (time.monotonic() - began) * 1000.0 * self.time_scale))
+                    return events[i]
+                i += 1
+            if time.monotonic() > deadline:
+                seen = [e.text for e in events[self._next:]][-15:]
+                raise AssertionError(f"expected {match!r} within {hat_ms:g} ms of HAT time; "
+                                     f"the last lines were {seen!r}")
+            time.sleep(0.01)
+            self.session.wait_ms(0)
+
+    def world(self, line: str) -> str:
+        return self.session.world(line)
+
+    def now_ms(self) -> float:
+        """Session time (ms since open), the clock of ``Event.t``."""
+        events = self.session.events
+        return events[-1].t if events else 0.0
+
+    # -- commands in this profile's syntax -------------------------------------------------
+    def pid_command(self, port: int, mode: int, offset: int, fmt: str, scale: str, unwrap: str,
+                    kp: str, ki: str, kd: str, windup: str, deadzone: str = "0.01",
+                    differentiate: bool = False) -> str:
+        """``pid`` with the release's parameter count: 10 (R1-R5) or 11 with deadzone (R6+)."""
+        name = "pid_diff" if differentiate else "pid"
+        args = [port, mode, offset, fmt, scale, unwrap, kp, ki, kd, windup]
+        if self.feature("pid_numbers") >= 11:
+            args.append(deadzone)
+        return " ".join([name] + [str(a) for a in args])
+
+    def cleanup_lines(self, powered: tuple[int, ...] = ()) -> List[str]:
+        """What the fence between test cases sends: echo/debug off, every port quiet and in
+        direct-PWM mode with a zero constant setpoint and the default limit. Ports in
+        ``powered`` keep their drive: a light matrix disconnects when its power goes."""
+        parts = ["echo 0", "debug 0"]
+        for p in range(4):
+            parts += [f"port {p}", "select"] + ([] if p in powered else ["pwm", "off"])
+            if self.has("bias"):
+                parts.append("bias 0")
+        if self.has("pwmparams"):
+            parts = parts + [f"port {p} ; pwmparams 0 0" for p in range(4)]
+        # plimit is left alone: a powered light matrix needs it, and tests that depend on the
+        # default limit set it themselves.
+        parts += ["port 0"]
+        # One line per 200 bytes at most: the line buffer holds 256 (FACTS §1).
+        lines, line = [], ""
+        for part in parts:
+            if len(line) + len(part) + 3 > 200:
+                lines.append(line)
+                line = ""
+            line = f"{line} ; {part}" if line else part
+        return lines + [line]
+
+    def resync(self) -> None:
+        """End any half-typed line and put the HAT back in a known state. Reports queued
+        before ``select`` took effect arrive before the fence's answer, so no drain is needed."""
+        self.send(b"\r")
+        if not self._powered_checked:
+            self._powered_checked = True
+            self.powered_ports = self._ports_needing_power()
+        for line in self.cleanup_lines(self.powered_ports):
+            self.exchange(line)
+
+    def _ports_needing_power(self) -> tuple[int, ...]:
+        """Ports with a device that disconnects without motor power (the light matrix, per
+        devices.json): the fence must not switch their drive off."""
+        from buildhat_conformance.protocol.devices import catalogue
+
+        from .oracles.listing import parse_list
+        try:
+            entries = parse_list(self.exchange("list").list_lines())
+        except ValueError:
+            return ()
+        ports = []
+        for e in entries:
+            power = (catalogue().get(f"0x{e.id:02X}", {}).get("power") or {}) if e.kind == "active" else {}
+            if power.get("needs_port_power_at_connect") and "disconnect" in power.get("note", ""):
+                ports.append(e.port)
+        return tuple(ports)

@@ -1,0 +1,221 @@
+"""What a test needs around the HAT: a device on some port, a free port, a fault, sensor data.
+
+On a target with a control channel (the emulator) the need is met through world actions
+(``@plug 3 0x3E``); on a real HAT the suite looks for a port that already has the device
+(from ``list``), asks the person at the bench with ``--operator``, or skips with a reason
+that says exactly what to connect. Everything changed is put back after the test.
+"""
+from __future__ import annotations
+
+from typing import Any, Dict, List, Optional, Tuple
+
+import pytest
+
+from buildhat_conformance.protocol.devices import active_device, passive_device
+
+from . import operator
+from .oracles.listing import PortEntry, parse_list
+
+__all__ = ["World", "device_name"]
+
+Spec = Optional[Tuple[str, int]]          # ("active", 0x30) / ("passive", 8) / None
+
+# Setup of an active device takes ~1 s of HAT time; a passive ID needs 6 scans (~0.6 s).
+CONNECT_MS = 6000
+SETTLE_MS = 3000
+
+
+def device_name(spec: Spec) -> str:
+    if spec is None:
+        return "nothing"
+    kind, ident = spec
+    if kind == "active":
+        return f"{active_device(ident)['name']} (active ID 0x{ident:02X})"
+    return f"{passive_device(ident).get('name', 'passive device')} (passive ID {ident})"
+
+
+def _spec_text(spec: Spec) -> str:
+    if spec is None:
+        return "none"
+    return f"0x{spec[1]:02X}" if spec[0] == "active" else f"passive {spec[1]}"
+
+
+class World:
+    def __init__(self, hat: Any, config: Any):
+        self.hat = hat
+        self.config = config
+        self.operator = bool(config.getoption("operator"))
+        self._original: Dict[int, Spec] = {}
+
+    # -- what is there -------------------------------------------------------------------
+    def layout(self) -> List[PortEntry]:
+        """What ``list`` shows on each port. On R1 a passive port reads as empty during each
+        ~80 ms scan (FACTS §5), so there a few looks are merged: a device seen once is there."""
+        entries = self._one_layout()
+        if not self.hat.feature("passive_port_reset_each_scan"):
+            return entries
+        for _ in range(3):
+            self.hat.wait_ms(70)
+            for again in self._one_layout():
+                if entries[again.port].kind == "empty" and again.kind == "passive":
+                    entries[again.port] = again
+        return entries
+
+    def _one_layout(self) -> List[PortEntry]:
+        # A device connecting meanwhile prints its own block next to the dump: look again.
+        for _attempt in range(5):
+            reply = self.hat.exchange("list", timeout_ms=3000)
+            try:
+                return parse_list(reply.list_lines())
+            except ValueError:
+                self.hat.wait_ms(300)
+        return parse_list(self.hat.exchange("list", timeout_ms=3000).list_lines())
+
+    @staticmethod
+    def spec_of(entry: PortEntry) -> Spec:
+        return None if entry.kind == "empty" else (entry.kind, int(entry.id))
+
+    def settled_entry(self, port: int, spec: Spec, attempts: int = 8) -> PortEntry:
+        """The port's ``list`` entry once it shows ``spec``; R1 shows a passive port as empty
+        during each ~80 ms scan (FACTS §5), so a few looks may be needed."""
+        entry = self.layout()[port]
+        for _ in range(attempts - 1):
+            if self.spec_of(entry) == spec:
+                break
+            self.hat.wait_ms(40)
+            entry = self.layout()[port]
+        return entry
+
+    def find(self, spec: Spec) -> Optional[int]:
+        for entry in self.layout():
+            if self.spec_of(entry) == spec:
+                return entry.port
+        return None
+
+    # -- needs ---------------------------------------------------------------------------
+    def active(self, type_id: int, avoid: Tuple[int, ...] = ()) -> int:
+        """A port with this active device established (plugged on demand)."""
+        return self._need(("active", type_id), avoid)
+
+    def passive(self, ident: int, avoid: Tuple[int, ...] = ()) -> int:
+        return self._need(("passive", ident), avoid)
+
+    def empty_port(self, avoid: Tuple[int, ...] = ()) -> int:
+        return self._need(None, avoid)
+
+    def _need(self, spec: Spec, avoid: Tuple[int, ...]) -> int:
+        layout = self.layout()
+        if not self.can("plug") and not any(self.spec_of(e) == spec and e.port not in avoid for e in layout):
+            # Without a control channel the device cannot be plugged on demand; it may still
+            # be setting up (about a second after power-up, FACTS §10): look once more.
+            self.hat.wait_ms(SETTLE_MS)
+            layout = self.layout()
+        for entry in layout:
+            if self.spec_of(entry) == spec and entry.port not in avoid:
+                return entry.port
+        # Replace the least useful port: an empty one first, then the highest number.
+        candidates = [e for e in layout if e.port not in avoid]
+        candidates.sort(key=lambda e: (e.kind != "empty", -e.port))
+        port = candidates[0].port
+        self.plug(port, spec)
+        return port
+
+    # -- changing the world --------------------------------------------------------------
+    def can(self, capability: str) -> bool:
+        return self.hat.can(capability)
+
+    def require(self, capability: str, what: str) -> None:
+        """Skip (saying what is missing) unless the target can perform this world action."""
+        if not self.can(capability):
+            pytest.skip(f"needs {what}: target {self.hat.url} has no '{capability}' control "
+                        f"(use the emulator, or a rig that provides it)")
+
+    def action(self, line: str) -> str:
+        name = line.split()[0].lstrip("@")
+        if self.can(name):
+            return self.hat.world(line)
+        pytest.skip(f"needs the world action '{line}' (target {self.hat.url} cannot perform it)")
+        return ""
+
+    def plug(self, port: int, spec: Spec) -> None:
+        """Put ``spec`` on ``port`` (None: leave it empty) and wait until the HAT agrees."""
+        current = {e.port: self.spec_of(e) for e in self.layout()}
+        if current.get(port) == spec:
+            return
+        self._original.setdefault(port, current.get(port))
+        if self.can("plug"):
+            if current.get(port) is not None:
+                self.hat.world(f"@unplug {port}")
+                self._power_if_needed(port, None)
+                self._wait_for(port, None)
+            if spec is not None:
+                self.hat.world(f"@plug {port} {_spec_text(spec)}")
+                self._power_if_needed(port, spec)
+                self._wait_for(port, spec)
+            return
+        if self.operator:
+            what = (f"unplug whatever is on port {port}" if spec is None else
+                    f"connect a {device_name(spec)} to port {port} (and nothing else there)")
+            if operator.ask(self.config, what):
+                self._wait_for(port, spec)
+                return
+        need = "an empty port" if spec is None else f"a {device_name(spec)}"
+        pytest.skip(f"needs {need}: connect {('it to any port' if spec else 'nothing to one port')} "
+                    f"and run again (or use --operator)")
+
+    def _power_if_needed(self, port: int, spec: Spec) -> None:
+        """Devices that disconnect without motor power soon after setup (the light matrix,
+        document Appendix A) get the set-point the catalogue gives, as a host library would."""
+        powered = tuple(p for p in self.hat.powered_ports if p != port)
+        self.hat.powered_ports = powered
+        if spec is None or spec[0] != "active":
+            return
+        power = active_device(spec[1]).get("power") or {}
+        if not power.get("needs_port_power_at_connect") or "disconnect" not in power.get("note", ""):
+            return
+        self.hat.expect(lambda e: e.text == f"P{port}: established serial communication with active ID "
+                        f"{spec[1]:02X}", CONNECT_MS)
+        setpoint = power.get("hat_setpoint_used_by_library", 1)
+        self.hat.exchange(f"port {port} ; plimit 1 ; set {setpoint} ; port 0")
+        self.hat.powered_ports = powered + (port,)
+
+    def plug_only(self, port: int, spec: Spec) -> None:
+        """The world action alone, for tests that watch what plugging prints: no ``list``
+        before or after (its output would mix with the connect messages). Restored as usual."""
+        self.require("plug", "plugging devices in and out")
+        current = {e.port: self.spec_of(e) for e in self.layout()}
+        self._original.setdefault(port, current.get(port))
+        if spec is None:
+            self.hat.world(f"@unplug {port}")
+        else:
+            self.hat.world(f"@plug {port} {_spec_text(spec)}")
+
+    def unplug(self, port: int) -> None:
+        self.plug(port, None)
+
+    def _wait_for(self, port: int, spec: Spec) -> None:
+        waited = 0.0
+        step = 250.0
+        mark = self.hat.mark()
+        while waited <= CONNECT_MS:
+            if spec is not None and spec[0] == "passive" and any(
+                    e.text == f"P{port}: connected to passive ID {spec[1]}" for e in self.hat.since(mark)):
+                # R1 shows a rescanned passive port as empty most of the time (FACTS §5).
+                return
+            self.hat.wait_ms(step)
+            waited += step
+            entries = {e.port: self.spec_of(e) for e in self.layout()}
+            if entries.get(port) == spec:
+                return
+        raise AssertionError(f"port {port} did not become {device_name(spec)} within {CONNECT_MS} ms "
+                             f"of HAT time (list shows {device_name(entries.get(port))})")
+
+    def restore(self) -> None:
+        """Put every port changed by this test back as it was."""
+        original, self._original = self._original, {}
+        for port, spec in sorted(original.items()):
+            try:
+                self.plug(port, spec)
+            except BaseException:  # noqa: B036 - a skip/failure here must not hide the test's verdict
+                pass
+        self._original = {}

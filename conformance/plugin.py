@@ -1,0 +1,312 @@
+"""pytest plugin of the conformance suite: options, the shared HAT session, per-case
+transcripts, verdict classes, an always-valid JUnit file and a per-requirement summary.
+
+Options: ``--target URL`` (default ``emulator``), ``--firmware V`` (override detection),
+``--operator`` (ask a person for world actions), ``--transcripts DIR``,
+``--conformance-junit PATH``, ``--speed N`` (time scale for emulator URLs that give none).
+"""
+from __future__ import annotations
+
+import os
+import re
+import time
+from collections import defaultdict
+from typing import Any, Dict, List, Optional, Tuple
+
+import pytest
+
+from buildhat_conformance.protocol.requirements import requirements
+
+from .junit import Case, JUnitFile
+from .link import Hat
+from .needs import World
+from .tee import TeeTarget
+from .verdict import FAIL, INFO, KNOWN, PASS, SKIP, Verdict
+
+DEFAULT_CASE_TIMEOUT = 120.0
+FW_AREA = "Firmware facts (FW-)"
+
+_verdict_key = pytest.StashKey[Verdict]()
+
+
+def pytest_addoption(parser: Any) -> None:
+    group = parser.getgroup("buildhat", "Build HAT conformance")
+    group.addoption("--target", default="emulator", help="target URL (default: emulator)")
+    group.addoption("--firmware", default=None,
+                    help="firmware profile to judge against (release number, R<n> or latest); default: "
+                         "detected from `version`")
+    group.addoption("--operator", action="store_true", default=False,
+                    help="ask a person to perform world actions (plug/unplug) and wait for Enter")
+    group.addoption("--transcripts", default=os.path.join("reports", "transcripts"),
+                    help="folder for one transcript per test case")
+    group.addoption("--conformance-junit", default=os.path.join("reports", "junit.xml"),
+                    help="JUnit XML written (and kept valid) after every case")
+    group.addoption("--speed", default="10",
+                    help="time scale added to emulator URLs that give none (default 10)")
+
+
+def pytest_configure(config: Any) -> None:
+    config.addinivalue_line("markers", "req(*ids): requirement IDs (REQUIREMENTS.md or FW-...) a test checks")
+    config.addinivalue_line("markers", "slow: takes more than a few seconds")
+    if not hasattr(config, "workerinput"):
+        run = Run(config)
+        config.stash[_run_key] = run
+        config.pluginmanager.register(run, "buildhat-conformance-run")
+
+
+def target_url(config: Any) -> str:
+    url = config.getoption("target")
+    speed = config.getoption("speed")
+    if url.startswith("emulator") and "speed=" not in url and speed:
+        if url == "emulator":
+            url = "emulator:latest"      # the registry wants the release before a query
+        url += ("&" if "?" in url else "?") + f"speed={speed}"
+    return url
+
+
+def requirement_ids(item: Any) -> List[str]:
+    ids: List[str] = []
+    for mark in item.iter_markers("req"):
+        ids.extend(str(a) for a in mark.args)
+    return ids
+
+
+def area_of(req_id: str) -> str:
+    if req_id.startswith("FW-"):
+        return FW_AREA
+    for r in requirements():
+        if r.id == req_id:
+            return r.area
+    return "Unknown IDs"
+
+
+def _safe(nodeid: str) -> str:
+    return re.sub(r"[^A-Za-z0-9_.-]+", "_", nodeid).strip("_")[:180]
+
+
+class Run:
+    """State of one conformance run (a plugin object, so its hooks see everything)."""
+
+    def __init__(self, config: Any):
+        self.config = config
+        self.url = target_url(config)
+        self.transcripts = config.getoption("transcripts")
+        self.hat: Optional[Hat] = None
+        self.tee: Optional[TeeTarget] = None
+        self.open_error: Optional[str] = None
+        self.results: Dict[str, Tuple[str, List[str]]] = {}      # nodeid -> (verdict class, req ids)
+        self.collected_ids: Dict[str, List[str]] = {}
+        self._case: Dict[str, Case] = {}
+        self._started: Dict[str, float] = {}
+        self.junit = JUnitFile(config.getoption("conformance_junit"), "buildhat-conformance",
+                               [("target", self.url)])
+
+    # -- the shared session --------------------------------------------------------------
+    def open(self) -> Hat:
+        if self.hat is not None:
+            return self.hat
+        if self.open_error:
+            pytest.fail(self.open_error, pytrace=False)
+        from buildhat_conformance.harness.session import Session
+        from buildhat_conformance.harness.targets import make_target
+        from buildhat_conformance.harness.transcript import TranscriptWriter
+        from buildhat_conformance.protocol.profiles import get_profile
+
+        between = TranscriptWriter(os.path.join(self.transcripts, "_between-cases.jsonl"),
+                                   {"target": self.url, "firmware": "unknown", "case": "between cases"})
+        try:
+            self.tee = TeeTarget(make_target(self.url), between=between)
+            forced = self.config.getoption("firmware")
+            profile = get_profile(forced) if forced else None
+            session = Session(self.tee, transcript=None, profile=profile)
+            session.open()
+        except Exception as exc:  # the message says how to reach the target
+            self.open_error = f"cannot open target {self.url}: {type(exc).__name__}: {exc}"
+            pytest.fail(self.open_error, pytrace=False)
+        self.hat = Hat(session, self.tee, self.url)
+        p = self.hat.profile
+        self.junit.set_property("firmware", p.version_string)
+        self.junit.set_property("profile", p.name + ("" if self.hat.profile_exact else " (nearest earlier)"))
+        return self.hat
+
+    def close(self) -> None:
+        if self.hat is not None:
+            try:
+                self.hat.session.close()
+            except Exception:  # noqa: BLE001 - closing a dead target must not mask the results
+                pass
+        if self.tee is not None and self.tee.between is not None:
+            self.tee.between.close()
+
+    # -- hooks -----------------------------------------------------------------------------
+    @pytest.hookimpl(trylast=True)
+    def pytest_collection_modifyitems(self, items: List[Any]) -> None:
+        for item in items:
+            self.collected_ids[item.nodeid] = requirement_ids(item)
+            if item.get_closest_marker("timeout") is None:
+                item.add_marker(pytest.mark.timeout(DEFAULT_CASE_TIMEOUT))
+
+    @pytest.hookimpl(hookwrapper=True)
+    def pytest_runtest_makereport(self, item: Any, call: Any):
+        outcome = yield
+        report = outcome.get_result()
+        if report.when != "call":
+            return
+        verdict = item.stash.get(_verdict_key, None)
+        if verdict is None:
+            return
+        if report.passed:
+            cls = verdict.verdict_class
+        elif report.skipped:
+            cls = SKIP
+        else:
+            cls = FAIL
+        report.user_properties.append(("verdict", cls))
+        if verdict.known:
+            report.user_properties.append(("deviations", ",".join(k for k, _ in verdict.known)))
+            report.sections.append(("known deviations", "\n".join(f"{k}: {s}" for k, s in verdict.known)))
+        if verdict.notes:
+            report.user_properties.append(("notes", " | ".join(verdict.notes)))
+
+    def pytest_report_teststatus(self, report: Any, config: Any):
+        if report.when == "call" and report.passed:
+            cls = dict(report.user_properties).get("verdict")
+            if cls == KNOWN:
+                return "known deviation", "K", ("KNOWN DEVIATION", {"yellow": True})
+            if cls == INFO:
+                return "informational", "I", ("INFORMATIONAL", {"cyan": True})
+        return None
+
+    def pytest_runtest_logstart(self, nodeid: str, location: Any) -> None:
+        self._started[nodeid] = time.monotonic()
+
+    def pytest_runtest_logreport(self, report: Any) -> None:
+        nodeid = report.nodeid
+        case = self._case.get(nodeid)
+        if case is None:
+            module, _, name = nodeid.partition("::")
+            case = Case(classname=module.replace("/", ".").removesuffix(".py"), name=name or nodeid)
+            self._case[nodeid] = case
+        props = dict(case.properties)
+        for k, v in report.user_properties:
+            props[k] = str(v)
+        case.properties = list(props.items())
+        if report.failed and case.outcome not in ("failed", "error"):
+            case.outcome = "failed" if report.when == "call" else "error"
+            case.message = _first_line(report.longreprtext)
+            case.details = report.longreprtext
+        elif report.skipped and case.outcome == "passed":
+            case.outcome = "skipped"
+            reason = report.longrepr[2] if isinstance(report.longrepr, tuple) else str(report.longrepr)
+            case.message = case.details = str(reason)
+        if report.when == "teardown":
+            case.time = time.monotonic() - self._started.get(nodeid, time.monotonic())
+            props = dict(case.properties)
+            cls = {"failed": FAIL, "error": FAIL, "skipped": SKIP}.get(case.outcome) \
+                or props.get("verdict", PASS)
+            props["verdict"] = cls
+            case.properties = list(props.items())
+            self.junit.add(case)
+            self.results[nodeid] = (cls, self.collected_ids.get(nodeid, []))
+            del self._case[nodeid]
+
+    def pytest_sessionfinish(self, session: Any, exitstatus: Any) -> None:
+        self.close()
+        self.junit.write()
+
+    def pytest_terminal_summary(self, terminalreporter: Any) -> None:
+        tr = terminalreporter
+        if not self.results:
+            return
+        tr.section("conformance by requirement area")
+        per_area: Dict[str, Dict[str, int]] = defaultdict(lambda: defaultdict(int))
+        covered = set()
+        for cls, ids in self.results.values():
+            for rid in set(ids):
+                covered.add(rid)
+                per_area[area_of(rid)][cls] += 1
+        classes = (PASS, FAIL, SKIP, KNOWN, INFO)
+        tr.write_line(f"{'area':<32}" + "".join(f"{c:>17}" for c in classes))
+        areas = [r.area for r in requirements()]
+        for area in sorted(per_area, key=lambda a: (areas.index(a) if a in areas else 99, a)):
+            tr.write_line(f"{area:<32}" + "".join(f"{per_area[area][c]:>17}" for c in classes))
+        all_ids = [r.id for r in requirements()]
+        missing = [rid for rid in all_ids if rid not in covered]
+        tr.write_line(f"requirement IDs with no test run: {len(missing)} of {len(all_ids)}"
+                      + (f" ({', '.join(missing)})" if missing else ""))
+        if self.hat is not None:
+            p = self.hat.profile
+            exact = "" if self.hat.profile_exact else \
+                " - unknown version, judged as the nearest earlier release"
+            tr.write_line(f"target {self.url}: firmware {p.version_string} profile {p.name}{exact}")
+        tr.write_line(f"JUnit: {self.junit.path}   transcripts: {self.transcripts}")
+
+
+_run_key = pytest.StashKey[Run]()
+
+
+def _first_line(text: str) -> str:
+    for line in text.splitlines():
+        if line.strip():
+            return line.strip()[:300]
+    return ""
+
+
+# -- fixtures ------------------------------------------------------------------------------
+@pytest.fixture(scope="session")
+def _run(pytestconfig: Any) -> Run:
+    return pytestconfig.stash[_run_key]
+
+
+@pytest.fixture(scope="session")
+def hat(_run: Run) -> Hat:
+    """The HAT under test, shared by every case (opened once, closed at the end)."""
+    return _run.open()
+
+
+@pytest.fixture(autouse=True)
+def _conformance_case(request: Any, _run: Run) -> Any:
+    """Per case: its own transcript, the resynchronising fence, and its JUnit properties."""
+    from buildhat_conformance.harness.transcript import TranscriptWriter
+
+    hat = _run.open()
+    item = request.node
+    verdict = Verdict(hat.profile.name)
+    item.stash[_verdict_key] = verdict
+    path = os.path.join(_run.transcripts, _safe(item.nodeid) + ".jsonl")
+    ids = requirement_ids(item)
+    p = hat.profile
+    item.user_properties.extend([
+        ("requirements", ",".join(ids)), ("target", _run.url), ("firmware", p.version_string),
+        ("profile", p.name if hat.profile_exact else f"{p.name} (nearest earlier)"), ("transcript", path)])
+    if not hat.profile_exact:
+        verdict.note(f"unknown firmware version; judged as {p.name}, the nearest earlier release")
+    if _run.tee.dead:
+        pytest.fail(f"the target went away earlier in the run ({_run.tee.dead})", pytrace=False)
+    writer = TranscriptWriter(path, {"firmware": p.version_string, "target": _run.url, "case": item.nodeid,
+                                     "requirements": ids, "profile": p.name})
+    _run.tee.switch(writer)
+    waited = getattr(hat.session, "waited_hat_ms", 0.0)   # H10: see Session.note_wait
+    try:
+        hat.resync()
+        yield
+    finally:
+        _run.tee.switch(None)
+        writer.close()
+        # H10 (make bench): the HAT time this case had to wait, summed by bench/suite.py.
+        item.user_properties.append(
+            ("hat_wait_ms", f"{getattr(hat.session, 'waited_hat_ms', 0.0) - waited:.1f}"))
+
+
+@pytest.fixture
+def verdict(request: Any) -> Verdict:
+    """Where a test records known deviations and notes (see :class:`~.verdict.Verdict`)."""
+    return request.node.stash[_verdict_key]
+
+
+@pytest.fixture
+def world(hat: Hat, pytestconfig: Any) -> Any:
+    """Devices and world actions a test needs; everything changed is put back afterwards."""
+    w = World(hat, pytestconfig)
+    yield w
+    w.restore()

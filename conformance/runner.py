@@ -1,0 +1,72 @@
+"""``buildhat-conformance run``: the conformance suite against one target.
+
+Runs pytest on the installed ``conformance`` package in a child process (so a target that
+hangs or dies cannot take the caller with it), writes the JUnit file, builds the HTML
+report when ``buildhat_conformance.harness.report`` is available, and exits non-zero on
+any failure. Options it does not know are passed to pytest unchanged.
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import subprocess
+import sys
+from typing import List
+
+PASS_UNKNOWN_ARGS = True
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--target", action="append", default=None,
+                        help="target URL (default: emulator); several: one xdist worker each, one merged "
+                             "report (docs/LAB.md; or --inventory FILE)")
+    parser.add_argument("--firmware", default=None, help="judge against this release instead of detecting it")
+    parser.add_argument("--junit", default=os.path.join("reports", "junit.xml"), help="JUnit XML output")
+    parser.add_argument("--transcripts", default=None,
+                        help="folder for per-case transcripts (default: beside the JUnit file)")
+    parser.add_argument("-k", dest="keyword", default=None, help="only tests matching this pytest expression")
+    parser.add_argument("--operator", action="store_true", help="ask a person for plug/unplug actions")
+
+
+def suite_dir() -> str:
+    from buildhat_conformance import conformance
+    return os.path.dirname(os.path.abspath(conformance.__file__))
+
+
+def pytest_argv(args: argparse.Namespace) -> List[str]:
+    junit = os.path.abspath(args.junit)
+    transcripts = args.transcripts or os.path.join(os.path.dirname(junit), "transcripts")
+    # H10: --target may be given several times (conformance/multitarget.py runs one worker each).
+    targets = args.target if isinstance(args.target, list) else [args.target or "emulator"]
+    argv = [sys.executable, "-m", "pytest", suite_dir(), "-p", "no:cacheprovider", "--rootdir", suite_dir(),
+            *[a for t in targets for a in ("--target", t)], "--conformance-junit", junit,
+            "--transcripts", transcripts, "--import-mode=importlib", "-q",
+            # The suite uses no Hypothesis; its pytest plugin imports the library in the terminal
+            # summary, two seconds of every run (H10 profile).
+            "-p", "no:hypothesispytest"]
+    if args.firmware:
+        argv += ["--firmware", args.firmware]
+    if args.keyword:
+        argv += ["-k", args.keyword]
+    if args.operator:
+        argv += ["--operator", "-s"]
+    return argv + list(getattr(args, "extra", []) or [])
+
+
+def build_html_report(junit: str) -> None:
+    """Write ``index.html`` beside the JUnit file (reports/ for `make conformance`)."""
+    from buildhat_conformance.harness.report import build_report
+
+    try:
+        out = build_report([junit], os.path.join(os.path.dirname(junit), "index.html"))
+        if out:
+            print(f"HTML report: {out}")
+    except Exception as exc:  # noqa: BLE001 - the report is extra; the verdict is the exit status
+        print(f"buildhat-conformance: HTML report not built: {exc}", file=sys.stderr)
+
+
+def main(args: argparse.Namespace) -> int:
+    # The suite's own folder is the rootdir; pytest.ini options of the caller's project are not ours.
+    code = subprocess.call(pytest_argv(args))
+    build_html_report(os.path.abspath(args.junit))
+    return 0 if code == 0 else (code or 1)

@@ -1,0 +1,92 @@
+"""A target wrapper that copies every byte, both ways, into the current test's transcript.
+
+The session is shared by the whole run, but each test case gets its own transcript; this
+wrapper is where the switch happens. Bytes that arrive between test cases go to the run's
+own transcript, so nothing received is ever lost.
+"""
+from __future__ import annotations
+
+import threading
+import time
+from typing import Optional
+
+from buildhat_conformance.harness.targets.base import Target
+from buildhat_conformance.harness.transcript import TranscriptWriter
+
+__all__ = ["TeeTarget"]
+
+
+class TeeTarget(Target):
+    def __init__(self, inner: Target, between: Optional[TranscriptWriter] = None):
+        self.inner = inner
+        self.url = inner.url
+        self.capabilities = inner.capabilities
+        self.control = inner.control
+        self.between = between
+        self.current: Optional[TranscriptWriter] = None
+        self._t0 = time.monotonic()
+        self.dead: Optional[str] = None        # why the target went away, once it has
+        # The session may read from a thread while the test thread writes.
+        self._lock = threading.Lock()
+
+    def _writer(self) -> Optional[TranscriptWriter]:
+        return self.current or self.between
+
+    def _now_ms(self) -> float:
+        # Transcript times are HAT milliseconds (TRANSCRIPT.md): real time x the time scale.
+        return (time.monotonic() - self._t0) * 1000.0 * (self.inner.time_scale or 1.0)
+
+    def switch(self, writer: Optional[TranscriptWriter]) -> None:
+        """Route from now on to ``writer`` (None: the between-tests transcript); times restart."""
+        with self._lock:
+            old = self._writer()
+            if old is not None:
+                old.flush_partial(self._now_ms())
+            self.current = writer
+            self._t0 = time.monotonic()
+
+    def open(self) -> None:
+        self.inner.open()
+        self.control = self.inner.control
+        self.capabilities = self.inner.capabilities
+
+    def write(self, data: bytes) -> None:
+        with self._lock:
+            w = self._writer()
+            if w is not None:
+                w.host(self._now_ms(), data)
+        try:
+            self.inner.write(data)
+        except Exception as exc:
+            self.dead = self.dead or f"{type(exc).__name__}: {exc}"
+            raise
+
+    def read(self, timeout: float) -> bytes:
+        try:
+            data = self.inner.read(timeout)
+        except Exception as exc:
+            self.dead = self.dead or f"{type(exc).__name__}: {exc}"
+            raise
+        if data:
+            with self._lock:
+                w = self._writer()
+                if w is not None:
+                    w.hat(self._now_ms(), data)
+        return data
+
+    def close(self) -> None:
+        self.inner.close()
+
+    @property  # type: ignore[override]
+    def is_open(self) -> bool:
+        return bool(getattr(self.inner, "is_open", False))
+
+    def diagnose(self, problem: str) -> str:
+        return self.inner.diagnose(problem)
+
+    @property
+    def time_scale(self) -> float:
+        return self.inner.time_scale
+
+    def has(self, capability: str) -> bool:
+        return self.inner.has(capability)

@@ -1,0 +1,220 @@
+"""The emulator's Python API: one emulated HAT in virtual time.
+
+    emu = Emulator(firmware="R7")          # default device layout of the script format
+    emu.boot()                             # start-up done and the layout's devices established
+    emu.write(b"version\\r"); emu.advance(5); print(emu.read())
+    emu.world("@plug 3 0x30")              # world actions as written in a scenario script
+
+Nothing here reads the wall clock: time moves only through :meth:`advance`. Output is
+readable as soon as the firmware writes it unless ``baud`` is given (then both directions
+of the serial link move at the wire rate, FIRMWARE-FACTS §1).
+"""
+from __future__ import annotations
+
+from typing import Any, Callable, Dict, List, Mapping, Optional, Union
+
+from buildhat_conformance.protocol.devices import DEFAULT_LAYOUT, parse_device_spec
+from buildhat_conformance.protocol.profiles import Profile, get_profile, load_profiles
+
+from .bootloader import Bootloader, bootloader_checksum
+from .hat import Hat
+from .uart import Uart
+from .world import WorldError, perform_line
+
+__all__ = ["Emulator", "WorldError", "BOOT_LIMIT_MS"]
+
+# boot() gives up (with an error naming the ports) if the layout is not up by then.
+BOOT_LIMIT_MS = 20000
+BOOTLOADER_RING = 4096     # §9: the bootloader's RX/TX rings
+
+DeviceSpec = Union[None, str, tuple]
+Event = Dict[str, Any]
+
+
+def _layout(devices: Optional[Mapping[int, DeviceSpec]]) -> Dict[int, Optional[tuple]]:
+    layout = dict(DEFAULT_LAYOUT)
+    for port, spec in (devices or {}).items():
+        p = int(port)
+        if not 0 <= p <= 3:
+            raise ValueError(f"device port must be 0..3, got {port!r}")
+        layout[p] = parse_device_spec(spec) if isinstance(spec, str) else spec
+    return layout
+
+
+class Emulator:
+    """One emulated Build HAT (firmware or bootloader) driven in virtual milliseconds."""
+
+    def __init__(self, firmware: Union[str, int, None] = None,
+                 devices: Optional[Mapping[int, DeviceSpec]] = None,
+                 version_string: Optional[str] = None, bootloader: bool = False, seed: int = 0,
+                 baud: Optional[int] = None, bootloader_key: Union[bytes, str, None] = None,
+                 record_events: bool = True):
+        self.profile: Profile = get_profile(firmware)
+        self.devices = _layout(devices)
+        self.version_string = version_string
+        self.seed = seed
+        self.bootloader_key = bootloader_key
+        self.uart = Uart(baud=baud)
+        # Every event is kept in ``events`` unless record_events is False (long real-time runs,
+        # where only the on_event callbacks see them and memory must stay flat).
+        self.events: List[Event] = []
+        self.record_events = record_events
+        self._callbacks: List[Callable[[Event], None]] = []
+        self._now = 0
+        self.machine: Any = None
+        if bootloader:
+            self._start_bootloader()
+        else:
+            self._start_firmware(self.profile)
+
+    # -- machines --------------------------------------------------------------------------
+    def _sink(self, kind: str, t: int, fields: Dict[str, Any]) -> None:
+        event = {"t": t, "dir": kind}
+        event.update(fields)
+        if self.record_events:
+            self.events.append(event)
+        for cb in list(self._callbacks):
+            cb(event)
+
+    def _start_firmware(self, profile: Profile, signature: Optional[bytes] = None) -> None:
+        self.profile = profile
+        self.uart.resize(8192, 8192)
+        self.machine = Hat(profile, self.uart, version_string=self.version_string,
+                           signature=signature, event_sink=self._sink, now=self._now, seed=self.seed)
+        for port, spec in sorted(self.devices.items()):
+            if spec is not None:
+                perform_line(self.machine, f"@plug {port} {_spec_text(spec)}")
+
+    def _start_bootloader(self) -> None:
+        self.uart.resize(BOOTLOADER_RING, BOOTLOADER_RING)
+        self.machine = Bootloader(self.uart, now=self._now, event_sink=self._sink,
+                                         reboot=self._reboot_into, key=self.bootloader_key)
+
+    def _reboot_into(self, image: bytes, signature: Optional[bytes]) -> None:
+        """The bootloader jumps to an uploaded, verified image: run the release it is."""
+        self._now = self.machine.now        # called from inside the bootloader's tick
+        checksum = bootloader_checksum(image)
+        match = [p for p in load_profiles().values() if p.image_checksum == checksum]
+        if match:
+            self._start_firmware(match[0], signature=signature)
+            return
+        self._start_firmware(get_profile(None), signature=signature)
+        self._sink("note", self._now, {"text": f"uploaded image (checksum {checksum}) is no known "
+                                               f"release; running {self.profile.name}"})
+
+    @property
+    def hat(self) -> Optional[Hat]:
+        """The running firmware, or None while the bootloader runs."""
+        return self.machine if isinstance(self.machine, Hat) else None
+
+    @property
+    def in_bootloader(self) -> bool:
+        return not isinstance(self.machine, Hat)
+
+    # -- bytes and time --------------------------------------------------------------------
+    @property
+    def now(self) -> int:
+        return self._now
+
+    def write(self, data: bytes) -> None:
+        """Bytes from the host; the firmware handles them at once (before the next tick).
+
+        Without a baud rate the wire is infinitely fast but the firmware keeps up with it, so
+        the bytes go in ring-sized pieces with the firmware reading between them (a 50 KB
+        bootloader upload arrives whole). During the start-up nobody reads the ring and what
+        does not fit is dropped, as on the HAT."""
+        data = bytes(data)
+        if self.uart.baud is not None:
+            self.uart.host_write(data)
+            self.machine.poll()
+            return
+        step = max(1, self.uart.rx_size)
+        for i in range(0, len(data), step):
+            self.uart.host_write(data[i:i + step])
+            self.machine.poll()
+
+    def read(self) -> bytes:
+        """Every output byte not yet read."""
+        return self.uart.host_read()
+
+    def advance(self, ms: int) -> None:
+        """Let ``ms`` milliseconds of virtual time pass."""
+        if ms < 0:
+            raise ValueError(f"cannot advance by a negative time ({ms} ms)")
+        for _ in range(int(ms)):
+            self.step()
+
+    def step(self) -> None:
+        """One millisecond."""
+        self.machine.tick()
+        self._now = self.machine.now
+
+    def on_event(self, callback: Callable[[Event], None]) -> None:
+        """Call ``callback(event)`` for every transcript event (dev, devrx, pwm, led, note)."""
+        self._callbacks.append(callback)
+
+    def boot(self, limit_ms: int = BOOT_LIMIT_MS, each_ms: Optional[Callable[[], None]] = None) -> int:
+        """Run the start-up until the layout's devices are established; returns the time taken.
+        ``each_ms`` is called after every millisecond (e.g. to record output with its time)."""
+        start = self._now
+        while not self.settled():
+            if self._now - start >= limit_ms:
+                raise RuntimeError(f"start-up not finished after {limit_ms} ms "
+                                   f"(ports not settled: {self._unsettled()})")
+            self.step()
+            if each_ms is not None:
+                each_ms()
+        return self._now - start
+
+    def settled(self) -> bool:
+        """Start-up finished and every port with a device has it connected/established."""
+        hat = self.hat
+        if hat is None:
+            return True
+        return hat.ready and not self._unsettled()
+
+    def _unsettled(self) -> List[int]:
+        hat = self.hat
+        if hat is None:
+            return []
+        return [p.index for p in hat.ports if not getattr(p, "settled", True)]
+
+    # -- world -----------------------------------------------------------------------------
+    def world(self, line: str) -> str:
+        """A world action as written in a script (``@plug 1 0x30``), or ``@reset [bootloader]``,
+        ``@time``, ``@firmware``. Returns ``ok`` / ``ok <value>``; raises WorldError."""
+        words = line.split()
+        if not words:
+            raise WorldError("empty action")
+        head = words[0]
+        if head == "@reset":
+            if words[1:] not in ([], ["bootloader"]):
+                raise WorldError("@reset takes nothing or 'bootloader'")
+            self.reset(bootloader=bool(words[1:]))
+            return "ok"
+        if head == "@time":
+            return f"ok {self._now}"
+        if head == "@firmware":
+            if self.in_bootloader:
+                return "ok bootloader"
+            return f"ok {self.machine.version_string}"
+        if self.hat is None:
+            raise WorldError(f"{head}: the bootloader is running (no ports)")
+        perform_line(self.hat, line)
+        if head == "@plug":
+            self.devices[int(words[1])] = parse_device_spec(" ".join(words[2:]))
+        elif head == "@unplug":
+            self.devices[int(words[1])] = None
+        return "ok"
+
+    def reset(self, bootloader: bool = False) -> None:
+        """Pulse the HAT's reset line: firmware restarts (or the bootloader, if asked)."""
+        if bootloader:
+            self._start_bootloader()
+        else:
+            self._start_firmware(self.profile, signature=getattr(self.hat, "signature", None))
+
+
+def _spec_text(spec: tuple) -> str:
+    kind, value = spec
+    return f"0x{value:02X}" if kind == "active" else f"passive {value}"

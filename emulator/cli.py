@@ -1,0 +1,208 @@
+"""``buildhat-emulator``: the reference Build HAT emulator as a process.
+
+Exactly one mode: ``--pty`` (prints the slave path as the first stdout line), ``--tcp
+[HOST:]PORT`` (prints HOST:PORT), ``--stdio``, or ``--script FILE`` (virtual time; transcript
+JSONL on stdout).
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import signal
+import sys
+from typing import Dict, List, Optional, Sequence
+
+__all__ = ["main", "build_parser"]
+
+CONTROL_HELP = """\
+control channel (--control PATH for a Unix socket, or --control tcp:HOST:PORT):
+  one request per line, one reply per line ("ok", "ok <value>" or "error <message>").
+  World actions as in a scenario script: @plug P SPEC, @unplug P, @data P M HH.. | auto,
+  @motorfault 1 P [F4D F4E F4F] | 0 [P], @portfault 1|0, @button P 0|1, @adc RAW,
+  @rate P MS, @hold P 0|1, @pos P DEG.  Also: @reset, @reset bootloader, @time (virtual ms),
+  @firmware (version string), @speed [N] (get/set), @lint (host-traffic lint, JSON),
+  @settled (1 once the start-up is done and the devices are up).
+device SPEC: an active type id in hex (0x30), "passive N", or "none".
+default layout: P0 0x30, P1 0x40, P2 passive 8, P3 none.
+"""
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(
+        prog="buildhat-emulator", description="Reference emulator of the Raspberry Pi Build HAT "
+        "firmware (releases R1..R7) on its serial command port.",
+        epilog=CONTROL_HELP, formatter_class=argparse.RawDescriptionHelpFormatter)
+    mode = p.add_mutually_exclusive_group(required=True)
+    mode.add_argument("--pty", action="store_true", help="serve on a new pseudo-terminal (raw mode)")
+    mode.add_argument("--tcp", metavar="[HOST:]PORT", help="serve on a TCP port (host 127.0.0.1 by default)")
+    mode.add_argument("--stdio", action="store_true", help="serve on stdin/stdout")
+    mode.add_argument("--script", metavar="FILE", help="run a scenario script in virtual time; "
+                      "transcript JSONL on stdout")
+    p.add_argument("--link", metavar="PATH", help="with --pty: also make PATH a symlink to the pty")
+    p.add_argument("--firmware", default="latest", metavar="N|Rn|latest",
+                   help="firmware release: version number, R1..R7 or latest (default)")
+    p.add_argument("--version-string", metavar="S", help="text printed after 'Firmware version: '")
+    p.add_argument("--device", action="append", default=[], metavar="P=SPEC",
+                   help="device on port P at power-on (repeatable); SPEC as in a script's @device")
+    p.add_argument("--bootloader", action="store_true",
+                   help="start in the bootloader (as after power-on)")
+    p.add_argument("--bootloader-key", metavar="FILE",
+                   help="PEM P-256 public key the bootloader verifies with")
+    p.add_argument("--speed", type=float, default=1.0, metavar="N", help="run N times faster than real time")
+    p.add_argument("--baud", type=int, metavar="B", help="pace the serial link at B baud (B/10 bytes/s)")
+    p.add_argument("--seed", type=int, default=0, metavar="N", help="seed for the device models' noise")
+    p.add_argument("--strict-host", action="store_true",
+                   help="exit with an error at the first host-lint finding")
+    p.add_argument("--control", metavar="PATH|tcp:HOST:PORT", help="serve the control channel there")
+    return p
+
+
+def _devices(specs: List[str], parser: argparse.ArgumentParser) -> Dict[int, Optional[tuple]]:
+    from buildhat_conformance.protocol.devices import parse_device_spec
+
+    out: Dict[int, Optional[tuple]] = {}
+    for item in specs:
+        port, sep, spec = item.partition("=")
+        if not sep or port.strip() not in ("0", "1", "2", "3"):
+            parser.error(f"--device {item!r}: expected P=SPEC with P in 0..3")
+        try:
+            out[int(port)] = parse_device_spec(spec)
+        except (ValueError, KeyError) as exc:
+            parser.error(f"--device {item!r}: {exc.args[0] if exc.args else exc}")
+    return out
+
+
+def _check(args: argparse.Namespace, parser: argparse.ArgumentParser) -> None:
+    from buildhat_conformance.protocol.profiles import get_profile
+
+    try:
+        get_profile(args.firmware)
+    except KeyError as exc:
+        parser.error(str(exc.args[0]))
+    if not args.speed > 0:
+        parser.error(f"--speed must be positive, got {args.speed:g}")
+    if args.baud is not None and args.baud <= 0:
+        parser.error(f"--baud must be positive, got {args.baud}")
+    if args.link and not args.pty:
+        parser.error("--link needs --pty")
+    if args.script and args.control:
+        parser.error("--control is for the real-time modes; a script carries its own world actions")
+    if args.script and args.bootloader:
+        parser.error("--script starts from the firmware; --bootloader is for the real-time modes")
+    if args.tcp:
+        from .runners.links import parse_tcp_address
+        try:
+            parse_tcp_address(args.tcp)
+        except ValueError as exc:
+            parser.error(str(exc))
+    if args.bootloader_key and not os.path.isfile(args.bootloader_key):
+        parser.error(f"--bootloader-key {args.bootloader_key!r}: no such file")
+
+
+def _lint(args: argparse.Namespace):
+    from .hostlint import HostLint
+
+    return HostLint(profile_of=lambda: None, strict=args.strict_host)
+
+
+def _run_script(args: argparse.Namespace, devices: Dict[int, Optional[tuple]]) -> int:
+    from buildhat_conformance import __version__
+    from buildhat_conformance.harness.script import ScriptError, load_script
+
+    from .runners.script_runner import ScriptRunError, run_script
+
+    try:
+        script = load_script(args.script)
+    except OSError as exc:
+        print(f"buildhat-emulator: cannot read {args.script}: {exc.strerror}", file=sys.stderr)
+        return 2
+    except ScriptError as exc:
+        print(f"buildhat-emulator: {exc}", file=sys.stderr)
+        return 2
+    lint = _lint(args)
+    try:
+        run_script(script, sys.stdout, firmware=args.firmware, devices=devices,
+                   version_string=args.version_string, seed=args.seed, baud=args.baud, lint=lint,
+                   tool_version=__version__)
+    except (ScriptRunError, RuntimeError) as exc:    # RuntimeError: the layout never came up
+        print(f"buildhat-emulator: {exc}", file=sys.stderr)
+        return 2
+    _report(lint)
+    if args.strict_host and lint.fatal_message():
+        print(lint.fatal_message(), file=sys.stderr)
+        return 3
+    return 0
+
+
+def _run_realtime(args: argparse.Namespace, devices: Dict[int, Optional[tuple]]) -> int:
+    from .api import Emulator
+    from .control import ControlHandler, ControlServer
+    from .runners.clock import RealTimeClock
+    from .runners.links import PtyLink, StdioLink, TcpLink
+    from .runners.realtime import run_realtime
+
+    lint = _lint(args)
+    link = control = None
+    try:
+        emulator = Emulator(firmware=args.firmware, devices=devices, version_string=args.version_string,
+                            bootloader=args.bootloader, seed=args.seed, baud=args.baud,
+                            bootloader_key=args.bootloader_key, record_events=False)
+        lint.follow(emulator)
+        if args.pty:
+            link = PtyLink(args.link)
+            print(link.path, flush=True)
+        elif args.tcp:
+            link = TcpLink(args.tcp)
+            print(link.address, flush=True)
+        else:
+            link = StdioLink()
+        clock = RealTimeClock(args.speed)
+        if args.control:
+            control = ControlServer(args.control, ControlHandler(emulator, clock, lint))
+            if control.address != args.control:      # e.g. tcp:...:0 -> the port it got
+                print(f"buildhat-emulator: control channel on {control.address}", file=sys.stderr,
+                      flush=True)
+        return run_realtime(emulator, link, clock, control, lint)
+    except ValueError as exc:
+        print(f"buildhat-emulator: {exc}", file=sys.stderr)
+        return 2
+    finally:
+        if control is not None:
+            control.close()
+        if link is not None:
+            link.close()
+        _report(lint)
+
+
+def _report(lint) -> None:
+    """The host-lint report on stderr at exit (stdout may be the data channel)."""
+    if lint.lines or not lint.clean:
+        lint.finish()
+        print(lint.report(), file=sys.stderr, flush=True)
+
+
+def _terminate(signum: int, frame: object) -> None:
+    raise SystemExit(128 + signum)   # unwinds through the finally blocks: sockets and links cleaned up
+
+
+def main(argv: Optional[Sequence[str]] = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    _check(args, parser)
+    devices = _devices(args.device, parser)
+    previous = {sig: signal.signal(sig, _terminate) for sig in (signal.SIGTERM, signal.SIGHUP)}
+    try:
+        if args.script:
+            return _run_script(args, devices)
+        return _run_realtime(args, devices)
+    except KeyboardInterrupt:
+        return 130
+    except BrokenPipeError:
+        return 0
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

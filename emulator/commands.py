@@ -1,0 +1,69 @@
+"""The command dispatcher (FIRMWARE-FACTS §2, §3 "Errors").
+
+The table is the profile's command order; the functions come from the ``COMMANDS`` dict of
+``commands_core``, ``commands_device`` and ``commands_drive`` (``name -> fn(hat, cur)``).
+
+A line is a run of commands. Before each command, spaces and ``;`` are skipped; a command
+need not be followed by ``;`` (``port 1 vin`` runs both). A token that matches no command,
+or a command that raises :class:`CommandError`, prints ``Error``; the rest of the line is
+dropped and everything already done stays done.
+"""
+from __future__ import annotations
+
+import importlib
+from functools import cache
+from typing import TYPE_CHECKING, Callable, Dict, List, Tuple
+
+from .parser import CommandError, Cursor
+
+if TYPE_CHECKING:
+    from .hat import Hat
+
+__all__ = ["run_line", "command_table", "ERROR_LINE", "COMMAND_MODULES"]
+
+ERROR_LINE = b"Error"
+COMMAND_MODULES = ("commands_core", "commands_device", "commands_drive")
+
+Command = Callable[["Hat", Cursor], None]
+
+
+def _implementations() -> Dict[str, Command]:
+    found: Dict[str, Command] = {}
+    for name in COMMAND_MODULES:       # imported late: they import the Hat's collaborators
+        found.update(importlib.import_module(f"{__package__}.{name}").COMMANDS)
+    return found
+
+
+@cache
+def command_table(commands: Tuple[str, ...]) -> Tuple[Tuple[str, ...], Dict[str, Command]]:
+    """(names in matching order, name -> function) for a profile's command list.
+    A profile naming a command no module implements is a data error, reported at once."""
+    impl = _implementations()
+    missing = [name for name in commands if name not in impl]
+    if missing:
+        raise KeyError(f"no implementation for command(s) {missing} (profiles.json vs emulator)")
+    return commands, {name: impl[name] for name in commands}
+
+
+def run_line(hat: Hat, line: bytes) -> Tuple[bool, List[str], List[str]]:
+    """Run every command on the line. Returns (error, commands run, unknown tokens)."""
+    names, table = command_table(tuple(hat.profile.commands))
+    cur = Cursor(line)
+    ran: List[str] = []
+    unknown: List[str] = []
+    while True:
+        cur.skip_separators()
+        if cur.at_end():
+            return False, ran, unknown
+        token = cur.token()
+        name = cur.match(names)
+        if name is None:
+            unknown.append(token.decode("latin-1"))
+            hat.emit(ERROR_LINE)
+            return True, ran, unknown
+        ran.append(name)
+        try:
+            table[name](hat, cur)
+        except CommandError:
+            hat.emit(ERROR_LINE)
+            return True, ran, unknown

@@ -1,0 +1,162 @@
+"""One port's motor controller: the 10 ms update of FIRMWARE-FACTS §7 (``proc_pwm``).
+
+``Hat`` builds ``PortController(hat, index)`` for ports 0..3 and calls ``tick(now)`` every
+millisecond; the controller runs its own drift-free 10 ms timer. Each update:
+(1) step the set-point generator (``emulator/setpoint.py``) and print ``P<p>: pulse done`` /
+``ramp done`` when a pulse/ramp ends - even on an empty port; (2) no device connected ->
+drive 0; (3) coast -> coast; (4) PWM mode -> drive the set point; (5) PID mode -> read the
+process variable (``emulator/pid.py``; no data yet -> leave the output as it is), print the
+debug-16 line when ``hat.debug & 16``, drive the PID output. Driving goes through
+``emulator/drive.py`` and reaches the HAT (``hat.set_drive(port, duty)``, which records the
+``pwm`` transcript event) only when the duty changes.
+
+State (what the commands in ``emulator/commands_drive.py`` write):
+- ``pwmmode``: 0 direct PWM, 1 PID, 2 PID on the differentiated PV (``pid_diff``, R6+)
+- ``coast``: bool; cleared by pwm, pid*, set, on, off
+- ``setpoint``: the last set-point value (``pwm`` zeroes it; the next tick regenerates it)
+- ``generator``: :class:`SetpointGenerator` (constant / waveform / ``var``)
+- ``pv``: :class:`SensorVariable` of the PID; ``var``: the one of ``set var`` (R6+)
+- ``pid``: :class:`Pid` gains and state
+- ``drive``: :class:`DrivePath` (bias, pwmthresh/minpwm, limit in Q16)
+- ``duty``: the last value written to the driver (+-255 or ``"coast"``); 0 at boot
+
+``reset()`` is the firmware's ``port_initpwm`` (§4.2); the port state machine
+(``emulator/ports.py``) calls it every time the port passes state 0. It clears pwmmode, coast,
+set point and generator (constant 0, period 1), PID gains and state, both svars, bias
+(R1-R5) or pwmthresh/minpwm and - when ``plimit_scope`` is ``per_port`` (R6+) - the limit
+(back to 0.1). It does not touch ``duty``.
+
+Uses from other modules:
+- ``hat.ports[p].connected`` -> bool: the firmware's "device connected" flag (passive device
+  connected, or active device established).
+- ``hat.ports[p].mode_data(mode)`` -> Optional[bytes]: the latest payload stored for that
+  mode, None if the mode never received data since the port reset.
+- ``hat.faults.output_disabled(p)`` (``emulator/faults.py``): a latched motor fault switches
+  the driver output off; see :meth:`motor_output`, which motor models read.
+"""
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Optional, Union
+
+from .drive import COAST, DrivePath
+from .pid import Pid, PidStep, SensorVariable
+from .printers import format_float
+from .setpoint import SetpointGenerator
+
+if TYPE_CHECKING:
+    from .hat import Hat
+
+__all__ = ["PortController", "PWM_UPDATE_MS", "MODE_PWM", "MODE_PID", "MODE_PID_DIFF"]
+
+PWM_UPDATE_MS = 10
+MODE_PWM, MODE_PID, MODE_PID_DIFF = 0, 1, 2
+
+Duty = Union[int, str]
+
+
+class PortController:
+    """Set point, PID and drive path of one port (see the module docstring)."""
+
+    def __init__(self, hat: Hat, index: int) -> None:
+        self.hat = hat
+        self.index = index
+        features = hat.profile.features
+        self.per_port_limit = features["plimit_scope"] == "per_port"
+        self.generator = SetpointGenerator()
+        self.pv = SensorVariable(features["unwrap_init"])
+        self.var = SensorVariable(features["unwrap_init"])
+        self.pid = Pid(features["pid_deadzone"])
+        self.drive = DrivePath(biased=hat.profile.has("bias"))
+        self.duty: Duty = 0
+        self.last_step: Optional[PidStep] = None
+        self._next_update: Optional[int] = None
+        self.reset()
+
+    # -- state ---------------------------------------------------------------------------
+    def reset(self) -> None:
+        """``port_initpwm`` (§4.2)."""
+        self.pwmmode = MODE_PWM
+        self.coast = False
+        self.setpoint = 0.0
+        self.generator.reset()
+        self.pid.clear()
+        self.pv.clear()
+        self.var.clear()
+        self.drive.reset(reset_limit=self.per_port_limit)
+
+    def autopower(self) -> None:
+        """R4/R6+ LED-matrix auto-power on establish (§7.1): constant 1.0, coast cleared."""
+        self.generator.set_constant(1.0)
+        self.coast = False
+
+    def motor_output(self) -> Duty:
+        """What the motor terminals see: the last driver write, or ``"coast"`` while a motor
+        fault is latched in this port's driver."""
+        faults = getattr(self.hat, "faults", None)
+        if faults is not None and faults.output_disabled(self.index):
+            return COAST
+        return self.duty
+
+    # -- time ----------------------------------------------------------------------------
+    @property
+    def next_update_at(self) -> Optional[int]:
+        """Virtual time of the next 10 ms update (None before the first tick)."""
+        return self._next_update
+
+    def tick(self, now: int) -> None:
+        """Called every 1 ms; runs :meth:`update` every 10 ms without drift."""
+        if self._next_update is None:
+            self._next_update = now + PWM_UPDATE_MS
+        while now >= self._next_update:
+            self._next_update += PWM_UPDATE_MS
+            self.update()
+
+    def update(self) -> None:
+        """One 10 ms controller pass (§7 steps 1-5)."""
+        sp, done = self.generator.step(self._read_var)
+        self.setpoint = sp
+        if done:
+            self.hat.emit(f"P{self.index:X}: {done}".encode("ascii"))
+        if not self._port_connected(self.index):
+            self._write(0)
+            return
+        if self.coast:
+            self._write(COAST)
+            return
+        if self.pwmmode == MODE_PWM:
+            self._write(self.drive.drive(sp))
+            return
+        pv = self.pv.sample(self._mode_data(self.pv.port, self.pv.mode),
+                            differentiate=self.pwmmode == MODE_PID_DIFF)
+        if pv is None:
+            return                  # no data yet: the previous drive level persists
+        step = self.pid.step(pv, sp)
+        self.last_step = step
+        if self.hat.debug & 16:
+            self.hat.emit(self.debug_line(step).encode("ascii"))
+        self._write(self.drive.drive(step.cv))
+
+    def debug_line(self, step: PidStep) -> str:
+        """The debug-16 line (§7.4)."""
+        f = format_float
+        return (f"P{self.index:X}: pv={f(step.pv)} sp={f(step.sp)}: e={f(step.e)} "
+                f"ie={f(step.ie)} de={f(step.de)} cv={f(step.cv)}")
+
+    # -- internals -----------------------------------------------------------------------
+    def _read_var(self) -> float:
+        # set var: the svar without differentiation; it keeps its last value without data.
+        self.var.sample(self._mode_data(self.var.port, self.var.mode))
+        return self.var.value
+
+    def _write(self, duty: Duty) -> None:
+        if duty != self.duty:
+            self.duty = duty
+            self.hat.set_drive(self.index, duty)
+
+    def _port_connected(self, p: int) -> bool:
+        # A port object without the flag (hat.py's placeholder) counts as empty.
+        return bool(getattr(self.hat.ports[p], "connected", False))
+
+    def _mode_data(self, p: int, mode: int) -> Optional[bytes]:
+        read = getattr(self.hat.ports[p], "mode_data", None)
+        return read(mode) if read is not None else None

@@ -1,0 +1,268 @@
+"""An active LPF2 device on its side of the port wire (setup handshake, modes, data messages).
+
+The device model is built from its devices.json entry; subclasses (motor, sensors, matrix)
+only say what values each mode holds. Behaviour modelled here (DEVICES.md "Mode data"):
+
+- Handshake: when the HAT starts listening (``begin_setup``), the device waits
+  ``SETUP_START_MS`` (so the HAT sees the 100 ms quiet gap it needs before it parses), then sends
+  its setup stream at 2400 baud and waits. After the HAT's SPEED and ACK it switches to the
+  baud rate and starts its data phase ``DATA_START_MS`` later (after the HAT's own switch,
+  which comes 10 ms after its ACK).
+- Data phase: mode 0 is selected at first. SELECT (with the EXT_MODE bit 3) changes the mode,
+  and the device answers with data at once. A CMD WRITE ``0x20+n, i, (m<<4)|d ...`` configures
+  combi index i (n = 0 removes it); while mode i is selected and combi i is configured, the DATA
+  message carries those datasets packed back to back (each in its mode's type size). A DATA
+  message from the HAT (write1) is stored as that mode's output value and echoed when the mode
+  is read.
+- When to send: whenever the selected mode's payload changes (sampled every ``sample_ms``) and
+  once after every NACK keep-alive. ``@rate P MS`` (``set_rate``) replaces that with one message
+  every MS ms and nothing else (``MS = 0`` restores the default), which lets scenarios starve the
+  HAT's 500 ms watchdog.
+- ``@data P M HH..`` (``world_data``): one DATA message for mode M right away, and mode M keeps
+  those bytes until ``@data P M auto``.
+"""
+from __future__ import annotations
+
+import random
+import struct
+from typing import Dict, List, Optional, Sequence
+
+from .. import lpf2
+from .setup_stream import setup_messages
+
+__all__ = ["ActiveDevice", "SETUP_START_MS", "DATA_START_MS", "SETUP_BAUD", "pack_values"]
+
+SETUP_BAUD = 2400
+SETUP_START_MS = 110     # > the HAT's 100 ms receive-sync gap (FIRMWARE-FACTS §8 "Receiving")
+DATA_START_MS = 20       # after the HAT's ACK; the HAT switches its baud rate at +10 ms (§5)
+
+_PACK = {0: ("<b", 0xFF, 1), 1: ("<h", 0xFFFF, 2), 2: ("<i", 0xFFFFFFFF, 4)}
+
+
+def _pack_one(value: float, ftype: int) -> bytes:
+    if ftype == 3:
+        return struct.pack("<f", float(value))
+    fmt, mask, size = _PACK.get(ftype, _PACK[0])
+    v = int(value) & mask                         # wrap like a C cast to the field width
+    return v.to_bytes(size, "little", signed=False)
+
+
+def _unpack_one(data: bytes, ftype: int) -> float:
+    if ftype == 3:
+        return struct.unpack("<f", (data + bytes(4))[:4])[0]
+    fmt, _, size = _PACK.get(ftype, _PACK[0])
+    return struct.unpack(fmt, (data + bytes(size))[:size])[0]
+
+
+def pack_values(values: Sequence[float], ftype: int) -> bytes:
+    """Values as the device puts them on the wire (little-endian, type 0/1/2 int, 3 float)."""
+    return b"".join(_pack_one(v, ftype) for v in values)
+
+
+class ActiveDevice:
+    """One active device. Subclasses override :meth:`model_values` (and maybe :meth:`step`)."""
+
+    kind = "active"
+    sample_ms = 10           # how often the device re-reads its sensors for on-change data
+
+    def __init__(self, entry: dict, rng: Optional[random.Random] = None):
+        self.entry = entry
+        self.type_id: int = entry["type_id"]
+        self.rng = rng or random.Random(0)
+        self.modes: Dict[int, dict] = {m["index"]: m for m in entry["modes"]}
+        self.port = None              # the emulator Port it is plugged into (set by the port)
+        self.dead = False             # stopped talking for good (until unplugged)
+        self.world: Dict[int, bytes] = {}
+        self.rate_ms = 0
+        self._reset_link()
+
+    # -- link state ------------------------------------------------------------------------
+    def _reset_link(self) -> None:
+        self.state = "idle"           # idle -> setup -> wait_ack -> data_wait -> data
+        self.baud = SETUP_BAUD
+        self.mode = 0
+        self._ext = 0
+        self.combis: Dict[int, List[tuple[int, int]]] = {}
+        self.written: Dict[int, bytes] = {}
+        self._setup_at: Optional[int] = None
+        self._speed_seen = False
+        self._data_at: Optional[int] = None
+        self._nack = False
+        self._force = False
+        self._last_payload: Optional[bytes] = None
+        self._last_sample = -(10 ** 9)
+        self._last_rate_send = -(10 ** 9)
+        self._pending_world: List[tuple[int, bytes]] = []
+
+    def reset_link(self) -> None:
+        """The HAT dropped the connection: start over (a LEGO device re-syncs by itself)."""
+        self._reset_link()
+
+    @property
+    def talking(self) -> bool:
+        """True while the device is plugged in and alive (it holds the HAT's RX line for detection)."""
+        return not self.dead
+
+    def begin_setup(self, now: int) -> None:
+        """The HAT saw the device and turned its UART on: send the setup stream soon."""
+        if self.dead:
+            return
+        self._reset_link()
+        self.state = "setup"
+        self._setup_at = now + SETUP_START_MS
+
+    # -- messages from the HAT ---------------------------------------------------------------
+    def receive(self, msg: lpf2.Message, now: int) -> None:
+        if self.dead:
+            return
+        if msg.header == lpf2.ACK and msg.msg_class == lpf2.SYS:
+            if self.state == "wait_ack" and self._speed_seen:
+                self.baud = self.entry["baud"]
+                self._data_at = now + DATA_START_MS
+                self.state = "data_wait"
+            return
+        if msg.header == lpf2.NACK:
+            self._nack = True
+            return
+        if not msg.ok:
+            return                    # a device ignores messages with a bad checksum
+        cls, code = msg.msg_class, msg.code
+        if cls == lpf2.CMD:
+            if code == lpf2.CMD_SPEED:
+                self._speed_seen = True
+            elif code == lpf2.CMD_EXT_MODE and msg.payload:
+                self._ext = msg.payload[0] & 8
+            elif code == lpf2.CMD_SELECT and msg.payload:
+                mode = self._ext + (msg.payload[0] & 7)
+                # A device ignores a SELECT of a mode it does not have (model choice: the facts
+                # are silent; going mute would make the HAT time the device out).
+                if mode in self.modes or mode in self.combis:
+                    self.mode = mode
+                self._force = True
+            elif code == lpf2.CMD_WRITE and msg.payload:
+                self._combi_write(msg.payload)
+        elif cls == lpf2.DATA:
+            mode = msg.code
+            info = self.modes.get(mode)
+            if info is not None:
+                self.written[mode] = bytes(msg.payload[: info["data_bytes"]])
+                self._force = True
+
+    def _combi_write(self, payload: bytes) -> None:
+        if payload[0] & 0xE0 != 0x20 or len(payload) < 2:
+            return
+        n, index = payload[0] & 0x1F, payload[1]
+        pairs = [(b >> 4, b & 0x0F) for b in payload[2:2 + n]]
+        if pairs:
+            self.combis[index] = pairs
+        else:
+            self.combis.pop(index, None)
+        self._force = True
+
+    def port_duty(self):
+        """What the HAT's motor driver applies to this device's port (+-255, "coast"), with a
+        latched motor fault seen as coast (``PortController.motor_output``)."""
+        port = self.port
+        if port is None:
+            return "coast"
+        return port.hat.controllers[port.index].motor_output()
+
+    # -- values ------------------------------------------------------------------------------
+    def model_values(self, mode: int, now: int) -> List[float]:
+        """The model's own values for ``mode`` (format count entries). Subclasses override."""
+        return [0] * self.modes[mode]["format"]["count"]
+
+    def mode_payload(self, mode: int, now: int) -> bytes:
+        """What the device reports for a plain mode: world override, last write, else the model."""
+        if mode in self.world:
+            return self.world[mode]
+        if mode in self.written:
+            return self.written[mode]
+        info = self.modes[mode]
+        return pack_values(self.model_values(mode, now), info["format"]["type"])
+
+    def _dataset(self, mode: int, dataset: int, now: int) -> bytes:
+        info = self.modes.get(mode)
+        if info is None:
+            return b""
+        ftype = info["format"]["type"]
+        size = 4 if ftype >= 2 else ftype + 1
+        payload = self.mode_payload(mode, now)
+        return (payload[dataset * size:(dataset + 1) * size] + bytes(size))[:size]
+
+    def current_payload(self, now: int) -> Optional[bytes]:
+        """The payload of the DATA message for the selected mode (None: nothing to report)."""
+        if self.mode in self.combis:
+            return b"".join(self._dataset(m, d, now) for m, d in self.combis[self.mode])
+        if self.mode not in self.modes:
+            return None
+        return self.mode_payload(self.mode, now)
+
+    def _data_message(self, mode: int, payload: bytes) -> bytes:
+        return lpf2.device_message(lpf2.DATA, mode & 7, payload[: 32] or b"\x00")
+
+    # -- world actions ---------------------------------------------------------------------
+    def world_data(self, mode: int, payload: Optional[bytes]) -> None:
+        """``@data P M HH..`` (payload) or ``@data P M auto`` (None)."""
+        if mode not in self.modes:
+            raise ValueError(f"device 0x{self.type_id:02X} has no mode {mode} "
+                             f"(modes {sorted(self.modes)})")
+        if payload is None:
+            self.world.pop(mode, None)
+            return
+        if not 1 <= len(payload) <= 32:
+            raise ValueError(f"@data payload must be 1..32 bytes, got {len(payload)}")
+        self.world[mode] = bytes(payload)
+        self._pending_world.append((mode, bytes(payload)))
+
+    def set_rate(self, ms: int) -> None:
+        """``@rate P MS``: send every MS ms and nothing else; 0 = back to on-change + keep-alive."""
+        if ms < 0:
+            raise ValueError(f"@rate must be >= 0 ms, got {ms}")
+        self.rate_ms = int(ms)
+
+    # -- time --------------------------------------------------------------------------------
+    def step(self, now: int) -> None:
+        """Advance the device's own world by one millisecond (motors run their physics)."""
+
+    def tick(self, now: int) -> List[bytes]:
+        """Messages the device starts sending at ``now`` (the port's wire paces the bytes)."""
+        self.step(now)
+        if self.dead:
+            return []
+        if self.state == "setup" and self._setup_at is not None and now >= self._setup_at:
+            self.state = "wait_ack"
+            return setup_messages(self.entry)
+        if self.state == "data_wait" and self._data_at is not None and now >= self._data_at:
+            self.state = "data"
+            self._force = True
+        if self.state != "data":
+            return []
+        return self._data_tick(now)
+
+    def _data_tick(self, now: int) -> List[bytes]:
+        out = [self._data_message(m, p) for m, p in self._pending_world]
+        self._pending_world.clear()
+        if self.rate_ms > 0:
+            self._nack = self._force = False
+            if now - self._last_rate_send >= self.rate_ms:
+                self._last_rate_send = now
+                payload = self.current_payload(now)
+                if payload is not None:
+                    out.append(self._data_message(self.mode, payload))
+            return out
+        send = self._force or self._nack
+        payload = None
+        if send or now - self._last_sample >= self.sample_ms:
+            self._last_sample = now
+            payload = self.current_payload(now)
+            if payload is not None and payload != self._last_payload:
+                send = True
+        if send:
+            if payload is None:
+                payload = self.current_payload(now)
+            self._nack = self._force = False
+            if payload is not None:
+                self._last_payload = payload
+                out.append(self._data_message(self.mode, payload))
+        return out

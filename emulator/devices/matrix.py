@@ -1,0 +1,46 @@
+"""The SPIKE Essential 3x3 colour light matrix (type 0x40): all modes are outputs.
+
+Reported data: each mode echoes the last value written to it (DEVICES.md calls this a guess),
+zeros before any write.
+
+Power rule (DEVICES.md: "It needs motor power soon after setup or it disconnects"; the delay
+is not in the facts, so it is chosen here): once the data phase starts, the matrix must see a
+non-zero motor drive on its port. If the drive is 0 or coast for more than
+``POWER_GRACE_MS`` in a row, the matrix stops talking for good; the HAT then times out
+(500 ms) and the port stays empty until the matrix is unplugged and plugged in again
+(matching "off leaves it dead until it is reconnected").
+"""
+from __future__ import annotations
+
+import random
+from typing import Optional
+
+from .active import ActiveDevice
+
+__all__ = ["MatrixDevice", "POWER_GRACE_MS"]
+
+POWER_GRACE_MS = 1000
+
+
+class MatrixDevice(ActiveDevice):
+    def __init__(self, entry: dict, rng: Optional[random.Random] = None):
+        super().__init__(entry, rng)
+        self._unpowered_since: Optional[int] = None
+
+    def _powered(self) -> bool:
+        duty = self.port_duty()
+        return isinstance(duty, int) and duty != 0
+
+    def step(self, now: int) -> None:
+        if self.dead or self.state != "data":
+            self._unpowered_since = None
+            return
+        if self._powered():
+            self._unpowered_since = None
+        elif self._unpowered_since is None:
+            self._unpowered_since = now
+        elif now - self._unpowered_since > POWER_GRACE_MS:
+            self.dead = True
+            if self.port is not None:
+                self.port.hat.note(f"P{self.port.index}: LED matrix unpowered for more than "
+                                   f"{POWER_GRACE_MS} ms: it stops talking (emulator model)")

@@ -1,0 +1,79 @@
+"""Motors (26, 2E, 2F, 30, 31, 41, 4B, 4C): mode values from the shaft physics (emulator/physics.py).
+
+SPEED = % of rated speed, POS = whole degrees since connect (never wraps, 0 at every connect),
+APOS = absolute angle wrapped to -180..179, CALIB = [0, APOS in 0.1 deg as 0..3599] (DEVICES.md,
+the first value is unknown), STATS/TEST zeros, POWER = the last value written to it (else 0).
+At rest the absolute encoder flickers: APOS reads the true angle plus a jitter of -1, 0 or +1
+that changes every 5..25 ms (seeded, so runs are repeatable); that is what makes a resting
+motor send every few ms (DEVICES.md).
+"""
+from __future__ import annotations
+
+import random
+from typing import List, Optional
+
+from ..physics import MotorPhysics
+from .active import ActiveDevice
+
+__all__ = ["MotorDevice", "JITTER_MIN_MS", "JITTER_MAX_MS"]
+
+JITTER_MIN_MS = 5
+JITTER_MAX_MS = 25
+
+
+def _wrap180(deg: int) -> int:
+    return (deg + 180) % 360 - 180
+
+
+class MotorDevice(ActiveDevice):
+    sample_ms = 5            # a motor reports at most every 5 ms while it moves (inferred)
+
+    def __init__(self, entry: dict, rng: Optional[random.Random] = None):
+        super().__init__(entry, rng)
+        self.physics = MotorPhysics(entry, self.rng)
+        self._jitter = 0
+        self._jitter_next = 0
+        self._last_step: Optional[int] = None
+
+    def begin_setup(self, now: int) -> None:
+        super().begin_setup(now)
+        self.physics.reconnect()
+
+    def step(self, now: int) -> None:
+        if self._last_step is None:
+            self._last_step = now - 1
+        dt = now - self._last_step
+        if dt > 0:
+            self.physics.step(dt, self.port_duty())
+            self._last_step = now
+        if self.physics.speed_deg_s != 0.0:
+            self._jitter = 0
+        elif now >= self._jitter_next:
+            self._jitter = self.rng.choice((-1, 0, 1))
+            self._jitter_next = now + self.rng.randint(JITTER_MIN_MS, JITTER_MAX_MS)
+
+    @property
+    def apos(self) -> int:
+        return _wrap180(self.physics.apos_deg + self._jitter)
+
+    def model_values(self, mode: int, now: int) -> List[float]:
+        name = self.modes[mode]["name"]
+        count = self.modes[mode]["format"]["count"]
+        if name == "SPEED":
+            return [self.physics.speed_pct]
+        if name == "POS":
+            return [self.physics.pos_deg]
+        if name == "APOS":
+            return [self.apos]
+        if name == "CALIB":
+            return [0, (self.apos % 360) * 10]
+        return [0] * count
+
+    # -- world actions -----------------------------------------------------------------------
+    def hold(self, on: bool) -> None:
+        """``@hold P 0|1``: stall the shaft / let it go."""
+        self.physics.hold = bool(on)
+
+    def set_position(self, deg: float) -> None:
+        """``@pos P DEG``: turn the shaft by hand so that POS reads DEG."""
+        self.physics.set_position(deg)

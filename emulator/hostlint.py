@@ -1,0 +1,340 @@
+"""Protocol lint of a host's traffic: what a host library does that works only by luck, or not at all.
+
+The emulator calls the lint after every line it processed (``hat.line_observers``, one ``LineRecord``
+per line; see docs/DEVELOPING.md) and feeds it the raw host bytes (``feed_input``). The lint counts, per
+session, and keeps the first examples of:
+
+``error``
+    every host line that made the HAT print ``Error``.
+``not_in_profile``
+    a command word the running release does not have but another release does (``bias`` on R6+,
+    ``selrate``/``pwmparams``/``port_plimit`` on R1-R4, ``#`` comment lines before R6). On the wrong
+    release such a word is an ``Error`` and everything after it on the line is thrown away.
+``pid_arity``
+    ``pid``/``pid_diff`` with a number of arguments the release does not take: the 2021 document's 10 on
+    R6+ (``Error``, and the port is left in direct-PWM mode), or 11 on R1-R5 (the PID applies, then
+    ``Error`` for the extra number). FIRMWARE-FACTS §4.1, §12 item 7.
+``crlf``
+    a line that starts with (or holds) LF: the host ends lines with CRLF. Only CR ends a line; the LF
+    becomes the first byte of the next command, which then fails (FIRMWARE-FACTS §1).
+``before_ready``
+    a non-empty line processed before the firmware finished starting up (``Done initialising ports``):
+    input sent during the first moments is thrown away byte by byte, so such a host relies on timing.
+``chatty``
+    unusually chatty polling (thresholds below), reported once per burst with its peak rate.
+``unterminated``
+    bytes left without a CR when the lint is finished: the HAT never ran them (LF-only line endings).
+
+Chatty polling, defined: within any window of ``CHATTY_WINDOW_MS`` (1000 ms of HAT time) either more
+than ``CHATTY_POLLS`` (20) one-shot queries (``selonce``, ``vin``, ``list``, ``version``, ``signature``,
+``help``, ``?``), or more than ``CHATTY_LINES`` (100) lines of any kind. Why these numbers: devices report
+every 10-100 ms and the default report period is 100 ms, so more than 20 one-shot queries a second ask
+for data faster than it changes; the controllers update every 10 ms, so more than 100 lines a second
+cannot take effect and only fill the 8 KiB receive ring. ``select`` + ``selrate`` streams instead.
+Rates are in HAT time, so a run at ``--speed N`` judges the host as if the HAT ran in real time.
+
+``--strict-host`` makes any finding fatal: :meth:`HostLint.fatal_message` names the first offending line.
+``@lint`` on the control channel answers :meth:`HostLint.summary_json`.
+"""
+from __future__ import annotations
+
+import json
+import re
+from collections import deque
+from dataclasses import asdict, dataclass, field
+from functools import lru_cache
+from typing import Any, Callable, Deque, Dict, Iterable, List, Optional, Tuple
+
+from ..protocol.profiles import Profile, load_profiles
+
+__all__ = ["HostLint", "Finding", "KINDS", "CHATTY_WINDOW_MS", "CHATTY_POLLS", "CHATTY_LINES",
+           "POLL_COMMANDS"]
+
+KINDS = ("error", "not_in_profile", "pid_arity", "crlf", "before_ready", "chatty", "unterminated")
+CHATTY_WINDOW_MS = 1000
+CHATTY_POLLS = 20
+CHATTY_LINES = 100
+POLL_COMMANDS = frozenset({"selonce", "vin", "list", "version", "signature", "help", "?"})
+#: Examples kept per kind (the counts are always complete).
+KEEP_PER_KIND = 20
+
+_NUMBER = re.compile(r"[+-]?(\d+\.?\d*|\.\d+)$")
+_FORMAT = re.compile(r"(u1|s1|u2|s2|u4|s4|f4)$")
+_TOKEN = re.compile(r"[^ ;]+|;")
+
+
+@dataclass
+class Finding:
+    kind: str
+    line: int            # 1-based number of the host line in this session
+    t: int               # HAT time in ms when it was processed
+    text: str            # the line as the HAT stored it, with control bytes escaped
+    detail: str
+
+    def describe(self) -> str:
+        return f"line {self.line} (t={self.t} ms) {self.text!r}: {self.kind}: {self.detail}"
+
+
+@dataclass
+class _Burst:
+    kind: str            # "polls" or "lines"
+    start_line: int
+    start_t: int
+    text: str
+    peak: int = 0
+
+
+def _show(raw: bytes) -> str:
+    text = raw.decode("latin-1")
+    return "".join(ch if " " <= ch <= "~" else repr(ch)[1:-1] for ch in text)[:120]
+
+
+@lru_cache(maxsize=1)
+def _commands_elsewhere() -> Dict[str, List[str]]:
+    """Every command name of any release -> the releases that have it."""
+    where: Dict[str, List[str]] = {}
+    for prof in load_profiles().values():
+        for name in prof.commands:
+            where.setdefault(name, []).append(prof.name)
+    return where
+
+
+def _release_span(names: List[str]) -> str:
+    return names[0] if len(names) == 1 else f"{names[0]}-{names[-1]}"
+
+
+@dataclass
+class HostLint:
+    """One session's lint. ``profile_of`` returns the running profile (it changes after an upload);
+    it may return None while the bootloader runs, when no firmware command table applies."""
+
+    profile_of: Callable[[], Optional[Profile]]
+    strict: bool = False
+    on_finding: List[Callable[[Finding], None]] = field(default_factory=list)
+    lines: int = 0
+    counts: Dict[str, int] = field(default_factory=lambda: {k: 0 for k in KINDS})
+    examples: Dict[str, List[Finding]] = field(default_factory=lambda: {k: [] for k in KINDS})
+    first: Optional[Finding] = None
+    _pending: bytearray = field(default_factory=bytearray)
+    _recent_polls: Deque[int] = field(default_factory=deque)
+    _recent_lines: Deque[int] = field(default_factory=deque)
+    _bursts: Dict[str, Optional[_Burst]] = field(default_factory=lambda: {"polls": None, "lines": None})
+    _hat: Any = None
+    _finished: bool = False
+
+    # -- wiring -----------------------------------------------------------------------------------------
+    @classmethod
+    def for_hat(cls, hat: Any, strict: bool = False) -> HostLint:
+        """A lint reading ``hat.profile`` and registered in ``hat.line_observers``."""
+        lint = cls(profile_of=lambda: getattr(hat, "profile", None), strict=strict)
+        lint.attach(hat)
+        return lint
+
+    def attach(self, hat: Any) -> None:
+        """(Re-)register on a Hat, e.g. the new firmware instance after the bootloader's reboot."""
+        self._hat = hat
+        self.profile_of = lambda: getattr(hat, "profile", None)
+        if self not in hat.line_observers:
+            hat.line_observers.append(self)
+
+    def follow(self, emulator: Any) -> None:
+        """Keep attached to ``emulator.hat`` (an ``Emulator``), which is replaced when the bootloader
+        boots an upload; cheap enough to call after every write or tick. No Hat (bootloader): nothing."""
+        hat = getattr(emulator, "hat", None)
+        if hat is not None and hat is not self._hat:
+            self.attach(hat)
+
+    def __call__(self, record: Any) -> None:
+        self.observe(record)
+
+    # -- input ------------------------------------------------------------------------------------------
+    def feed_input(self, data: bytes) -> None:
+        """Raw bytes from the host, for what no processed line shows: input never ended by a CR."""
+        for byte in data:
+            if byte == 0x0D:
+                self._pending.clear()
+            elif len(self._pending) < 256:
+                self._pending.append(byte)
+
+    def observe(self, record: Any) -> None:
+        """One processed host line: ``LineRecord(raw, now, ready, error, commands, unknown)``."""
+        raw: bytes = bytes(record.raw).rstrip(b"\r")
+        self.lines += 1
+        profile = self.profile_of()
+        text = _show(raw)
+        now = int(record.now)
+        found: List[Finding] = []
+
+        def add(kind: str, detail: str) -> None:
+            found.append(Finding(kind, self.lines, now, text, detail))
+
+        if b"\n" in raw:
+            where = "starts with" if raw.startswith(b"\n") else "contains"
+            add("crlf", f"the line {where} LF: the host ends lines with CRLF (or LF); only CR ends a "
+                        "line, so the LF is taken as part of the next command")
+        if profile is not None:
+            self._check_profile(profile, raw, list(record.unknown or ()), list(record.commands or ()), add)
+        if raw.strip(b" \n") and not record.ready:
+            add("before_ready", "sent before the firmware finished starting up; input in the first "
+                                "moments after reset is discarded")
+        if record.error:  # last, so the specific reason comes first in a strict-mode message
+            add("error", "the HAT answered Error; the rest of the line was not run")
+        for finding in found:
+            self._add(finding)
+        self._check_rate(now, text, list(record.commands or ()), raw)
+
+    def finish(self) -> None:
+        """End of session: report input the HAT never saw a CR for, and close open chatty bursts.
+        Calling it again adds nothing."""
+        if self._finished:
+            return
+        self._finished = True
+        editor = getattr(self._hat, "editor", None)
+        if editor is not None and getattr(editor, "buffer", None):
+            self._pending[:] = bytes(editor.buffer)[:256]
+        if self._pending.strip(b" \n"):
+            self._add(Finding("unterminated", self.lines + 1, -1, _show(bytes(self._pending)),
+                              "bytes not ended by CR (LF-only line endings?); the HAT never ran them"))
+            self._pending.clear()
+        for kind in ("polls", "lines"):
+            self._close_burst(kind)
+
+    # -- checks -----------------------------------------------------------------------------------------
+    def _check_profile(self, profile: Profile, raw: bytes, unknown: Iterable[str], ran: List[str],
+                       found: Callable[[str, str], None]) -> None:
+        elsewhere = _commands_elsewhere()
+        body = raw.lstrip(b"\n")
+        if body.startswith(b"#") and not profile.features.get("hash_comments", False):
+            since = [p.name for p in load_profiles().values() if p.features.get("hash_comments")]
+            found("not_in_profile", f"'#' comment lines are ignored only by {_release_span(since)}; "
+                                    f"{profile.name} {profile.number} answers Error")
+        for token in unknown:
+            word = token.lstrip("\n")
+            owners = elsewhere.get(word)
+            if owners and not profile.has(word):
+                found("not_in_profile", f"'{word}' is not a command of {profile.name} {profile.number} "
+                                        f"(it exists in {_release_span(owners)})")
+        want = int(profile.features.get("pid_numbers", 0) or 0)
+        if want:
+            for name, count in _pid_argument_counts(body.decode("latin-1"), profile):
+                if count != want and count in (10, 11):
+                    # Still a mistake when an earlier word already failed the line: say it was not reached.
+                    reached = "" if name in ran else " (not reached: the line had already failed)"
+                    found("pid_arity", f"'{name}' with {count} numbers; {profile.name} {profile.number} "
+                                       f"takes {want}" + (" (deadzone last)" if want == 11 else "") + reached)
+
+    def _check_rate(self, now: int, text: str, commands: List[str], raw: bytes) -> None:
+        polls = sum(1 for c in commands if c in POLL_COMMANDS)
+        for _ in range(polls):
+            self._recent_polls.append(now)
+        if raw.strip(b" \n"):
+            self._recent_lines.append(now)
+        for kind, recent, limit in (("polls", self._recent_polls, CHATTY_POLLS),
+                                    ("lines", self._recent_lines, CHATTY_LINES)):
+            while recent and recent[0] <= now - CHATTY_WINDOW_MS:
+                recent.popleft()
+            burst = self._bursts[kind]
+            if len(recent) > limit:
+                if burst is None:
+                    burst = self._bursts[kind] = _Burst(kind, self.lines, now, text)
+                burst.peak = max(burst.peak, len(recent))
+            elif burst is not None and len(recent) <= limit // 2:
+                self._close_burst(kind)
+
+    def _close_burst(self, kind: str) -> None:
+        burst = self._bursts[kind]
+        if burst is None:
+            return
+        self._bursts[kind] = None
+        what = ("one-shot queries (selonce/vin/list/version/...)" if kind == "polls" else "lines")
+        limit = CHATTY_POLLS if kind == "polls" else CHATTY_LINES
+        self._add(Finding("chatty", burst.start_line, burst.start_t, burst.text,
+                          f"up to {burst.peak} {what} per {CHATTY_WINDOW_MS} ms (threshold {limit}); "
+                          "stream with select + selrate instead of polling"))
+
+    def _add(self, finding: Finding) -> None:
+        self.counts[finding.kind] += 1
+        if len(self.examples[finding.kind]) < KEEP_PER_KIND:
+            self.examples[finding.kind].append(finding)
+        if self.first is None:
+            self.first = finding
+        for callback in list(self.on_finding):
+            callback(finding)
+
+    # -- results ----------------------------------------------------------------------------------------
+    @property
+    def clean(self) -> bool:
+        return not any(self.counts.values()) and not any(self._bursts.values())
+
+    def summary(self) -> Dict[str, Any]:
+        """JSON-ready: counts per kind, kept examples, thresholds. Open chatty bursts count as found."""
+        counts = dict(self.counts)
+        counts["chatty"] += sum(1 for b in self._bursts.values() if b is not None)
+        profile = self.profile_of()
+        return {
+            "profile": f"{profile.name} {profile.number}" if profile is not None else None,
+            "lines": self.lines,
+            "clean": not any(counts.values()),
+            "counts": counts,
+            "findings": [asdict(f) for kind in KINDS for f in self.examples[kind]],
+            "thresholds": {"window_ms": CHATTY_WINDOW_MS, "polls": CHATTY_POLLS, "lines": CHATTY_LINES},
+        }
+
+    def summary_json(self) -> str:
+        """One line of JSON (the ``@lint`` reply)."""
+        return json.dumps(self.summary(), separators=(",", ":"))
+
+    def report(self) -> str:
+        """Human-readable summary for the emulator's exit."""
+        summary = self.summary()
+        if summary["clean"]:
+            return f"host lint: clean ({self.lines} lines)"
+        parts = [f"{k}={v}" for k, v in summary["counts"].items() if v]
+        out = [f"host lint: {', '.join(parts)} ({self.lines} lines)"]
+        kept = sorted((f for kind in KINDS for f in self.examples[kind]),
+                      key=lambda f: (f.line, _specific_first(f)))
+        out += [f"  {f.describe()}" for f in kept]
+        return "\n".join(out)
+
+    def fatal_message(self) -> Optional[str]:
+        """Under ``--strict-host``: the message naming the first offending line, else None."""
+        first = self.first
+        if first is None:
+            return None
+        same_line = [f for kind in KINDS for f in self.examples[kind] if f.line == first.line]
+        reasons = "; ".join(f"{f.kind}: {f.detail}" for f in sorted(same_line, key=_specific_first))
+        where = f"line {first.line} (t={first.t} ms) {first.text!r}"
+        return f"buildhat-emulator: --strict-host: {where}: {reasons}"
+
+
+def _specific_first(finding: Finding) -> int:
+    return 1 if finding.kind == "error" else 0
+
+
+def _pid_argument_counts(line: str, profile: Profile) -> List[Tuple[str, int]]:
+    """(command, number of arguments) for each pid/pid_diff on the line, as the firmware would resolve
+    the words (any prefix, first in table order); arguments are the number or format tokens that follow."""
+    tokens = _TOKEN.findall(line)
+    out: List[Tuple[str, int]] = []
+    i = 0
+    while i < len(tokens):
+        name = _resolve(tokens[i], profile)
+        i += 1
+        if name not in ("pid", "pid_diff"):
+            continue  # a pid_diff the release lacks is reported as not_in_profile instead
+        count = 0
+        while i < len(tokens) and (_NUMBER.match(tokens[i]) or _FORMAT.match(tokens[i])):
+            count += 1
+            i += 1
+        out.append((name, count))
+    return out
+
+
+def _resolve(token: str, profile: Profile) -> Optional[str]:
+    """The firmware's matcher: the first command in table order that the token is a prefix of."""
+    if token == ";":
+        return None
+    for name in profile.commands:
+        if name.startswith(token):
+            return name
+    return None

@@ -1,0 +1,211 @@
+"""Data reporting of one port: select / selonce / selrate / combi state and the data lines
+(FIRMWARE-FACTS §6.1, §6.2).
+
+Two engines, chosen by ``Profile.features["report_engine"]``:
+
+- ``fixed_100ms`` (R1-R4): every select/selonce re-sends SELECT; reports every 100 ms counted
+  from the first matching DATA message, the timer advanced by subtracting the period (no
+  drift); ``selonce`` clears the selection after its report, except in the variable form when
+  ``selonce_var_repeats`` (the firmware bug: it keeps reporting).
+- ``selrate`` (R5+): rate -2 off, -1 once, 0 every message, N every N ms (timer reset to 0 at
+  each report); SELECT only when the mode changes; ``combi`` deselects; once = immediately on
+  the first matching message, then rate -2 with the mode kept; no report while the TX ring
+  holds 4096 bytes or more (``tx_throttle_reports``).
+
+Common: nothing prints until a DATA message for the selected mode arrived after the select;
+reports use the latest stored payload; DATA messages carry a 3-bit mode, so a selected mode
+8..15 never matches.
+"""
+from __future__ import annotations
+
+import struct
+from typing import TYPE_CHECKING, List, Optional
+
+from .devices.info import FORMAT_SIZES
+from .parser import format_is_float, format_is_signed, format_size
+from .printers import format_float, format_int
+
+if TYPE_CHECKING:
+    from .ports import Port
+
+__all__ = ["Reporter", "FIXED_PERIOD_MS", "DEFAULT_RATE_MS", "TX_THROTTLE_BYTES", "RATE_OFF",
+           "RATE_ONCE", "MAX_RATE_MS", "read_value", "decode_values"]
+
+FIXED_PERIOD_MS = 100        # R1-R4 report period
+DEFAULT_RATE_MS = 100        # R5+ DEFAULT_SELREPRATE, set by every `select`
+TX_THROTTLE_BYTES = 4096
+RATE_OFF, RATE_ONCE = -2, -1
+MAX_RATE_MS = 1000000000
+
+
+def read_value(buf: bytes, offset: int, fmt: int) -> float:
+    """The variable form's value: ``fmt`` (parser format code) at ``offset``, little-endian."""
+    size = format_size(fmt)
+    raw = bytes((buf[offset:offset + size] + bytes(size))[:size])
+    if format_is_float(fmt):
+        return struct.unpack("<f", raw)[0]
+    return float(int.from_bytes(raw, "little", signed=format_is_signed(fmt)))
+
+
+def _int_at(buf: bytes, pos: int, ftype: int) -> tuple[str, int]:
+    size = FORMAT_SIZES.get(ftype, 1)
+    raw = bytes((buf[pos:pos + size] + bytes(size))[:size])
+    if ftype == 3:
+        return format_float(struct.unpack("<f", raw)[0]), size
+    return format_int(int.from_bytes(raw, "little", signed=True)), size
+
+
+def decode_values(buf: bytes, length: int, count: int, ftype: int) -> List[str]:
+    """Mode line values: min(count, whole values in the received length), each printed."""
+    size = FORMAT_SIZES.get(ftype, 1)
+    n = min(count, length // size)
+    return [_int_at(buf, i * size, ftype)[0] for i in range(n)]
+
+
+class Reporter:
+    """The select state and report timer of one port."""
+
+    def __init__(self, port: Port):
+        self.port = port
+        features = port.hat.profile.features
+        self.fixed = features["report_engine"] == "fixed_100ms"
+        self.resend_always = features["select_resend"] == "always"
+        self.combi_deselects = bool(features["combi_clears_selection"])
+        self.var_once_repeats = bool(features["selonce_var_repeats"])
+        self.once_keeps_mode = features["once_end_state"] == "rate_off_mode_kept"
+        self.throttle = bool(features["tx_throttle_reports"])
+        self.mode = -1
+        self.offset = 0
+        self.fmt: Optional[int] = None     # parser format code of the variable form
+        self.rate = RATE_OFF               # R5+ selreprate
+        self.once = False                  # R1-R4 selonce flag
+        self._seen = 0                     # matching DATA messages since the select
+        self._fresh = False                # a matching message arrived in this pass
+        self._due: Optional[int] = None    # R1-R4: when the next report is due
+        self._origin: Optional[int] = None  # R5+: where the report timer counts from
+
+    # -- commands --------------------------------------------------------------------------
+    def select(self, mode: int, offset: Optional[int] = None, fmt: Optional[int] = None,
+               once: bool = False) -> None:
+        """``select``/``selonce`` with a mode (and the variable form's offset and format)."""
+        send = self.resend_always or mode != self.mode
+        self.mode = mode
+        if offset is not None:
+            self.offset = offset
+        self.fmt = fmt
+        self.once = once
+        self.rate = RATE_ONCE if once else DEFAULT_RATE_MS
+        self._seen = 0
+        self._fresh = False
+        self._due = self._origin = None
+        if send:
+            self.port.send_select(mode)
+
+    def deselect(self) -> None:
+        """``select`` with no argument: stop reporting, send nothing."""
+        self.mode = -1
+        self.rate = RATE_OFF
+
+    def bad_format(self, offset: int) -> None:
+        """``select <m> <off>`` with a bad or missing format: reporting off, offset kept."""
+        self.offset = offset
+        self.mode = -1
+        self.rate = RATE_OFF
+
+    def set_rate(self, ms: int) -> None:
+        """``selrate`` (R5+): only the rate changes (clamped to 0..1e9)."""
+        self.rate = max(0, min(MAX_RATE_MS, ms))
+
+    def combi_changed(self) -> None:
+        """A ``combi`` message was sent (R5+ drops the selection so the next select re-sends)."""
+        if self.combi_deselects:
+            self.mode = -1
+
+    def connection_changed(self) -> None:
+        """Connect, disconnect or timeout. The R5+ engine resets the select state (§5, §6.2).
+        The R1-R4 engine keeps the selection; since the port's stored data is cleared with a new
+        connection, the report waits for fresh data of that mode (a modelling choice: the facts
+        do not say what R1-R4 print from the previous device's data)."""
+        if not self.fixed:
+            self.mode = -1
+            self.rate = RATE_OFF
+        self._seen = 0
+        self._fresh = False
+        self._due = self._origin = None
+
+    # -- data ------------------------------------------------------------------------------
+    def on_data(self, mode: int) -> None:
+        """A DATA message for (3-bit) ``mode`` was stored."""
+        if mode == self.mode:
+            self._seen += 1
+            self._fresh = True
+
+    def tick(self, now: int) -> None:
+        fresh, self._fresh = self._fresh, False
+        if self.mode < 0 or self._seen == 0:
+            return
+        if self.fixed:
+            self._tick_fixed(now)
+        else:
+            self._tick_rate(now, fresh)
+
+    def _tick_fixed(self, now: int) -> None:
+        if self._due is None:
+            self._due = now + FIXED_PERIOD_MS
+            return
+        if now < self._due:
+            return
+        self._due += FIXED_PERIOD_MS          # subtractive: no drift
+        mode_form = self.fmt is None
+        self._print()
+        if self.once and (mode_form or not self.var_once_repeats):
+            self.mode = -1
+
+    def _tick_rate(self, now: int, fresh: bool) -> None:
+        if self.rate == RATE_OFF:
+            return
+        throttled = self.throttle and self.port.hat.tx_pending() >= TX_THROTTLE_BYTES
+        if self.rate == RATE_ONCE:
+            if fresh and not throttled:
+                self._print()
+                self.rate = RATE_OFF
+                if not self.once_keeps_mode:
+                    self.mode = -1
+            return
+        if self.rate == 0:
+            if fresh and not throttled:
+                self._print()
+            return
+        # The timer counts from the first matching message, then from each report (the
+        # firmware resets it to 0), so ``selrate`` changes only the threshold.
+        if self._origin is None:
+            self._origin = now
+            return
+        if now - self._origin >= self.rate and not throttled:
+            self._print()
+            self._origin = now
+
+    # -- output ----------------------------------------------------------------------------
+    def _print(self) -> None:
+        self.port.hat.emit(self.report_line())
+
+    def report_line(self) -> str:
+        """The line for the current selection from the latest stored payload (§6.1)."""
+        port = self.port
+        p = f"P{port.index:X}"
+        buf, length = port.stored(self.mode)
+        if self.fmt is not None:
+            return f"{p}V: {format_float(read_value(buf, self.offset, self.fmt))}"
+        combi = port.combis.get(self.mode)
+        if combi:
+            values = []
+            pos = 0
+            for mode, _dataset in combi:          # datasets are not used when decoding
+                info = port.info.modes.get(mode) if port.info else None
+                text, size = _int_at(buf, pos, info.type if info else 0)
+                values.append(text)
+                pos += size
+            return f"{p}C{self.mode}:" + "".join(" " + v for v in values)
+        info = port.info.modes.get(self.mode) if port.info else None
+        values = decode_values(buf, length, info.count, info.type) if info else []
+        return f"{p}M{self.mode}:" + "".join(" " + v for v in values)

@@ -1,0 +1,74 @@
+"""Differential comparison: the same input's answers from two targets.
+
+What must match exactly: every line a command printed in answer (its class and text), the
+``Error`` lines, prompts and echo. What is compared with tolerance: analogue readings (``vin``
+within :data:`VIN_TOLERANCE_V`; numbers in data reports within :data:`VALUE_TOLERANCE`).
+What is not compared: asynchronous lines (reports, connects, debug), because their number and
+position depend on timing; each side's own hygiene and state oracles judge them.
+"""
+from __future__ import annotations
+
+import math
+from typing import List, Optional, Tuple
+
+from buildhat_conformance.harness.events import Event, classify
+
+from .stream import ASYNC_KINDS
+
+__all__ = ["compare_answers", "VIN_TOLERANCE_V", "VALUE_TOLERANCE", "synchronous_part"]
+
+VIN_TOLERANCE_V = 0.10
+VALUE_TOLERANCE = 0.05      # relative, for positions/speeds in data lines
+
+
+def synchronous_part(data: bytes) -> Tuple[List[bytes], List[Event]]:
+    """(pieces that answer commands, asynchronous events). Pieces are complete lines, or the
+    unterminated rest (a prompt)."""
+    parts = data.split(b"\r\n")
+    sync: List[bytes] = []
+    async_events: List[Event] = []
+    for i, raw in enumerate(parts):
+        last = i == len(parts) - 1
+        if last and not raw:
+            continue
+        ev = classify(raw)
+        if not last and ev.kind in ASYNC_KINDS and ev.kind != "list_port" and ev.kind != "list_line":
+            async_events.append(ev)
+            continue
+        sync.append(raw + (b"" if last else b"\r\n"))
+    return sync, async_events
+
+
+def _close(a: Event, b: Event) -> bool:
+    if a.kind != b.kind:
+        return False
+    if a.kind == "vin":
+        return abs(float(a.fields["volts"]) - float(b.fields["volts"])) <= VIN_TOLERANCE_V + 1e-9
+    if a.kind in ("mode_data", "combi_data"):
+        va, vb = a.fields.get("values", []), b.fields.get("values", [])
+        return len(va) == len(vb) and all(_num_close(x, y) for x, y in zip(va, vb))
+    return a.raw == b.raw
+
+
+def _num_close(x: float, y: float) -> bool:
+    if isinstance(x, float) and isinstance(y, float) and math.isnan(x) and math.isnan(y):
+        return True
+    return abs(x - y) <= max(1.0, VALUE_TOLERANCE * max(abs(x), abs(y)))
+
+
+def compare_answers(a: bytes, b: bytes, label_a: str = "A", label_b: str = "B") -> Optional[str]:
+    """None when the answers agree within tolerance, else a description of the first difference."""
+    sync_a, _ = synchronous_part(a)
+    sync_b, _ = synchronous_part(b)
+    for i in range(max(len(sync_a), len(sync_b))):
+        pa = sync_a[i] if i < len(sync_a) else None
+        pb = sync_b[i] if i < len(sync_b) else None
+        if pa is None or pb is None:
+            return (f"answer piece {i + 1}: {label_a} printed {pa!r}, {label_b} printed {pb!r}")
+        if pa == pb:
+            continue
+        ea, eb = classify(pa.rstrip(b"\r\n")), classify(pb.rstrip(b"\r\n"))
+        if pa.endswith(b"\r\n") == pb.endswith(b"\r\n") and _close(ea, eb):
+            continue
+        return f"answer piece {i + 1}: {label_a} printed {pa!r}, {label_b} printed {pb!r}"
+    return None

@@ -1,0 +1,64 @@
+"""Replaying a finding's script with the fuzzer's own oracles: does it fail the same way?
+
+The script's sends are grouped as the fuzzer sent them: every group ends with the fence line
+(``version``); the first group is the prelude, which is not judged. ``@wait`` lets HAT time pass
+(checked like the fuzzer's wait rule); world actions go to the target's control.
+"""
+from __future__ import annotations
+
+from typing import Callable, List, Optional, Tuple, Union
+
+from buildhat_conformance.harness.script import Script, load_script
+from buildhat_conformance.harness.targets.base import Target
+from buildhat_conformance.protocol.profiles import Profile
+
+from .link import FENCE
+from .oracles import Finding
+from .runner import Runner
+
+__all__ = ["replay_script"]
+
+
+def replay_script(script: Union[str, Script], open_target: Callable[[], Target], profile: Profile,
+                  fence_s: float = 2.0, fresh: bool = True,
+                  against: Optional[Tuple[Callable[[], Target], Profile]] = None) -> Optional[Finding]:
+    """The finding the replay produces (None if every check passed). With ``against`` (an opener
+    and its release) the script goes to both targets and the differential oracle runs too."""
+    if not isinstance(script, Script):
+        script = load_script(script)
+    runner: Optional[Runner] = None
+    pending: List[bytes] = []
+    started = False
+    try:
+        openers = [("target", open_target, profile)]
+        if against is not None:
+            openers.append(("against", against[0], against[1]))
+        runner = Runner(openers, fence_s, fresh,
+                        devices=dict(script.devices) if script.explicit_devices else None)
+        for action in script.actions:
+            if action.kind == "send":
+                if action.data != FENCE:
+                    pending.append(action.data)
+                    continue
+                blob = b"".join(pending)
+                pending = []
+                if not started:
+                    runner.start(blob)
+                    started = True
+                else:
+                    runner.exchange([blob])
+            elif action.kind == "wait":
+                if started:
+                    runner.wait(int(action.args[0]))
+            else:
+                for side in runner.sides:
+                    control = side.link.target.control
+                    if control is None:
+                        raise ValueError(f"line {action.lineno}: {action.text} needs a target with a control")
+                    control.action(action.text)
+    except Finding as finding:
+        return finding
+    finally:
+        if runner is not None:
+            runner.close()
+    return None

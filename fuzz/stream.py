@@ -1,0 +1,152 @@
+"""Matching what a target printed against what the reference model predicted.
+
+The model predicts the answer to the host's bytes as a list of :class:`~.model.Expect` items.
+A HAT may also print asynchronous lines (device connects, data reports, debug output) between
+any two of them; those are skipped here and handed back for the state and hygiene oracles.
+Classification of lines is the harness's (``harness/events.py``), not ours.
+"""
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field
+from typing import List, Optional, Tuple
+
+from buildhat_conformance.harness.events import Event, classify
+from buildhat_conformance.protocol.profiles import Profile
+
+from .model import Expect
+
+__all__ = ["Problem", "MatchResult", "match_stream", "ASYNC_KINDS", "allowed_kinds", "split_lines"]
+
+# Lines the firmware prints on its own (§5, §6, §7.4); anything else must be predicted.
+ASYNC_KINDS = frozenset({
+    "mode_data", "combi_data", "var_data", "pid_debug", "data_debug", "signature_debug", "unknown_debug",
+    "connecting", "baud", "established", "disconnected", "timeout", "checksum_error", "framing_error",
+    "too_many_errors", "button", "pulse_done", "ramp_done", "port_fault", "motor_fault", "fault_dump",
+    "fault_read_error", "mq_overrun", "deltat", "list_port", "connected_passive", "list_line", "i2c_error",
+    "assertion", "banner",
+})
+_DEBUG_BIT = {"signature_debug": 4, "data_debug": 8, "pid_debug": 16, "unknown_debug": 32}
+_LIST_HEADER = re.compile(rb"P([0-3]): (no device detected|connected to passive ID \d+|"
+                          rb"connected to active ID [0-9A-F]{2})")
+
+
+@dataclass
+class Problem:
+    oracle: str       # liveness | fate | state | hygiene
+    message: str
+
+
+@dataclass
+class MatchResult:
+    asynchronous: List[Tuple[int, Event]] = field(default_factory=list)  # (expected index, event)
+    problems: List[Problem] = field(default_factory=list)
+    consumed: int = 0
+
+
+def allowed_kinds(profile: Profile, debug: Optional[int]) -> frozenset:
+    """Asynchronous line kinds this release can print (§11), given the debug bits (None: any)."""
+    kinds = set(ASYNC_KINDS)
+    if not profile.feature("button_events"):
+        kinds.discard("button")
+    if not profile.feature("disconnected_line"):
+        kinds.discard("disconnected")
+    if profile.feature("motor_fault_report") == "text_1hz":
+        kinds -= {"fault_dump", "fault_read_error"}
+    if debug is not None:
+        kinds -= {k for k, bit in _DEBUG_BIT.items() if not debug & bit}
+    return frozenset(kinds)
+
+
+def split_lines(data: bytes) -> Tuple[List[bytes], bytes]:
+    """Complete lines (without CRLF) and the unterminated rest."""
+    parts = data.split(b"\r\n")
+    return parts[:-1], parts[-1]
+
+
+def _line_at(actual: bytes, pos: int) -> Optional[bytes]:
+    end = actual.find(b"\r\n", pos)
+    return None if end < 0 else actual[pos:end]
+
+
+def _match_item(item: Expect, actual: bytes, pos: int) -> Optional[int]:
+    """New position after ``item`` matched at ``pos``, or None."""
+    if item.kind == "exact":
+        return pos + len(item.data) if actual.startswith(item.data, pos) else None
+    if item.kind == "pattern":
+        line = _line_at(actual, pos)
+        if line is None or not re.fullmatch(item.pattern, line.decode("latin-1")):
+            return None
+        return pos + len(line) + 2
+    # listing: a header for each port in order; an active device's block ends with its position PID
+    for port in range(4):
+        line = _line_at(actual, pos)
+        m = _LIST_HEADER.fullmatch(line) if line is not None else None
+        if m is None or int(m.group(1)) != port:
+            return None
+        pos += len(line) + 2
+        if b"active" in m.group(2):
+            while True:
+                line = _line_at(actual, pos)
+                if line is None or classify(line).kind != "list_line":
+                    return None
+                pos += len(line) + 2
+                if line.startswith(b"  position PID:"):
+                    break
+    return pos
+
+
+def _show(data: bytes, limit: int = 120) -> str:
+    return repr(data[:limit]) + ("..." if len(data) > limit else "")
+
+
+def match_stream(expected: List[Expect], actual: bytes, allowed: frozenset) -> MatchResult:
+    """Walk ``expected`` over ``actual``, skipping asynchronous lines of ``allowed`` kinds."""
+    res = MatchResult()
+    pos = 0
+    items = list(expected)
+    for idx in range(len(items) + 1):
+        item = items[idx] if idx < len(items) else None
+        while True:
+            if item is not None:
+                nxt = _match_item(item, actual, pos)
+                if nxt is not None:
+                    break
+            line = _line_at(actual, pos)
+            if line is None:
+                break
+            ev = classify(line)
+            if ev.kind not in ASYNC_KINDS:
+                break
+            res.asynchronous.append((idx, ev))
+            if ev.kind == "banner":
+                res.problems.append(Problem("liveness", f"start-up line {line!r}: the HAT rebooted"))
+            elif ev.kind not in allowed:
+                res.problems.append(Problem("hygiene", f"{ev.kind} line {line!r} is not one this release "
+                                                       "prints in this state"))
+            pos += len(line) + 2
+        if item is None:
+            break
+        if nxt is None:
+            line = _line_at(actual, pos)
+            kind = classify(line).kind if line is not None else None
+            if kind == "unknown" and not line.startswith(b"P"):
+                oracle = "hygiene"
+                what = f"an output line of no known class {line!r}"
+            elif item.oracle == "state" and kind not in (None, "unknown"):
+                # A whole line (Error, an answer) where the prompt or echo was due: the line's
+                # fate is wrong, not the state the prompt shows.
+                oracle = "fate"
+                what = _show(actual[pos:])
+            else:
+                oracle = item.oracle
+                what = _show(actual[pos:])
+            res.problems.append(Problem(oracle, f"expected {item.describe()}, got {what}"))
+            res.consumed = pos
+            return res
+        pos = nxt
+    rest = actual[pos:]
+    if rest:
+        res.problems.append(Problem("hygiene", f"unexpected trailing output {_show(rest)}"))
+    res.consumed = len(actual)
+    return res

@@ -1,0 +1,73 @@
+"""``buildhat-conformance targets``: what this machine can run against.
+
+Lists the serial ports pyserial sees (with the Raspberry Pi 5 remark where
+``/dev/serial0`` is the debug UART), the emulator's firmware releases, and the URL forms.
+Nothing is opened, so listing never disturbs a HAT.
+"""
+from __future__ import annotations
+
+import argparse
+import glob
+import os
+from typing import List
+
+from serial.tools import list_ports
+
+from buildhat_conformance.harness.targets import TargetError, url_forms
+from buildhat_conformance.harness.targets.emulator import emulator_command
+from buildhat_conformance.harness.targets.serial import pi5_debug_uart_remark
+from buildhat_conformance.protocol.profiles import DEFAULT_FIRMWARE, load_profiles
+
+# Raspberry Pi aliases that list_ports may not report (they are symlinks).
+_PI_LINKS = ("/dev/serial0", "/dev/serial1")
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--all", action="store_true", help="also list ports without a description (ttyS*)")
+
+
+def serial_port_lines(show_all: bool = False) -> List[str]:
+    lines = []
+    ports = sorted(list_ports.comports(include_links=True), key=lambda p: p.device)
+    seen = set()
+    for p in ports:
+        seen.add(p.device)
+        described = p.description and p.description != "n/a"
+        if not show_all and not described and not p.device.startswith(("/dev/ttyAMA", "/dev/serial")):
+            continue
+        text = f"  {p.device:<16} {p.description if described else ''}".rstrip()
+        remark = pi5_debug_uart_remark(p.device)
+        lines.append(text + (f"\n      ! {remark}" if remark else ""))
+    for link in _PI_LINKS:
+        if link not in seen and os.path.exists(link):
+            real = os.path.realpath(link)
+            remark = pi5_debug_uart_remark(link)
+            lines.append(f"  {link:<16} -> {real}" + (f"\n      ! {remark}" if remark else ""))
+    if not lines:
+        hidden = len(glob.glob("/dev/ttyS*"))
+        lines.append("  none found" + (f" ({hidden} /dev/ttyS* hidden; --all shows them)" if hidden else ""))
+    return lines
+
+
+def emulator_lines() -> List[str]:
+    try:
+        cmd = " ".join(emulator_command())
+        where = f"buildhat-emulator: {cmd}"
+    except TargetError as exc:
+        where = f"buildhat-emulator: not available ({exc})"
+    lines = [f"  {where}"]
+    for number, p in load_profiles().items():
+        mark = "  (latest, default)" if number == DEFAULT_FIRMWARE else ""
+        lines.append(f"  emulator:{p.name:<4} {number}  {p.version_string}{mark}")
+    return lines
+
+
+def main(args: argparse.Namespace) -> int:
+    print("Serial ports:")
+    print("\n".join(serial_port_lines(args.all)))
+    print("\nEmulator releases:")
+    print("\n".join(emulator_lines()))
+    print("\nTarget URLs:")
+    for form, meaning in url_forms():
+        print(f"  {form:<52} {meaning}")
+    return 0

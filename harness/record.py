@@ -1,0 +1,281 @@
+"""``buildhat-conformance record``: keep a transcript of a scenario, or of a host program's session.
+
+``record SCRIPT --target URL -o FILE`` runs a scenario script on any target (sends, waits and,
+where the target has the control, world actions) with the replay drivers of
+:mod:`.replay`: in-process targets in virtual time, the rest in real time. A script whose world
+actions the target cannot perform is refused with what is missing; it is never run halfway.
+
+``record --proxy --target URL -o FILE [-- COMMAND ...]`` puts a pseudo-terminal in front of the
+target and records everything a host program (e.g. the ``buildhat`` library) and the HAT say to
+each other; ``{device}`` in COMMAND becomes the pty path (also in $BUILDHAT_DEVICE). t = 0 is
+the host's first byte; what the HAT said before is start-up (t < 0). Such a recording is what
+``mock`` serves.
+
+The meta header holds the target, firmware, tool version, date and (for scripts) the script
+path relative to the transcript, so ``replay`` can find it.
+"""
+from __future__ import annotations
+
+import argparse
+import datetime
+import os
+import select
+import subprocess
+import sys
+import threading
+import time
+from typing import List, Optional, Sequence, Tuple
+
+from .pty import open_raw_pty
+from .replay import Plan, missing_capabilities, run_plan, script_steps, write_chunks, write_transcript
+from .script import Script, ScriptError, load_script
+from .transcript import Transcript, TranscriptWriter, read_transcript
+
+__all__ = ["record_script", "record_proxy", "ready_lines", "add_arguments", "main", "PASS_UNKNOWN_ARGS"]
+
+# `record --proxy ... -- COMMAND ARGS`: the command's own options must reach it untouched.
+PASS_UNKNOWN_ARGS = True
+
+
+def _now_iso() -> str:
+    return datetime.datetime.now(datetime.timezone.utc).replace(microsecond=0).isoformat()
+
+
+def _tool_version() -> str:
+    from buildhat_conformance import __version__
+
+    return __version__
+
+
+def ready_lines(layout: dict) -> List[str]:
+    """The start-up lines that show the layout is up (FIRMWARE-FACTS §5): each active device
+    established, each passive device connected; with no device, the end of port initialisation."""
+    out = []
+    for port, spec in sorted(layout.items()):
+        if spec is None:
+            continue
+        kind, ident = spec
+        if kind == "active":
+            out.append(f"P{port}: established serial communication with active ID {ident:02X}")
+        else:
+            out.append(f"P{port}: connected to passive ID {ident}")
+    return out or ["Done initialising ports"]
+
+
+def _layout_text(layout: dict) -> dict:
+    def spec_text(spec: Optional[tuple]) -> str:
+        if spec is None:
+            return "none"
+        kind, ident = spec
+        return f"0x{ident:02X}" if kind == "active" else f"passive {ident}"
+    return {str(p): spec_text(s) for p, s in sorted(layout.items())}
+
+
+def _target_for(url: str, script: Script):  # type: ignore[no-untyped-def]
+    """(target, layout applied): the target is told the script's start-up layout when it is an
+    emulator that can take one."""
+    from .targets import make_target
+
+    kind = url.split(":", 1)[0].split("?", 1)[0]
+    if script.explicit_devices and kind in ("emulator", "inprocess") and "device=" not in url:
+        return make_target(url, devices=dict(script.devices)), True
+    return make_target(url), False
+
+
+def record_script(script: Script, target, out: str,  # type: ignore[no-untyped-def]
+                  boot_timeout: Optional[float] = None, layout_applied: bool = False
+                  ) -> Tuple[Transcript, List[str]]:
+    """Run ``script`` on ``target`` and write the transcript to ``out``; returns it and remarks.
+    Raises NeedsCapability (saying what is missing) before anything is sent.
+
+    This uses the replay drivers rather than harness/script_runner.py: targets in virtual time
+    (``inprocess``) must be stepped millisecond by millisecond, and on a sped-up real-time
+    target the runner's 20 HAT-ms tail is over before the last answers arrive, while the replay
+    driver schedules every step from one clock and waits for the output to go quiet."""
+    from .targets.base import NeedsCapability
+
+    rel_script = os.path.relpath(os.path.abspath(script.source), os.path.dirname(os.path.abspath(out))) \
+        if os.path.isfile(script.source) else script.source
+    meta = {"target": getattr(target, "url", ""), "script": rel_script, "name": script.name,
+            "devices": _layout_text(script.devices), "tool": "buildhat-conformance record",
+            "version": _tool_version(), "date": _now_iso()}
+    plan = Plan(script_steps(script), script.duration_ms, "script", dict(script.devices))
+    missing = missing_capabilities(plan, target)
+    if script.explicit_devices and not layout_applied:
+        missing.append("device (a start-up layout)")
+    if missing:
+        raise NeedsCapability(", ".join("@" + m for m in missing), getattr(target, "url", ""))
+    transcript, _slack, remarks = run_plan(plan, target, meta, ready_lines(script.devices),
+                                           30.0 if boot_timeout is None else boot_timeout)
+    transcript.meta["time_scale"] = float(getattr(target, "time_scale", 1.0) or 1.0)
+    first_t = transcript.events[0].get("t", 0) if transcript.events else 0
+    transcript.events[:0] = [{"t": first_t, "dir": "note", "text": r} for r in remarks]
+    write_transcript(transcript, out)
+    return transcript, remarks
+
+
+# -- proxy -------------------------------------------------------------------------------------
+def record_proxy(target, out: str, command: Sequence[str] = (), link: Optional[str] = None,  # type: ignore
+                 stop: Optional[threading.Event] = None, on_ready=None,  # type: ignore[no-untyped-def]
+                 ready: Sequence[str] = (), boot_timeout: float = 30.0) -> int:
+    """Forward between a new pty and ``target``, recording both directions, until ``command``
+    exits (its status is returned) or ``stop`` is set. A target that talks when opened is
+    booting: the host is let in once the ``ready`` lines have come (at most ``boot_timeout`` s)."""
+    master, slave, path = open_raw_pty(link)   # raw: bytes pass as on a UART (CR stays CR)
+    stop = stop or threading.Event()
+    chunks: List[Tuple[float, str, bytes]] = []
+    lock = threading.Lock()
+    target.open()
+    scale = float(target.time_scale or 1.0)
+
+    def from_target() -> None:
+        while not stop.is_set():
+            try:
+                data = target.read(0.05)
+            except Exception as exc:  # noqa: BLE001 - the target went away: end the recording
+                with lock:
+                    chunks.append((time.monotonic(), "note", f"target error: {exc}".encode()))
+                stop.set()
+                return
+            if data:
+                with lock:
+                    chunks.append((time.monotonic(), "hat", data))
+                os.write(master, data)
+
+    reader = threading.Thread(target=from_target, name="record-proxy", daemon=True)
+    reader.start()
+    if ready and boot_timeout > 0:
+        _wait_for_start_up(chunks, lock, ready, boot_timeout)
+    status = 0
+    proc = None
+    try:
+        if command:
+            argv = [a.replace("{device}", link or path) for a in command]
+            proc = subprocess.Popen(argv, env=dict(os.environ, BUILDHAT_DEVICE=link or path))
+        elif on_ready is not None:
+            on_ready(link or path)
+        else:
+            print(link or path, flush=True)
+        while not stop.is_set():
+            if proc is not None and proc.poll() is not None:
+                status = proc.returncode
+                time.sleep(0.1)   # the HAT's answer to the host's last line
+                break
+            r, _, _ = select.select([master], [], [], 0.05)
+            if r:
+                try:
+                    data = os.read(master, 4096)
+                except OSError:
+                    continue
+                with lock:
+                    chunks.append((time.monotonic(), "host", data))
+                target.write(data)
+    finally:
+        stop.set()
+        reader.join(timeout=2)
+        if proc is not None and proc.poll() is None:
+            proc.terminate()
+            status = proc.wait(timeout=10)
+        target.close()
+        os.close(master)
+        os.close(slave)
+        if link and os.path.islink(link):
+            os.unlink(link)
+    last_t = chunks[-1][0] if chunks else time.monotonic()
+    first_host = next((t for t, k, _d in chunks if k == "host"), last_t)
+    meta = {"target": getattr(target, "url", ""), "tool": "buildhat-conformance record --proxy",
+            "version": _tool_version(), "date": _now_iso(), "time_scale": scale,
+            "host_command": " ".join(command) if command else ""}
+    writer = TranscriptWriter(out + ".part", dict(meta, firmware="unknown"))
+    write_chunks(writer, chunks, first_host, scale)
+    end_t = ((chunks[-1][0] - first_host) * 1000.0 * scale) if chunks else 0.0
+    writer.close(end_t)
+    recorded = read_transcript(out + ".part")
+    os.unlink(out + ".part")
+    for line in recorded.hat_lines():
+        if line.startswith("Firmware version: "):
+            recorded.meta["firmware"] = line[len("Firmware version: "):]
+            break
+    write_transcript(recorded, out)
+    return status
+
+
+def _wait_for_start_up(chunks: list, lock: threading.Lock, ready: Sequence[str], timeout: float) -> None:
+    def stream() -> bytes:
+        with lock:
+            return b"\r\n" + b"".join(d for _t, k, d in chunks if k == "hat")
+
+    talking_by = time.monotonic() + min(1.0, timeout)
+    while not chunks and time.monotonic() < talking_by:
+        time.sleep(0.02)
+    deadline = time.monotonic() + timeout
+    while chunks and time.monotonic() < deadline:
+        data = stream()
+        if all(b"\r\n" + line.encode() + b"\r\n" in data for line in ready):
+            return
+        time.sleep(0.02)
+
+
+# -- command line --------------------------------------------------------------------------------
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("script", nargs="?", metavar="SCRIPT", help="scenario script (.script) to run")
+    parser.add_argument("--target", required=True, metavar="URL",
+                        help="emulator[:N][?speed=N], inprocess[:N], /dev/..., socket://HOST:PORT ...")
+    parser.add_argument("-o", "--output", required=True, metavar="FILE", help="transcript to write (.jsonl)")
+    parser.add_argument("--boot-timeout", type=float, metavar="S",
+                        help="--proxy: a target that talks when opened is booting: wait up to S seconds "
+                             "for its start-up before letting the host in (default 30; 0: never wait)")
+    parser.add_argument("--proxy", action="store_true",
+                        help="record a host program's session through a pty instead of a script; "
+                             "the command follows '--' ({device} = the pty path)")
+    parser.add_argument("--link", metavar="PATH", help="with --proxy: also make this symlink to the pty")
+
+
+def main(args: argparse.Namespace) -> int:
+    from .targets import make_target
+    from .targets.base import NeedsCapability, TargetError
+
+    extra = [a for a in getattr(args, "extra", []) if a != "--"]
+    if args.proxy:
+        if args.script:
+            extra = [args.script] + extra
+        try:
+            target = make_target(args.target)
+        except TargetError as exc:
+            print(f"record: {exc}", file=sys.stderr)
+            return 2
+        from buildhat_conformance.protocol.devices import DEFAULT_LAYOUT
+
+        timeout = 30.0 if args.boot_timeout is None else args.boot_timeout
+        layout = dict(DEFAULT_LAYOUT)
+        layout.update(getattr(target, "devices", None) or {})   # an emulator URL's device= options
+        status = record_proxy(target, args.output, extra, args.link, ready=ready_lines(layout),
+                              boot_timeout=timeout)
+        exited = f" (the host program exited with {status})" if status else ""
+        print(f"record: wrote {args.output}{exited}")
+        return status
+    if extra:
+        print(f"record: unexpected arguments {' '.join(extra)} (a command goes with --proxy)",
+              file=sys.stderr)
+        return 2
+    if not args.script:
+        print("record: give a SCRIPT, or --proxy to record a host program", file=sys.stderr)
+        return 2
+    try:
+        script = load_script(args.script)
+        target, applied = _target_for(args.target, script)
+        _transcript, remarks = record_script(script, target, args.output, args.boot_timeout, applied)
+    except (OSError, ScriptError) as exc:
+        print(f"record: {exc}", file=sys.stderr)
+        return 2
+    except NeedsCapability as exc:
+        print(f"record: cannot run {args.script} on {args.target}: it {exc}. Nothing was sent; use a target "
+              "with a control channel (emulator, inprocess) or a rig.", file=sys.stderr)
+        return 3
+    except TargetError as exc:
+        print(f"record: {exc}", file=sys.stderr)
+        return 2
+    for r in remarks:
+        print(f"record: note: {r}")
+    print(f"record: wrote {args.output}")
+    return 0

@@ -1,0 +1,602 @@
+"""A session with one target: lines in, typed events out, every byte into the transcript.
+
+A reader thread pulls bytes from the target as they arrive, so times are taken when the
+bytes came (not when a test got round to looking) and the transcript holds every byte
+received even if the test, the run or the target dies. Host bytes are written to the
+transcript before they go to the target, so a reply never precedes its command there.
+
+Event times (``Event.t``) are real milliseconds since the session opened. Transcript
+times are HAT milliseconds (real time x the target's time_scale) since the origin, which
+is the open, or the moment :meth:`Session.set_origin` was called (the script start).
+
+Virtual-time targets (capability ``virtual_time`` and a ``now`` attribute, e.g. the
+in-process emulator) move only when read, so for them no reader thread runs: the session
+reads in the caller's thread, and timeouts and waits are spent in HAT time (seconds x
+time_scale), not wall-clock time. Their ``Event.t`` is HAT ms / time_scale, so the same
+arithmetic holds for both kinds. A virtual-time target behind a wrapper that hides ``now``
+gets a reader thread that reads it one HAT millisecond at a time on a schedule locked to
+the wall clock, so it runs in real time (x time_scale) as hardware would.
+"""
+from __future__ import annotations
+
+import atexit
+import contextlib
+import os
+import re
+import threading
+import time
+import weakref
+from typing import Callable, List, Optional, Pattern, Union
+
+from buildhat_conformance.harness.errors import ExpectTimeout, NeedsCapability, SessionError, TargetError
+from buildhat_conformance.harness.events import KINDS, Event, LineSplitter
+from buildhat_conformance.harness.targets.base import Target
+from buildhat_conformance.harness.transcript import TranscriptWriter
+from buildhat_conformance.protocol.profiles import Profile, get_profile, resolve_version
+
+__all__ = ["Session", "Match", "describe_events"]
+
+Match = Union[str, Pattern[str], Callable[[Event], bool]]
+
+FENCE_KINDS = ("version", "bootloader_version")
+_READ_SLICE = 0.05      # how long one read waits, so close() is noticed quickly
+_OPEN_ATTEMPTS = 3      # like the Python library, `version` is resent when nothing answers
+
+_live_sessions: weakref.WeakSet[Session] = weakref.WeakSet()
+
+
+@atexit.register
+def _flush_live_sessions() -> None:
+    # A run that ends without closing its sessions still leaves partial output on disk.
+    for s in list(_live_sessions):
+        s._flush_transcript()
+
+
+def _matcher(match: Match) -> tuple[Callable[[Event], bool], str]:
+    """(predicate, description). A string naming an event kind matches that kind; any
+    other string is a regular expression searched in the line's text."""
+    if callable(match) and not isinstance(match, str):
+        return match, getattr(match, "__name__", "predicate")
+    if isinstance(match, str) and match in KINDS:
+        return (lambda e: e.kind == match), f"an event of kind {match!r}"
+    rx = re.compile(match) if isinstance(match, str) else match
+    return (lambda e: bool(rx.search(e.text))), f"a line matching /{rx.pattern}/"
+
+
+def describe_events(events: List[Event], partial: bytes = b"", limit: int = 25) -> str:
+    """What arrived, for error messages: the last ``limit`` events and any partial line."""
+    if not events and not partial:
+        return "nothing arrived"
+    if not events:
+        return f"no complete line arrived, only output not ended by CRLF: {partial!r}"
+    shown = events[-limit:]
+    lines = [f"{len(events)} event(s) arrived" + (f", the last {len(shown)}:" if len(shown) < len(events)
+                                                  else ":")]
+    lines += [f"  {e}" for e in shown]
+    if partial:
+        lines.append(f"  and output not ended by CRLF: {partial!r}")
+    return "\n".join(lines)
+
+
+class Session:
+    """The API of docs/DEVELOPING.md ("Session"), plus:
+
+    ``mark()`` (an index for ``expect(..., since=)``), ``drain()``, ``reset(bootloader)``,
+    ``set_origin()`` / ``transcript_now()`` / ``attach_transcript(writer)`` (for runners that
+    write the transcript once the firmware is known), ``version_string``, ``notes`` (remarks
+    such as "unknown firmware version ..."), ``echo_on``, ``partial`` (output not yet ended by
+    CRLF), ``sent`` (every byte sent) and ``virtual`` (read in HAT time, see the module doc).
+    ``profile`` is None while the target is in its bootloader (unless one was given).
+    """
+
+    def __init__(self, target: Target, transcript: Union[TranscriptWriter, str, os.PathLike, None] = None,
+                 profile: Union[Profile, str, int, None] = None):
+        self.target = target
+        self._own_writer = not isinstance(transcript, TranscriptWriter) and transcript is not None
+        self._transcript_path = transcript if self._own_writer else None
+        self.transcript: Optional[TranscriptWriter] = transcript if isinstance(transcript, TranscriptWriter) \
+            else None
+        self._requested_profile = get_profile(profile) if profile is not None and \
+            not isinstance(profile, Profile) else profile
+        self.profile: Optional[Profile] = self._requested_profile
+        self.profile_exact = True
+        self.in_bootloader = False
+        self.version_string: Optional[str] = None
+        self.notes: List[str] = []          # remarks for the report, e.g. an unknown firmware version
+        self.events: List[Event] = []
+        self.received = bytearray()
+        self.sent = bytearray()
+        self._log: List[tuple] = []         # (t ms, "host"|"hat", bytes), for attach_transcript
+        self.echo_on = False                # last seen: did the HAT echo our line?
+        self._splitter = LineSplitter()
+        self._cond = threading.Condition()
+        self._reader: Optional[threading.Thread] = None
+        self._stop = threading.Event()
+        self._error: Optional[BaseException] = None
+        self._cursor = 0
+        self._t0 = time.monotonic()
+        self._origin_ms = 0.0
+        self._closed = False
+        self._opened = False
+        self.virtual = bool(target.has("virtual_time") and hasattr(type(target), "now"))
+        # A virtual-time target is one object stepped by whoever calls it: when a reader
+        # thread runs for it (paced, see _paced_read_loop), every call to it is serialised.
+        # Real links read and write concurrently, so for them the lock is a no-op.
+        self._io_lock = threading.Lock() if target.has("virtual_time") else contextlib.nullcontext()
+        self._hat0 = 0.0
+        # H10 (make bench): HAT milliseconds spent in waits the caller asked for (wait_ms,
+        # collect, note_wait): the protocol's mandatory waiting, against which a run's
+        # overhead is measured. Only ever added to; readers take differences.
+        self.waited_hat_ms = 0.0
+
+    # -- time ----------------------------------------------------------------------------
+    def _hat_now(self) -> Optional[float]:
+        try:
+            return float(self.target.now)  # type: ignore[attr-defined]
+        except (TargetError, AttributeError, TypeError):
+            return None
+
+    def now_ms(self) -> float:
+        """Milliseconds since the session opened (the clock of ``Event.t``): real time, or
+        for a virtual-time target its HAT time divided by the time scale."""
+        if self.virtual:
+            hat = self._hat_now()
+            if hat is not None:
+                return (hat - self._hat0) / self.time_scale
+        return (time.monotonic() - self._t0) * 1000.0
+
+    @property
+    def time_scale(self) -> float:
+        return float(self.target.time_scale or 1.0)
+
+    def _transcript_t(self, t_ms: float) -> float:
+        return (t_ms - self._origin_ms) * self.time_scale
+
+    def transcript_now(self) -> float:
+        """The transcript time of this moment (HAT ms since the origin)."""
+        return self._transcript_t(self.now_ms())
+
+    def set_origin(self) -> None:
+        """Make transcript time 0 now (the start of a script); earlier events get t < 0."""
+        with self._cond:
+            self._origin_ms = self.now_ms()
+
+    # -- open / close ----------------------------------------------------------------------
+    def open(self, detect: bool = True, timeout: float = 2.0) -> Session:
+        """Open the target (unless already open), start reading and, with ``detect``, resync
+        and find out what answers: firmware (``profile``) or bootloader (``in_bootloader``)."""
+        if not self.target.is_open:
+            self.target.open()
+        self._t0 = time.monotonic()
+        self._opened = True
+        try:
+            self._hat0 = (self._hat_now() or 0.0) if self.virtual else 0.0
+            if self._own_writer:
+                self.transcript = TranscriptWriter(self._transcript_path, self._meta())
+            if not self.virtual:
+                self._reader = threading.Thread(target=self._read_loop, daemon=True,
+                                                name=f"session-reader {self.target.url}")
+                self._reader.start()
+            _live_sessions.add(self)
+            if detect:
+                self._detect(timeout)
+        except BaseException:
+            self.close()   # the target was opened here: never leave it (or its process) behind
+            raise
+        return self
+
+    def _meta(self) -> dict:
+        meta = {"target": self.target.url, "tool": "buildhat-conformance session",
+                "firmware": str(self.profile.number) if self.profile else "unknown"}
+        return meta
+
+    def close(self) -> None:
+        """Stop reading, flush the transcript (a partial line is kept) and close the target."""
+        if self._closed:
+            return
+        self._closed = True
+        self._stop.set()
+        if self._reader is not None and self._reader is not threading.current_thread():
+            self._reader.join(timeout=2.0)
+        with self._cond:
+            t_end = self._transcript_t(self.now_ms())
+        try:
+            self.target.close()
+        finally:
+            with self._cond:
+                if self.transcript is not None:
+                    if self._own_writer:
+                        self.transcript.close(t_end)
+                    else:
+                        self.transcript.flush_partial(t_end)
+            _live_sessions.discard(self)
+
+    def __enter__(self) -> Session:
+        if not self._opened:
+            self.open()
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def attach_transcript(self, writer: TranscriptWriter, history: bool = True) -> None:
+        """Start writing to ``writer`` (e.g. once the firmware is known for its meta line);
+        with ``history``, everything sent and received so far is written first, in order."""
+        with self._cond:
+            if history:
+                for t, kind, data in self._log:
+                    if kind == "host":
+                        writer.host(self._transcript_t(t), data)
+                    else:
+                        writer.hat(self._transcript_t(t), data)
+            self.transcript = writer
+            self._own_writer = False
+
+    def _flush_transcript(self) -> None:
+        with self._cond:
+            if self.transcript is not None:
+                self.transcript.flush_partial()
+
+    # -- reading -------------------------------------------------------------------------------
+    def _read_loop(self) -> None:
+        """The reader thread (real-time targets)."""
+        try:
+            if self.target.has("virtual_time"):
+                self._paced_read_loop()
+                return
+            while not self._stop.is_set():
+                if not self._read_once(_READ_SLICE):
+                    return
+        except BaseException as exc:  # a harness bug must fail the waiting caller, not hang it
+            with self._cond:
+                self._error = exc
+                self._cond.notify_all()
+
+    def _paced_read_loop(self) -> None:
+        # A virtual-time target seen through a wrapper that hides its clock (``now``): a
+        # reader thread would run it flat out, its HAT time racing ahead of the wall clock.
+        # So it is read one HAT millisecond at a time (a read moves its clock by at most its
+        # timeout) on a schedule locked to the wall clock: real time, as on hardware.
+        step = 0.001 / self.time_scale
+        began, hat_ms = time.monotonic(), 0
+        while not self._stop.is_set():
+            delay = began + hat_ms * step - time.monotonic()
+            if delay > 0:
+                time.sleep(min(delay, _READ_SLICE))
+                continue
+            # a hair under 1 ms, so a target that rounds its budget up still steps just one
+            if not self._read_once(step * (1 - 1e-9)):
+                return
+            hat_ms += 1
+
+    def _read_once(self, timeout: float) -> bool:
+        """One target read; records what came. False once the target has failed."""
+        try:
+            with self._io_lock:
+                data = self.target.read(timeout)
+        except BaseException as exc:  # the target went away: keep it for the caller
+            with self._cond:
+                if not self._stop.is_set():
+                    self._error = exc
+                    if self.transcript is not None:
+                        t = self._transcript_t(self.now_ms())
+                        self.transcript.flush_partial(t)
+                        self.transcript.note(t, f"target error: {exc}")
+                self._cond.notify_all()
+            return False
+        if data:
+            self._received(data)
+        return True
+
+    def _received(self, data: bytes) -> None:
+        with self._cond:
+            t = self.now_ms()
+            self.received += data
+            self._log.append((t, "hat", data))
+            if self.transcript is not None:
+                self.transcript.hat(self._transcript_t(t), data)
+            self.events.extend(self._splitter.feed(data, t))
+            self._cond.notify_all()
+
+    def _check(self) -> None:
+        if self._error is not None:
+            err = self._error
+            if isinstance(err, TargetError):
+                raise TargetError(f"{err}\n{describe_events(self.events[self._cursor:], self.partial)}") \
+                    from err
+            raise TargetError(f"reading from {self.target.url} failed: {err!r}") from err
+        if not self._opened or self._closed:
+            raise SessionError("the session is not open (call open() first)")
+
+    # -- sending -------------------------------------------------------------------------------
+    def send_raw(self, data: bytes) -> List[int]:
+        """Send exactly these bytes. Returns the numbers of the host lines they ended (one per CR)."""
+        self._check()
+        data = bytes(data)
+        with self._cond:
+            t = self.now_ms()
+            if self.transcript is not None:
+                self.transcript.host(self._transcript_t(t), data)
+            self.sent += data
+            self._log.append((t, "host", data))
+            ended = self._splitter.host_sent(data)
+        # Written outside the event lock: a target that blocks until we read must not stall
+        # the reader. (The I/O lock only serialises targets that are not thread-safe.)
+        with self._io_lock:
+            self.target.write(data)
+        return ended
+
+    def send(self, text: str) -> int:
+        """Send one command line followed by CR (never CRLF: LF would start the next line).
+        Returns the host line number (see ``Event.fields["host_line"]``)."""
+        if "\r" in text or "\n" in text:
+            raise ValueError("send() takes one line without CR/LF; use send_raw() for exact bytes")
+        return self.send_raw(text.encode("utf-8") + b"\r")[-1]
+
+    # -- waiting -------------------------------------------------------------------------------
+    @property
+    def partial(self) -> bytes:
+        """Received bytes not yet ended by CRLF (and not a prompt)."""
+        return self._splitter.partial
+
+    def _wait_index(self, pred: Callable[[Event], bool], start: int, timeout: float) -> Optional[int]:
+        """Index of the first event from ``start`` on that satisfies pred, or None after
+        ``timeout`` seconds (wall clock; HAT seconds / time_scale for virtual-time targets)."""
+        if self.virtual:
+            return self._pull_index(pred, start, timeout)
+        deadline = time.monotonic() + timeout
+        i = start
+        with self._cond:
+            while True:
+                while i < len(self.events):
+                    if pred(self.events[i]):
+                        return i
+                    i += 1
+                self._check()
+                left = deadline - time.monotonic()
+                if left <= 0:
+                    return None
+                self._cond.wait(min(left, 0.25))
+
+    def _pull_index(self, pred: Callable[[Event], bool], start: int, timeout: float) -> Optional[int]:
+        # Virtual time: each read moves the HAT on until output appears or the budget is spent.
+        budget_ms = timeout * 1000.0 * self.time_scale
+        i = start
+        while True:
+            while i < len(self.events):
+                if pred(self.events[i]):
+                    return i
+                i += 1
+            self._check()
+            if budget_ms <= 0:
+                return None
+            before, got = self._hat_now() or 0.0, len(self.received)
+            if not self._read_once(budget_ms / 1000.0 / self.time_scale):
+                self._check()
+            spent = (self._hat_now() or before) - before
+            if spent > 0:
+                budget_ms -= spent
+            elif len(self.received) == got:
+                budget_ms = 0  # neither time nor bytes moved: nothing more will come
+
+    def expect(self, match: Match, timeout: float = 2.0, since: Optional[int] = None) -> Event:
+        """The first event since the cursor (or index ``since``) that matches; consumes up to it.
+
+        ``match``: an event kind (``"vin"``), a regular expression searched in the text, or a
+        predicate. On timeout raises :class:`ExpectTimeout` saying what did arrive.
+        """
+        pred, what = _matcher(match)
+        start = self._cursor if since is None else since
+        i = self._wait_index(pred, start, timeout)
+        if i is None:
+            arrived = self.events[start:]
+            raise ExpectTimeout(f"expected {what} within {timeout:g} s from {self.target.url}; "
+                                f"{describe_events(arrived, self.partial)}", arrived, self.partial)
+        self._cursor = i + 1
+        return self.events[i]
+
+    def fence(self, timeout: float = 2.0) -> List[Event]:
+        """Send ``version`` and wait for its answer (firmware or bootloader). Returns the events
+        from the cursor up to the fence's own line; consumes through the answer (and the prompt
+        that follows it when echo is on)."""
+        start = self._cursor
+        with self._cond:
+            sent_at = len(self.events)
+        line_no = self.send("version")
+        own_line_seen = False
+
+        def after_own_line(e: Event) -> bool:
+            # The answer is the first version line after the blank/echo of our own CR; an
+            # earlier one answers an earlier `version` (e.g. a command that was `version`).
+            nonlocal own_line_seen
+            if e.fields.get("host_line") == line_no:
+                own_line_seen = True
+            return own_line_seen and e.kind in FENCE_KINDS
+
+        i = self._wait_index(after_own_line, sent_at, timeout)
+        if i is None:
+            # Either nothing answered, or a CRLF got lost (a noisy link) so that ours was taken
+            # for an earlier line's: forget the waiting lines so the next fence is in step.
+            with self._cond:
+                self._splitter.forget_pending()
+        if i is None:
+            arrived = self.events[start:]
+            raise ExpectTimeout(f"no answer to `version` within {timeout:g} s from {self.target.url}; "
+                                f"{describe_events(arrived, self.partial)}", arrived, self.partial)
+        answer = self.events[i]
+        boundary = i
+        for j in range(sent_at, i):
+            if self.events[j].fields.get("host_line") == line_no:
+                boundary = j
+                self.echo_on = self.events[j].kind == "echo"
+                break
+        self._note_answer(answer)
+        self._cursor = i + 1
+        if self.echo_on or answer.kind == "bootloader_version":
+            # The prompt follows the answer when echo is on; take it so it is not the next
+            # command's first event. A short wait: it is sent right after the line.
+            k = self._wait_index(lambda e: e.kind in ("prompt", "bootloader_prompt"), i + 1,
+                                 min(timeout, 0.5))
+            if k is not None and k == i + 1:
+                self._cursor = k + 1
+        return self.events[start:boundary]
+
+    def command(self, text: str, timeout: float = 2.0) -> List[Event]:
+        """Send one line, then fence. Returns every event the line produced (its blank or
+        echo line first, then its output and prompt; asynchronous lines that arrived
+        meanwhile are included too)."""
+        self._cursor = len(self.events)
+        self.send(text)
+        return self.fence(timeout)
+
+    def collect(self, seconds: float) -> List[Event]:
+        """Every event that arrives during the next ``seconds`` (real time; callers scale by
+        time_scale). Earlier unconsumed events are not included but skipped: after it the
+        cursor is at the end."""
+        with self._cond:
+            start = len(self.events)
+        self.note_wait(seconds * 1000.0 * self.time_scale)   # H10: mandatory waiting
+        self._wait_index(lambda e: False, start, seconds)
+        with self._cond:
+            out = self.events[start:]
+            self._cursor = len(self.events)
+        return out
+
+    def drain(self, quiet: float = 0.15, limit: float = 2.0) -> List[Event]:
+        """Wait until nothing has arrived for ``quiet`` seconds (at most ``limit``); returns and
+        consumes everything since the cursor."""
+        start = self._cursor
+        end = time.monotonic() + limit
+        spent = 0.0
+        while time.monotonic() < end and spent < limit:
+            with self._cond:
+                n = len(self.received)
+            self._wait_index(lambda e: False, len(self.events), quiet)
+            spent += quiet   # bounds virtual-time drains, where the wall clock hardly moves
+            if len(self.received) == n:
+                break
+        self._check()
+        with self._cond:
+            self._cursor = len(self.events)
+            return self.events[start:]
+
+    def resync(self, timeout: float = 2.0) -> List[Event]:
+        """Between tests: drain what is still coming, then fence. Returns what was drained."""
+        drained = self.drain()
+        with self._cond:
+            self._splitter.forget_pending()   # after a quiet spell no CRLF is still owed
+        self.fence(timeout)
+        return drained
+
+    def wait_ms(self, ms: float) -> None:
+        """Let ``ms`` milliseconds of HAT time pass (real time divided by the time scale)."""
+        if ms > 0:
+            self.note_wait(ms)
+        if ms <= 0:
+            self._check()
+        elif self.virtual:
+            self._wait_index(lambda e: False, len(self.events), ms / 1000.0 / self.time_scale)
+        else:
+            time.sleep(ms / 1000.0 / self.time_scale)
+            self._check()
+
+    def note_wait(self, hat_ms: float) -> None:
+        """Count ``hat_ms`` of HAT time as waiting the protocol requires (H10: callers that
+        wait by other means than wait_ms/collect, e.g. for an event the HAT prints later)."""
+        self.waited_hat_ms += max(0.0, float(hat_ms))
+
+    def mark(self) -> int:
+        """The index the next event will have (for ``expect(..., since=mark)``)."""
+        with self._cond:
+            return len(self.events)
+
+    # -- world -----------------------------------------------------------------------------
+    def world(self, line: str) -> str:
+        """Perform a world action (``@plug 1 0x30``) through the target's control."""
+        word = line.strip().lstrip("@").split(" ", 1)[0]
+        control = self.target.control
+        if control is None:
+            raise NeedsCapability(word, self.target.url)
+        if control.capabilities and word not in control.capabilities:
+            raise NeedsCapability(word, self.target.url,
+                                  f"its control offers {', '.join(sorted(control.capabilities))}")
+        with self._io_lock:
+            reply = control.action(line.strip())
+        if self.transcript is not None:
+            with self._cond:
+                self.transcript.note(self._transcript_t(self.now_ms()), f"world {line.strip()} -> {reply}")
+        return reply
+
+    def reset(self, bootloader: bool = False, timeout: float = 2.0) -> List[Event]:
+        """Reset the HAT through the target's control (into its bootloader if asked), then find
+        out again what answers (``profile`` / ``in_bootloader``). Returns the events of the
+        restart (banner, devices connecting ...) up to the detection."""
+        control = self.target.control
+        if control is None:
+            raise NeedsCapability("reset", self.target.url)
+        start = self.mark()
+        with self._io_lock:
+            control.reset(bootloader)
+        self._splitter.forget_pending()   # whatever was typed before the reset is gone
+        self._detect(timeout)
+        return self.events[start:]
+
+    # -- detection -------------------------------------------------------------------------
+    def _note_answer(self, answer: Event) -> None:
+        if answer.kind == "bootloader_version":
+            self.in_bootloader = True
+            self.version_string = str(answer.fields.get("version", ""))
+            self.profile = self._requested_profile
+            return
+        self.in_bootloader = False
+        self.version_string = str(answer.fields.get("version", ""))
+        number = answer.fields.get("number")
+        if self._requested_profile is not None:
+            self.profile, self.profile_exact = self._requested_profile, True
+            if number is not None and number != self._requested_profile.number:
+                self._remark(f"target reports firmware {number}, but profile {self._requested_profile} "
+                             "was requested; using the requested profile")
+            return
+        if not isinstance(number, int):
+            self._remark(f"cannot read a version number from {answer.text!r}; using the latest profile")
+            self.profile, self.profile_exact = get_profile(None), False
+            return
+        profile, exact = resolve_version(number)
+        if not exact and (self.profile is None or self.profile.number != profile.number
+                          or self.profile_exact):
+            self._remark(f"unknown firmware version {number}; using the nearest earlier profile {profile}")
+        self.profile, self.profile_exact = profile, exact
+
+    def _remark(self, text: str) -> None:
+        if text not in self.notes:
+            self.notes.append(text)
+            if self.transcript is not None:
+                with self._cond:
+                    self.transcript.note(self._transcript_t(self.now_ms()), text)
+
+    def _detect(self, timeout: float) -> None:
+        self.drain(quiet=0.05, limit=1.0)  # stale output cannot fool the fence: a short drain is enough
+        for _attempt in range(_OPEN_ATTEMPTS):
+            try:
+                self.fence(timeout)
+                return
+            except ExpectTimeout:
+                continue
+        raise TargetError(self._diagnosis(timeout))
+
+    def _diagnosis(self, timeout: float) -> str:
+        url, data = self.target.url, bytes(self.received)
+        asked = f"sent `version` {_OPEN_ATTEMPTS} times, {timeout:g} s each"
+        if not data:
+            hint = self.target.diagnose("silent")
+            return f"nothing answering on {url}: {asked}, and not one byte came back." + \
+                (f"\n{hint}" if hint else "")
+        printable = sum(1 for b in data if 0x20 <= b < 0x7F or b in (0x0D, 0x0A))
+        if printable < 0.9 * len(data):
+            hint = self.target.diagnose("garbage")
+            return (f"{url} answers with garbage, not the Build HAT's text: {asked}; received "
+                    f"{len(data)} bytes, {len(data) - printable} of them not printable "
+                    f"(first bytes: {data[:24].hex(' ')})." + (f"\n{hint}" if hint else ""))
+        return (f"{url} answers, but not like a Build HAT (no 'Firmware version:' or "
+                f"'BuildHAT bootloader version' line): {asked}; "
+                f"{describe_events(self.events, self.partial, limit=10)}")

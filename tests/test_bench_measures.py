@@ -1,0 +1,72 @@
+"""The bench's measurements, in small: the suite's wait accounting, the fuzz throughput paths
+and the group runner. No timing is asserted (shared noisy machines): only that the figures
+are computed from what really happened."""
+from __future__ import annotations
+
+import argparse
+import json
+
+from buildhat_conformance.bench import cli, suite, throughput
+from buildhat_conformance.bench.figures import Figure
+from buildhat_conformance.harness.session import Session
+from buildhat_conformance.harness.targets import make_target
+
+
+def test_session_counts_the_waits_it_is_asked_for() -> None:
+    s = Session(make_target("inprocess")).open()
+    try:
+        before = s.waited_hat_ms
+        s.wait_ms(120)
+        s.collect(0.05)                 # HAT seconds on a virtual-time target (scale 1)
+        s.note_wait(30)
+        s.wait_ms(0)
+        s.command("vin")                # a round trip is overhead, not waiting
+        assert s.waited_hat_ms - before == 200.0
+    finally:
+        s.close()
+
+
+def test_parse_junit_sums_the_case_waits(tmp_path) -> None:
+    path = tmp_path / "junit.xml"
+    path.write_text(
+        "<testsuites><testsuite name='s'>"
+        "<testcase classname='a' name='x' time='1.0'><properties><property name='hat_wait_ms' value='250.5'/>"
+        "</properties></testcase>"
+        "<testcase classname='a' name='y' time='2.0'><properties><property name='hat_wait_ms' value='100'/>"
+        "</properties><failure message='m'>m</failure></testcase>"
+        "<testcase classname='a' name='z' time='0.5'><skipped message='s'/></testcase>"
+        "</testsuite></testsuites>")
+    res = suite.parse_junit(str(path))
+    assert res == {"cases": 3, "failed": 1, "skipped": 1, "hat_wait_ms": 350.5, "case_s": 3.5}
+
+
+def test_inprocess_throughput_counts_checked_lines() -> None:
+    res = throughput.checked_rate("inprocess", seconds=0.5)
+    assert res["lines"] > 0 and res["lines_per_s"] > 0 and res["findings"] == 0
+    assert res["recv_bytes_per_s"] > res["sent_bytes_per_s"] > 0
+
+
+def test_paced_pool_keeps_only_synchronous_inputs() -> None:
+    from buildhat_conformance.protocol.profiles import get_profile
+
+    profile = get_profile(None)
+    pool = throughput.input_pool(profile, n=60)
+    kept = throughput.synchronous(profile, pool)
+    assert 0 < len(kept) < len(pool)
+    assert not any(b"debug 4" in d or b"select 1" in d for d in kept)
+
+
+def test_group_runs_are_capped_and_notes_kept(monkeypatch, tmp_path) -> None:
+    calls = []
+
+    def once() -> dict:
+        calls.append(1)
+        return {"k": 5.0, "note": "10 cases, 0 failed"}
+
+    groups = [("slow", once, [(Figure("a", "s"), "k")], 1)]
+    monkeypatch.setattr(cli, "_groups", lambda quick: groups)
+    out = tmp_path / "bench.json"
+    assert cli.main(argparse.Namespace(runs=3, quick=False, only="", output=str(out), profile=None)) == 0
+    data = json.loads(out.read_text())
+    assert len(calls) == 1 and data["figures"][0]["note"] == "10 cases, 0 failed"
+    assert data["meta"]["loadavg"]

@@ -1,0 +1,49 @@
+"""Evidence that the suite can fail: each mutant emulator breaks ONE behaviour
+(tests/mutants/mutant_emulator.py); the cases for that behaviour must fail and the
+others must still pass."""
+from __future__ import annotations
+
+from typing import List
+
+import pytest
+
+from .mutants.suite_run import run_suite
+
+# mutation -> (cases that must fail, cases that must not)
+MUTANTS = {
+    "vin-off-by-one": (["test_commands.py::test_vin_follows_the_supply_and_rounds_a_5_down[1742]"],
+                       ["test_commands.py::test_port_sets_the_current_port[port 9-3-False]"]),
+    "error-swallowed": (["test_commands.py::test_unknown_command_prints_exactly_error[bogus]"],
+                        ["test_commands.py::test_vin_prints_volts_with_two_decimals"]),
+    "prefix-last-match": (["test_abbreviation.py::test_ambiguous_prefix_resolves_by_table_order[v]"],
+                          ["test_commands.py::test_vin_prints_volts_with_two_decimals"]),
+    # The light matrix has modes with an empty symbol (devices.json 0x40 M2, M3).
+    "list-symbol-space-dropped": (["test_list.py::test_active_device_block_matches_the_catalogue[0x40]"],
+                                  ["test_commands.py::test_vin_prints_volts_with_two_decimals"]),
+    "lf-ignored": (["test_link.py::test_crlf_from_the_host_breaks_the_next_line"],
+                   ["test_link.py::test_cr_always_answers_crlf"]),
+    "done-dropped": (["test_waveforms.py::test_pulse_holds_then_settles_and_reports_done[1 0 0.1 0]"],
+                     ["test_waveforms.py::test_periodic_waveform_tick_by_tick[square 0 1 0.2 0]"]),
+    "port-fault-not-repeated": (
+        ["test_faults.py::test_port_power_fault_repeats_while_present_and_stops_after"],
+        ["test_faults.py::test_clear_faults_with_the_cause_still_present"]),
+    "pid-output-sign-flipped": (["test_pid.py::test_pid_lines_match_a_float32_recomputation",
+                                 "test_pid.py::test_pid_lines_are_self_consistent_on_live_data"],
+                                ["test_waveforms.py::test_ramp_fourth_parameter"]),
+}
+pytestmark = pytest.mark.timeout(300)
+
+
+def _name(case: str) -> str:
+    return case.split("::", 1)[1]
+
+
+@pytest.mark.parametrize("mutation", sorted(MUTANTS))
+def test_mutant_is_caught_by_its_tests_only(tmp_path, mutation: str) -> None:
+    must_fail, must_pass = MUTANTS[mutation]
+    results = run_suite(str(tmp_path), "emulator:R7", must_fail + must_pass, mutation=mutation, timeout=280)
+    verdicts = {name: r.verdict for name, r in results.items()}
+    caught: List[str] = [c for c in must_fail if verdicts.get(_name(c)) != "fail"]
+    assert not caught, f"{mutation}: these cases did not fail: {caught} (verdicts {verdicts})"
+    hurt = [c for c in must_pass if verdicts.get(_name(c)) not in ("pass", "known deviation")]
+    assert not hurt, f"{mutation}: unrelated cases failed too: {hurt} (verdicts {verdicts})"

@@ -1,0 +1,81 @@
+"""Firmware start-up on the command port (FIRMWARE-FACTS §1 "first moments", §5, §10), virtual time."""
+from __future__ import annotations
+
+from buildhat_conformance.emulator import Emulator
+
+EMPTY = {0: None, 1: None, 2: None, 3: None}
+
+
+def timeline(emu: Emulator, ms: int) -> list:
+    """[(t, bytes)] of output per millisecond."""
+    out = [(emu.now, emu.read())]
+    for _ in range(ms):
+        emu.advance(1)
+        data = emu.read()
+        if data:
+            out.append((emu.now, data))
+    return [x for x in out if x[1]]
+
+
+def test_banner_and_sequence():
+    emu = Emulator(firmware="R7", devices=EMPTY)
+    tl = timeline(emu, 400)
+    stream = b"".join(d for _, d in tl)
+    assert stream == (b"\r\nType help <RETURN> for help\r\n"
+                      b"Initialising ports\r\n"
+                      b"Resetting drivers: 0123\r\n"
+                      b"Reading driver dumps: before port_initdriver(): 0123\r\n"
+                      b"Reading driver dumps: after port_initdriver(): 0123\r\n"
+                      b"Done initialising ports\r\n")
+    t_init = next(when for when, d in tl if d.startswith(b"Initialising"))
+    t_reset = next(when for when, d in tl if d.startswith(b"Resetting"))
+    t_done = next(when for when, d in tl if b"Done initialising ports" in d)
+    assert t_init >= 10                       # at least one 10 ms input-discard wait
+    assert t_reset - t_init == 100            # §10: banner; >=10 ms; 100 ms; reset; 100 ms; dumps
+    assert t_done - t_reset == 100
+
+
+def test_no_prompt_at_startup_and_no_output_after_on_empty_hat():
+    emu = Emulator(firmware="R7", devices=EMPTY)
+    emu.boot()
+    emu.read()
+    emu.advance(2000)
+    assert emu.read() == b""
+
+
+def test_input_in_first_moments_is_discarded_one_byte_per_10ms():
+    quiet = Emulator(firmware="R7", devices=EMPTY)
+    t_quiet = next(w for w, d in timeline(quiet, 400) if d.startswith(b"Initialising"))
+    emu = Emulator(firmware="R7", devices=EMPTY)
+    emu.write(b"vin\r")                        # 4 bytes at power-on: all thrown away
+    tl = timeline(emu, 500)
+    t_init = next(w for w, d in tl if d.startswith(b"Initialising"))
+    assert t_init - t_quiet == 4 * 10
+    assert b"V\r\n" not in b"".join(d for _, d in tl)     # never processed
+
+
+def test_input_during_port_init_is_kept_and_processed_after_done():
+    emu = Emulator(firmware="R7", devices=EMPTY)
+    emu.advance(50)                            # past the discard loop, during port init
+    assert not emu.hat.ready
+    emu.write(b"version\r")
+    assert emu.read().find(b"Firmware") < 0
+    emu.advance(300)
+    out = emu.read()
+    done = out.index(b"Done initialising ports\r\n")
+    assert out[done:] == (b"Done initialising ports\r\n"
+                          b"\r\nFirmware version: 1737564117 2025-01-22T16:41:57+00:00\r\n")
+
+
+def test_line_observer_sees_early_line_as_not_ready():
+    emu = Emulator(firmware="R7", devices=EMPTY)
+    records = []
+    emu.hat.line_observers.append(records.append)
+    emu.advance(50)
+    emu.write(b"vin\r")
+    emu.boot()
+    emu.write(b"port 1 zz\r")
+    assert [(r.raw, r.ready, r.error, r.commands, r.unknown) for r in records] == [
+        (b"vin", False, False, ["vin"], []),
+        (b"port 1 zz", True, True, ["port"], ["zz"]),
+    ]

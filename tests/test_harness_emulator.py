@@ -1,0 +1,85 @@
+"""The ``emulator`` target end to end with the real ``buildhat-emulator`` process: start-up on
+a pty, version detection, world actions over the control socket, failure and death."""
+from __future__ import annotations
+
+import os
+import signal
+
+import pytest
+
+from buildhat_conformance.harness.errors import TargetError
+from buildhat_conformance.harness.script import parse_script
+from buildhat_conformance.harness.script_runner import run_script
+from buildhat_conformance.harness.session import Session
+from buildhat_conformance.harness.targets import make_target
+from buildhat_conformance.harness.transcript import read_transcript
+from buildhat_conformance.protocol.profiles import get_profile
+
+
+def test_emulator_open_detect_and_world_actions():
+    target = make_target("emulator:R5?speed=5&device=1=none&device=2=none")
+    with Session(target) as s:
+        assert s.profile == get_profile("R5") and s.profile_exact and not s.in_bootloader
+        assert s.time_scale == 5.0
+        assert [e.kind for e in s.command("vin")][-1] == "vin"
+        s.expect(lambda e: e.kind == "established" and e.port == 0, 20)
+        assert s.world("@unplug 0") == ""
+        assert s.expect("disconnected", 20).port == 0
+        s.world("@plug 0 0x30")
+        assert s.expect("established", 20).fields == {"port": 0, "id": 0x30}
+        assert int(target.control.request("@time")) > 0
+        with pytest.raises(TargetError, match="emulator refused '@plug 9 0x30'"):
+            s.world("@plug 9 0x30")
+        pid = target.child.pid
+    with pytest.raises(ProcessLookupError):
+        os.killpg(pid, 0)   # close() ended the emulator's whole process group
+
+
+def test_emulator_failing_to_start_carries_its_error():
+    with pytest.raises(TargetError) as info:
+        make_target("emulator:R99").open()
+    msg = str(info.value)
+    assert "the emulator failed to start" in msg and "exit status 2" in msg
+    assert "unknown firmware 'R99'" in msg       # the emulator's own words, from its stderr
+
+
+def test_emulator_dying_mid_session_is_reported():
+    target = make_target("emulator?speed=5")
+    s = Session(target).open()
+    try:
+        os.killpg(target.child.pid, signal.SIGKILL)
+        with pytest.raises(TargetError, match="the emulator went away"):
+            s.expect("error", 20)
+    finally:
+        s.close()
+
+
+def test_script_on_the_emulator_gets_the_scripted_layout(tmp_path):
+    text = "@name layout\n@device 1 0x30\n@device 2 none\n> list\n@wait 100\n"
+    script = parse_script(text, "layout.script")
+    out = tmp_path / "layout.jsonl"
+    result = run_script(script, make_target("emulator?speed=5", devices=dict(script.explicit_devices)),
+                        transcript=str(out))
+    assert result.ok, result.reason
+    t = read_transcript(str(out))
+    assert t.meta["devices"] == "P0 0x30, P1 0x30, P2 none, P3 none" and t.meta["profile"] == "R7"
+    after = [e["line"] for e in t.of("hat") if "line" in e and e["t"] >= 0]
+    assert "P1: connected to active ID 30" in after and "P2: no device detected" in after
+    assert "P3: no device detected" in after
+
+
+def test_emulator_in_its_bootloader_is_detected():
+    with Session(make_target("emulator?bootloader=1")) as s:
+        assert s.in_bootloader and s.profile is None
+        assert s.version_string.startswith("1737564075")
+        assert [e.kind for e in s.command("clear")] == ["echo", "bootloader_prompt"]
+
+
+def test_reset_into_the_bootloader_and_back():
+    with Session(make_target("emulator?speed=5")) as s:
+        assert not s.in_bootloader
+        s.reset(bootloader=True)
+        assert s.in_bootloader and s.profile is None
+        restart = s.reset()
+        assert not s.in_bootloader and s.profile.name == "R7"
+        assert any(e.kind == "banner" for e in restart)

@@ -1,0 +1,124 @@
+"""The host-traffic lint (emulator/hostlint.py) on the in-process emulator, in virtual time.
+
+Each wrong host here makes a mistake FIRMWARE-FACTS documents (§1 CRLF, §11 `bias`/`pid` per release,
+§1 early input); the expectations come from those facts, not from the lint's code.
+"""
+from __future__ import annotations
+
+from typing import Dict, List
+
+import pytest
+
+from buildhat_conformance.emulator import Emulator
+from buildhat_conformance.emulator.hostlint import CHATTY_LINES, CHATTY_POLLS, HostLint
+
+EMPTY = {0: "none", 1: "none", 2: "none", 3: "none"}
+
+
+def booted(firmware: str) -> tuple[Emulator, HostLint]:
+    emu = Emulator(firmware=firmware, devices=EMPTY)
+    emu.boot()
+    return emu, HostLint.for_hat(emu.hat)
+
+
+def send(emu: Emulator, lines: List[bytes], gap_ms: int = 5) -> bytes:
+    for line in lines:
+        emu.write(line)
+        emu.advance(gap_ms)
+    return emu.read()
+
+
+def nonzero(lint: HostLint) -> Dict[str, int]:
+    lint.finish()
+    return {k: v for k, v in lint.summary()["counts"].items() if v}
+
+
+def test_wrong_host_on_r7_is_caught_line_by_line() -> None:
+    emu, lint = booted("1737564117")
+    out = send(emu, [b"version\r\n", b"vin\r",                         # CRLF: the LF starts `\nvin`
+                     b"port 0 ; plimit 1 ; bias .4\r",                   # bias is R1-R5 only
+                     b"pid 0 0 5 s2 0.0027777778 1 5 0 .1 3\r"])         # the 2021 document's 10 numbers
+    assert out.count(b"Error\r\n") == 3                                  # the HAT's own view of it
+    assert nonzero(lint) == {"error": 3, "crlf": 1, "not_in_profile": 1, "pid_arity": 1}
+    by_kind = {f["kind"]: f for f in lint.summary()["findings"] if f["kind"] != "error"}
+    assert by_kind["crlf"]["line"] == 2 and by_kind["crlf"]["text"] == "\\nvin"
+    assert "'bias'" in by_kind["not_in_profile"]["detail"] and by_kind["not_in_profile"]["line"] == 3
+    assert "10 numbers" in by_kind["pid_arity"]["detail"] and "takes 11" in by_kind["pid_arity"]["detail"]
+    message = lint.fatal_message()
+    assert message is not None and "line 2" in message and "\\\\nvin" in message and "crlf" in message
+
+
+def test_python_library_090_sequence_is_clean_on_r7() -> None:
+    # What buildhat 0.9.0 sends for Motor('A') + run_for_degrees (read from its source), on its own release.
+    emu, lint = booted("1737564117")
+    send(emu, [b"port 0 ; select ; port 1 ; select ; port 2 ; select ; port 3 ; select ; echo 0\r",
+               b"list\r", b"port 0 ; port_plimit 0.7\r", b"port 0 ; pwmparams 0.65 0.01\r",
+               b"port 0; select 0 ; selrate 10; pid 0 0 1 s4 0.0027777778 0 5 0 .1 3 0.01; "
+               b"set ramp 0.0 0.25 0.1 0\r", b"port 0 ; coast\r"])
+    assert nonzero(lint) == {}
+    assert lint.summary()["clean"] and lint.fatal_message() is None
+
+
+def test_release_r2_takes_bias_and_ten_numbers_but_not_the_r6_words() -> None:
+    emu, lint = booted("1636109636")
+    send(emu, [b"port 0 ; plimit 0.7\r", b"port 0 ; bias 0.3\r",
+               b"pid 0 0 1 s4 0.0027777778 0 5 0 .1 3\r"])
+    assert nonzero(lint) == {}, lint.report()
+    send(emu, [b"port 0 ; selrate 10\r",                                  # R5+
+               b"pid 0 0 1 s4 0.0027777778 0 5 0 .1 3 0.01\r",            # 11 numbers: applied, then Error
+               b"# a comment\r"])                                        # R6+
+    counts = nonzero(lint)
+    assert counts == {"error": 3, "not_in_profile": 2, "pid_arity": 1}, lint.report()
+
+
+def test_input_sent_during_start_up_is_flagged() -> None:
+    emu = Emulator(firmware="1737564117", devices=EMPTY)
+    lint = HostLint.for_hat(emu.hat)
+    emu.advance(50)                       # past the input-discard window, inside port initialisation
+    emu.write(b"vin\r")
+    emu.boot()
+    emu.advance(20)                       # the main loop takes the buffered line after start-up
+    assert nonzero(lint) == {"before_ready": 1}, lint.report()
+
+
+@pytest.mark.parametrize("per_second, chatty", [(CHATTY_POLLS + 10, True), (10, False)])
+def test_chatty_polling_threshold(per_second: int, chatty: bool) -> None:
+    emu, lint = booted("1737564117")
+    gap = 1000 // per_second
+    send(emu, [b"vin\r"] * (per_second * 3), gap_ms=gap)
+    counts = nonzero(lint)
+    assert counts == ({"chatty": 1} if chatty else {}), lint.report()
+    if chatty:
+        (finding,) = [f for f in lint.summary()["findings"] if f["kind"] == "chatty"]
+        assert f"threshold {CHATTY_POLLS}" in finding["detail"]
+
+
+def test_too_many_lines_of_any_kind_are_chatty() -> None:
+    emu, lint = booted("1737564117")
+    send(emu, [b"port 0\r"] * (CHATTY_LINES + 50), gap_ms=2)   # 500 lines/s, no one-shot queries
+    assert nonzero(lint) == {"chatty": 1}, lint.report()
+
+
+def test_lf_only_line_endings_leave_unterminated_input() -> None:
+    emu, lint = booted("1737564117")
+    send(emu, [b"vin\n"])
+    assert nonzero(lint) == {"unterminated": 1}
+    assert "'vin\\\\n'" in lint.report()      # the LF shown escaped
+
+
+def test_without_a_hat_the_raw_input_shows_unterminated_bytes_once() -> None:
+    lint = HostLint(profile_of=lambda: None)   # e.g. a session that never left the bootloader
+    lint.feed_input(b"version\rvin\n")
+    lint.finish()
+    lint.finish()                                  # the exit path may call it twice
+    assert lint.counts["unterminated"] == 1 and "'vin\\\\n'" in lint.report()
+
+
+def test_a_pid_behind_an_earlier_failure_is_reported_as_not_reached() -> None:
+    # buildhat 0.9.0's motor line on R2: `selrate` fails first, so the 11-number pid never runs.
+    emu, lint = booted("1636109636")
+    send(emu, [b"port 0; select 0 ; selrate 10; pid 0 0 1 s4 0.0027777778 0 5 0 .1 3 0.01; "
+               b"set ramp 0.0 0.25 0.2 0\r"])
+    assert nonzero(lint) == {"error": 1, "not_in_profile": 1, "pid_arity": 1}, lint.report()
+    (arity,) = [f for f in lint.summary()["findings"] if f["kind"] == "pid_arity"]
+    assert "11 numbers" in arity["detail"] and "not reached" in arity["detail"]
