@@ -12,34 +12,10 @@ from buildhat_conformance.emulator.api import Emulator
 from buildhat_conformance.emulator.devices.matrix import POWER_GRACE_MS
 from buildhat_conformance.protocol.profiles import get_profile
 
+from .emulator_tap import Tap
+
 EMPTY = {0: "none", 1: "none", 2: "none", 3: "none"}
 BYTE_MS_2400 = 10 * 1000 / 2400          # 8N1: 10 bits per byte
-
-
-class Tap:
-    """Advances an emulator 1 ms at a time and keeps (t, line) of every output line."""
-
-    def __init__(self, emu: Emulator):
-        self.emu = emu
-        self.buf = b""
-        self.lines = []
-
-    def run(self, ms: int):
-        new = []
-        for _ in range(ms):
-            self.emu.advance(1)
-            self.buf += self.emu.read()
-            while b"\r\n" in self.buf:
-                line, self.buf = self.buf.split(b"\r\n", 1)
-                new.append((self.emu.now, line.decode("latin-1")))
-        self.lines += new
-        return new
-
-    def times(self, text: str):
-        return [t for t, line in self.lines if line == text]
-
-    def send(self, text: str):
-        self.emu.write(text.encode("ascii") + b"\r")
 
 
 def booted(firmware: str, **ports) -> Tap:

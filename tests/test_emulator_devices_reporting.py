@@ -15,39 +15,11 @@ from buildhat_conformance.emulator.parser import Cursor
 from buildhat_conformance.emulator.reporting import decode_values
 from buildhat_conformance.protocol.profiles import get_profile
 
+from .emulator_tap import Tap
+
 EMPTY = {0: "none", 1: "none", 2: "none", 3: "none"}
 OLD = ["R1", "R2", "R3", "R4"]
 NEW = ["R5", "R6", "R7"]
-
-
-class Tap:
-    def __init__(self, emu: Emulator):
-        self.emu = emu
-        self.buf = b""
-        self.lines = []
-
-    def run(self, ms: int):
-        new = []
-        for _ in range(ms):
-            self.emu.advance(1)
-            self.buf += self.emu.read()
-            while b"\r\n" in self.buf:
-                line, self.buf = self.buf.split(b"\r\n", 1)
-                new.append((self.emu.now, line.decode("latin-1")))
-        self.lines += new
-        return new
-
-    def send(self, text: str) -> int:
-        self.emu.write(text.encode("ascii") + b"\r")
-        return self.emu.now
-
-    def dev(self, port: int, since: int):
-        return [e for e in self.emu.events
-                if e["dir"] == "dev" and e["port"] == port and e["t"] >= since and e["hex"] != "02"]
-
-    def devrx(self, port: int, since: int):
-        return [e for e in self.emu.events
-                if e["dir"] == "devrx" and e["port"] == port and e["t"] >= since]
 
 
 def motor_on_p3(firmware: str = "R7", extra=None) -> Tap:

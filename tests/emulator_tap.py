@@ -1,0 +1,42 @@
+"""A test helper: an in-process emulator advanced 1 ms at a time, keeping every output line
+with the virtual millisecond it arrived in, and the device-side events."""
+from __future__ import annotations
+
+from typing import List, Tuple
+
+from buildhat_conformance.emulator.api import Emulator
+
+
+class Tap:
+    def __init__(self, emu: Emulator):
+        self.emu = emu
+        self.buf = b""
+        self.lines: List[Tuple[int, str]] = []
+
+    def run(self, ms: int) -> List[Tuple[int, str]]:
+        """Advance ``ms`` milliseconds; return the (t, line) pairs that completed meanwhile."""
+        new = []
+        for _ in range(ms):
+            self.emu.advance(1)
+            self.buf += self.emu.read()
+            while b"\r\n" in self.buf:
+                line, self.buf = self.buf.split(b"\r\n", 1)
+                new.append((self.emu.now, line.decode("latin-1")))
+        self.lines += new
+        return new
+
+    def times(self, text: str) -> List[int]:
+        return [t for t, line in self.lines if line == text]
+
+    def send(self, text: str) -> int:
+        self.emu.write(text.encode("ascii") + b"\r")
+        return self.emu.now
+
+    def dev(self, port: int, since: int) -> list:
+        """Frames the HAT sent to the device on ``port`` since ``since`` (NACK keep-alives left out)."""
+        return [e for e in self.emu.events
+                if e["dir"] == "dev" and e["port"] == port and e["t"] >= since and e["hex"] != "02"]
+
+    def devrx(self, port: int, since: int) -> list:
+        return [e for e in self.emu.events
+                if e["dir"] == "devrx" and e["port"] == port and e["t"] >= since]
