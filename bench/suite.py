@@ -24,7 +24,7 @@ from typing import Dict, Optional
 # The speed of the scaled run. The emulator must sustain it on a loaded two-core machine
 # (ticks are spent in Python): too high and HAT time falls behind the wall clock, the waits
 # the tests compute from the time scale become too short, and cases fail.
-SCALED_SPEED = 20.0
+SCALED_SPEED = 30.0
 KEEP = os.path.join("reports", "bench")     # where each run's JUnit file is kept
 
 

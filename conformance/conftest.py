@@ -4,6 +4,7 @@ from buildhat_conformance.conformance.plugin import *  # noqa: F401,F403
 from buildhat_conformance.conformance.plugin import (  # noqa: F401 - hooks and fixtures pytest must see
     _conformance_case,
     _run,
+    _world_changes,
     hat,
     pytest_addoption,
     pytest_configure,

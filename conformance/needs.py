@@ -3,10 +3,13 @@
 On a target with a control channel (the emulator) the need is met through world actions
 (``@plug 3 0x3E``); on a real HAT the suite looks for a port that already has the device
 (from ``list``), asks the person at the bench with ``--operator``, or skips with a reason
-that says exactly what to connect. Everything changed is put back after the test.
+that says exactly what to connect. Devices stay where the last test needed them (each test
+states its own needs); everything changed is put back at the end of the run.
 """
 from __future__ import annotations
 
+import re
+import time
 from typing import Any, Dict, List, Optional, Tuple
 
 import pytest
@@ -23,6 +26,7 @@ Spec = Optional[Tuple[str, int]]          # ("active", 0x30) / ("passive", 8) / 
 # Setup of an active device takes ~1 s of HAT time; a passive ID needs 6 scans (~0.6 s).
 CONNECT_MS = 6000
 SETTLE_MS = 3000
+STEP_MS = 250        # look at `list` at least this often while waiting for a port to change
 
 
 def device_name(spec: Spec) -> str:
@@ -41,11 +45,14 @@ def _spec_text(spec: Spec) -> str:
 
 
 class World:
-    def __init__(self, hat: Any, config: Any):
+    def __init__(self, hat: Any, config: Any, original: Optional[Dict[int, Spec]] = None):
         self.hat = hat
         self.config = config
         self.operator = bool(config.getoption("operator"))
-        self._original: Dict[int, Spec] = {}
+        # What each changed port had before the run changed it. Shared by the whole run: the
+        # next test's needs decide the layout, and everything is put back once, at the end
+        # (H10: putting each test's devices back cost about a second of set-up per plug).
+        self._original: Dict[int, Spec] = {} if original is None else original
 
     # -- what is there -------------------------------------------------------------------
     def layout(self) -> List[PortEntry]:
@@ -194,16 +201,24 @@ class World:
         self.plug(port, None)
 
     def _wait_for(self, port: int, spec: Spec) -> None:
+        """Until ``list`` shows ``spec`` on the port. ``list`` is asked again when the HAT prints
+        a line that ends a change on that port (FACTS §5), or after ``STEP_MS`` without one
+        (R1 prints nothing when a passive device goes)."""
+        ends_change = re.compile(rf"P{port}: (?:established serial|connected to passive|disconnected|"
+                                 rf"timeout|too many errors|checksum error)")
+        began = self.hat.mark()
+        look_from = began
         waited = 0.0
-        step = 250.0
-        mark = self.hat.mark()
+        entries: Dict[int, Spec] = {}
         while waited <= CONNECT_MS:
             if spec is not None and spec[0] == "passive" and any(
-                    e.text == f"P{port}: connected to passive ID {spec[1]}" for e in self.hat.since(mark)):
+                    e.text == f"P{port}: connected to passive ID {spec[1]}" for e in self.hat.since(began)):
                 # R1 shows a rescanned passive port as empty most of the time (FACTS §5).
                 return
-            self.hat.wait_ms(step)
-            waited += step
+            t0 = time.monotonic()
+            self.hat.watch(look_from, lambda e: bool(ends_change.match(e.text)), STEP_MS)
+            look_from = self.hat.mark()
+            waited += max((time.monotonic() - t0) * 1000.0 * self.hat.time_scale, 1.0)
             entries = {e.port: self.spec_of(e) for e in self.layout()}
             if entries.get(port) == spec:
                 return
@@ -211,11 +226,12 @@ class World:
                              f"of HAT time (list shows {device_name(entries.get(port))})")
 
     def restore(self) -> None:
-        """Put every port changed by this test back as it was."""
-        original, self._original = self._original, {}
+        """Put every port changed during the run back as it was."""
+        original = dict(self._original)
+        self._original.clear()
         for port, spec in sorted(original.items()):
             try:
                 self.plug(port, spec)
-            except BaseException:  # noqa: B036 - a skip/failure here must not hide the test's verdict
+            except BaseException:  # noqa: B036 - a skip/failure here must not hide the verdicts
                 pass
-        self._original = {}
+        self._original.clear()

@@ -304,9 +304,18 @@ def verdict(request: Any) -> Verdict:
     return request.node.stash[_verdict_key]
 
 
+@pytest.fixture(scope="session")
+def _world_changes(hat: Hat, _run: Run, pytestconfig: Any) -> Any:
+    """The ports the run changed and what they had before; put back when the run ends
+    (unless the HAT ends with the run: an emulator the target started itself)."""
+    original: Dict[int, Any] = {}
+    yield original
+    if original and _run.tee is not None and not _run.tee.dead and not _run.tee.disposable:
+        World(hat, pytestconfig, original).restore()
+
+
 @pytest.fixture
-def world(hat: Hat, pytestconfig: Any) -> Any:
-    """Devices and world actions a test needs; everything changed is put back afterwards."""
-    w = World(hat, pytestconfig)
-    yield w
-    w.restore()
+def world(hat: Hat, pytestconfig: Any, _world_changes: Dict[int, Any]) -> Any:
+    """Devices and world actions a test needs. Devices stay for the next test (which states
+    its own needs); the run puts everything back at its end."""
+    return World(hat, pytestconfig, _world_changes)

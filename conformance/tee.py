@@ -22,6 +22,7 @@ class TeeTarget(Target):
         self.url = inner.url
         self.capabilities = inner.capabilities
         self.control = inner.control
+        self.disposable = inner.disposable
         self.between = between
         self.current: Optional[TranscriptWriter] = None
         self._t0 = time.monotonic()

@@ -35,7 +35,7 @@ def test_selonce_first_report_timing(hat: Hat, motor_port: int) -> None:
     p = motor_port
     clock = TickClock(hat, p)              # PID on mode 3; selonce 1 below switches the mode
     reply = hat.exchange(f"port {p} ; selonce 1")
-    events = reply.events + clock.run(400)
+    events = reply.after_processing() + clock.run(400)   # ticks from when selonce ran
     ticks = clock.ticks_at(events, next((e.text for e in events if e.text.startswith(f"P{p}M1:")), "-"))
     hat.exchange("debug 0")
     assert len(ticks) == 1, f"selonce reports at ticks {ticks}"

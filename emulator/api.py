@@ -141,13 +141,25 @@ class Emulator:
         """Let ``ms`` milliseconds of virtual time pass."""
         if ms < 0:
             raise ValueError(f"cannot advance by a negative time ({ms} ms)")
-        for _ in range(int(ms)):
-            self.step()
+        end = self._now + int(ms)
+        while self._now < end:
+            machine = self.machine
+            if isinstance(machine, Hat):
+                machine.advance(end - self._now)   # skips the milliseconds in which nothing is due
+            else:
+                machine.tick()                     # the bootloader (it may boot a Hat)
+            self._now = self.machine.now
 
     def step(self) -> None:
         """One millisecond."""
         self.machine.tick()
         self._now = self.machine.now
+
+    def idle_until(self) -> float:
+        """The first virtual millisecond whose tick may do anything (output, events, state):
+        the ticks before it only count time, so a real-time runner may sleep until then."""
+        hat = self.hat
+        return hat.idle_until() if hat is not None else self._now + 1
 
     def on_event(self, callback: Callable[[Event], None]) -> None:
         """Call ``callback(event)`` for every transcript event (dev, devrx, pwm, led, note)."""

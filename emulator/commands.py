@@ -14,7 +14,7 @@ import importlib
 from functools import cache
 from typing import TYPE_CHECKING, Callable, Dict, List, Tuple
 
-from .parser import CommandError, Cursor
+from .parser import CommandError, Cursor, prefix_table
 
 if TYPE_CHECKING:
     from .hat import Hat
@@ -45,18 +45,23 @@ def command_table(commands: Tuple[str, ...]) -> Tuple[Tuple[str, ...], Dict[str,
     return commands, {name: impl[name] for name in commands}
 
 
+@cache
+def _dispatch(commands: Tuple[str, ...]) -> Tuple[Dict[bytes, str], Dict[str, Command]]:
+    """(token prefix -> command name, name -> function), built once per command list."""
+    names, table = command_table(commands)
+    return prefix_table(names), table
+
+
 def run_line(hat: Hat, line: bytes) -> Tuple[bool, List[str], List[str]]:
     """Run every command on the line. Returns (error, commands run, unknown tokens)."""
-    names, table = command_table(tuple(hat.profile.commands))
+    prefixes, table = _dispatch(tuple(hat.profile.commands))
     cur = Cursor(line)
     ran: List[str] = []
     unknown: List[str] = []
     while True:
-        cur.skip_separators()
-        if cur.at_end():
+        token, name = cur.next_command(prefixes)
+        if not token:
             return False, ran, unknown
-        token = cur.token()
-        name = cur.match(names)
         if name is None:
             unknown.append(token.decode("latin-1"))
             hat.emit(ERROR_LINE)

@@ -70,6 +70,7 @@ class PortController:
         self.duty: Duty = 0
         self.last_step: Optional[PidStep] = None
         self._next_update: Optional[int] = None
+        self.due = 0            # the Hat ticks the controller from this virtual ms on
         self.reset()
 
     # -- state ---------------------------------------------------------------------------
@@ -110,6 +111,7 @@ class PortController:
         while now >= self._next_update:
             self._next_update += PWM_UPDATE_MS
             self.update()
+        self.due = self._next_update     # nothing happens in between (the Hat skips those ms)
 
     def update(self) -> None:
         """One 10 ms controller pass (§7 steps 1-5)."""
@@ -152,6 +154,7 @@ class PortController:
         if duty != self.duty:
             self.duty = duty
             self.hat.set_drive(self.index, duty)
+            self.hat.ports[self.index].wake()     # the device on the port sees a new drive
 
     def _port_connected(self, p: int) -> bool:
         # A port object without the flag (hat.py's placeholder) counts as empty.

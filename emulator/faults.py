@@ -19,6 +19,7 @@ The ``clear_faults`` command calls :meth:`FaultMonitor.clear_faults`.
 """
 from __future__ import annotations
 
+import math
 from typing import TYPE_CHECKING, List, Optional, Sequence
 
 if TYPE_CHECKING:
@@ -95,11 +96,21 @@ class FaultMonitor:
         self.latched: List[Optional[tuple]] = [None] * NPORTS   # driver latch: flag bytes
         self._port_report = _RepeatingReport()
         self._motor_report = _HoldoffReport() if self.dump_registers else _RepeatingReport()
+        self.due: float = 0     # the Hat ticks the monitor from this virtual ms on
+
+    def _wake(self, ports: Sequence[int] = ()) -> None:
+        """A pin or latch changed: tick again from the next ms; a latch change also changes
+        what the motors on ``ports`` see (:meth:`output_disabled`)."""
+        self.due = 0
+        self.hat.wake()
+        for p in ports:
+            self.hat.ports[p].wake()
 
     # -- world actions -------------------------------------------------------------------
     def port_fault(self, asserted: bool) -> None:
         """``@portfault 1|0``: the 3.3 V port supply fault pin low (1) or high (0)."""
         self.port_fault_low = bool(asserted)
+        self._wake()
 
     def motor_fault(self, asserted: bool, port: Optional[int] = None,
                     flags: Optional[Sequence[int]] = None) -> None:
@@ -115,9 +126,11 @@ class FaultMonitor:
                 raise ValueError(f"motor fault flags must be 3 bytes 00..FF, got {list(flags)}")
             self.cause[p] = True
             self.latched[p] = tuple(int(f) for f in flags)
+            self._wake((p,))
         else:
             for p in range(NPORTS) if port is None else (self._check_port(port),):
                 self.cause[p] = False
+            self._wake()
 
     # -- firmware side -------------------------------------------------------------------
     def clear_faults(self) -> None:
@@ -125,6 +138,7 @@ class FaultMonitor:
         for p in range(NPORTS):
             if not self.cause[p]:
                 self.latched[p] = None
+        self._wake(range(NPORTS))
 
     def output_disabled(self, port: int) -> bool:
         """True while port's driver holds a latched fault (its output is off)."""
@@ -136,6 +150,11 @@ class FaultMonitor:
 
     def tick(self, now: int) -> None:
         """One millisecond of the main loop's global fault processing."""
+        self._tick(now)
+        # Quiet (see _quiet): nothing to do until a world action or clear_faults wakes it.
+        self.due = math.inf if self._quiet() else now + 1
+
+    def _tick(self, now: int) -> None:
         if self._quiet():
             return      # H10: nothing low, nothing latched, no report armed: due() would not change
         if self._port_report.due(self.port_fault_low, now):

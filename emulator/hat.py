@@ -8,6 +8,11 @@ Ports, controllers and the fault monitor are separate objects it ticks:
 - ``emulator/controller.py`` ``PortController(hat, index)`` with ``tick(now)``
 - ``emulator/faults.py``     ``FaultMonitor(hat)``          with ``tick(now)``
 
+Each of them keeps ``due``: the first virtual millisecond in which its tick may do anything
+(0: at once). The Hat ticks an object only from then on, and a millisecond in which nothing is
+due (the usual case: timers run every 5-100 ms) costs a counter increment; :meth:`Hat.advance`
+jumps over a run of them. What changes an object's state from outside its own tick wakes it
+(``wake()``: due 0), so the output and events are the same as ticking everything every ms.
 """
 from __future__ import annotations
 
@@ -78,7 +83,8 @@ class Hat:
         self.ledmode = -1
         self.adc = DEFAULT_ADC
         self.leds = 0
-        self._led_key: Any = None        # (ledmode, adc) the LED code was last computed from
+        self._led_mode: Any = None       # ledmode and adc the LED code was last computed from
+        self._led_adc: Any = None
         self.drive: List[Any] = [0] * NPORTS
         self.line_observers: List[Callable[[LineRecord], None]] = []
         # A bound method, not a lambda: copy.deepcopy (the inprocess target copies a booted
@@ -90,6 +96,7 @@ class Hat:
         self.controllers = [PortController(self, i) for i in range(NPORTS)]
         self.faults = FaultMonitor(self)
         self.startup = Startup(self)
+        self._next_due: float = 0       # min of the ports', controllers' and monitor's ``due``
 
     # -- state -----------------------------------------------------------------------------
     @property
@@ -140,22 +147,66 @@ class Hat:
             self.event("pwm", port=port, value=duty)
 
     # -- time ------------------------------------------------------------------------------
+    def wake(self) -> None:
+        """A port, controller or the fault monitor is due earlier than the Hat last noted."""
+        self._next_due = 0
+
     def tick(self) -> None:
         """One millisecond: wire, LEDs, start-up or main loop (input, ports, controllers, faults)."""
-        self.now += 1
-        self.uart.tick()
-        self._refresh_leds()
-        if not self.startup.done:
-            self.startup.tick()
-            if self.startup.done:
-                self._early_bytes = self.uart.rx_available()
+        now = self.now = self.now + 1
+        uart = self.uart
+        if uart.baud is not None:
+            uart.tick()
+        if self.ledmode != self._led_mode or self.adc != self._led_adc:
+            self._refresh_leds()
+        startup = self.startup
+        if not startup.done:
+            startup.tick()
+            if startup.done:
+                self._early_bytes = uart.rx_available()
             return
-        self.poll()
+        if uart.rx:
+            self.poll()
+        if now >= self._next_due:
+            self._run_due(now)
+
+    def _run_due(self, now: int) -> None:
+        """Tick what is due (in the firmware's order), then note when the next thing is."""
         for port in self.ports:
-            port.tick(self.now)
+            if now >= port.due:
+                port.tick(now)
         for controller in self.controllers:
-            controller.tick(self.now)
-        self.faults.tick(self.now)
+            if now >= controller.due:
+                controller.tick(now)
+        faults = self.faults
+        if now >= faults.due:
+            faults.tick(now)
+        # After all of them: a controller may have woken a port it already passed.
+        nxt = faults.due
+        for obj in self.ports:
+            if obj.due < nxt:
+                nxt = obj.due
+        for obj in self.controllers:
+            if obj.due < nxt:
+                nxt = obj.due
+        self._next_due = nxt
+
+    def idle_until(self) -> float:
+        """The first millisecond whose tick may do anything; every tick before it only counts
+        time. ``now + 1`` while anything else is pending (start-up, input, the paced wire, LEDs)."""
+        if (not self.startup.done or self.uart.rx or not self.uart.quiet()
+                or self.ledmode != self._led_mode or self.adc != self._led_adc):
+            return self.now + 1
+        return max(self._next_due, self.now + 1)
+
+    def advance(self, ms: int) -> None:
+        """``ms`` ticks, jumping over the milliseconds in which nothing is due."""
+        end = self.now + ms
+        while self.now < end:
+            nxt = self.idle_until()
+            if nxt > self.now + 1:
+                self.now = min(nxt, end) - 1   # those ticks would only have counted
+            self.tick()
 
     def poll(self) -> None:
         """Process the received bytes now (the main loop runs far faster than 1 kHz)."""
@@ -180,15 +231,17 @@ class Hat:
                 if line is not None:
                     early, self._line_early = self._line_early, False
                     self.process_line(line, ready=not early)
+                    # Commands mostly wake what they change (reporter, device frames), but may
+                    # also write port state directly: every port looks again (costs one tick).
+                    for port in self.ports:
+                        port.wake()
         finally:
             if pos < len(data):
                 rx.extendleft(reversed(data[pos:]))
 
     def _refresh_leds(self) -> None:
-        key = (self.ledmode, self.adc)
-        if key == self._led_key:
-            return          # H10: same inputs, same code (this ran every millisecond)
-        self._led_key = key
+        # tick() calls this only when ledmode or the ADC reading changed (H10: it ran every ms).
+        self._led_mode, self._led_adc = self.ledmode, self.adc
         code = led_code_for_vin(self.vin_mv) if self.ledmode < 0 else self.ledmode & 3
         if code != self.leds:
             self.leds = code

@@ -35,10 +35,7 @@ class LineEditor:
     def feed(self, byte: int) -> Optional[bytes]:
         """Take one received byte; returns the finished line when it was a CR."""
         if byte == CR:
-            self._write(CRLF)
-            line = bytes(self.buffer)
-            self.buffer.clear()
-            return line
+            return self._end_line()
         if byte in _RUBOUT:
             if self.buffer:
                 self.buffer.pop()
@@ -73,7 +70,14 @@ class LineEditor:
                         self._write(stored)
         if end < 0:
             return stop, None
-        return end + 1, self.feed(CR)
+        return end + 1, self._end_line()
+
+    def _end_line(self) -> bytes:
+        """The CR: CRLF goes out (echo on or off) and the stored line is handed over."""
+        self._write(CRLF)
+        line = bytes(self.buffer)
+        self.buffer.clear()
+        return line
 
     def clear(self) -> None:
         self.buffer.clear()

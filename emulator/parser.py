@@ -20,24 +20,26 @@ leave the position where the token started):
   checked); returns the internal code (size | 0x100 signed | 0x200 float).
 - ``try_<kind>()``: the same, but returns ``None`` instead of raising (position unchanged).
 - ``at_end()``, ``peek()``, ``skip_spaces()``, ``skip_separators()``, ``rest()``.
+- ``next_command(prefixes)``: the dispatcher's step: separators, then the token and the
+  command it names (``prefixes`` from :func:`prefix_table`).
 
 Every number parser skips the *spaces* (not ``;``) after its token, as the firmware does.
 """
 from __future__ import annotations
 
-from typing import Callable, Optional, Sequence, TypeVar
+import re
+from functools import lru_cache
+from typing import Dict, Optional, Sequence, Tuple, TypeVar
 
 from .f32 import f32
 
-__all__ = ["Cursor", "CommandError", "FORMAT_CODES", "format_size", "format_is_signed",
+__all__ = ["Cursor", "CommandError", "FORMAT_CODES", "prefix_table", "format_size", "format_is_signed",
            "format_is_float"]
 
 T = TypeVar("T")
 
 SPACE = 0x20
 SEMI = 0x3B
-_DIGITS = b"0123456789"
-_HEX = b"0123456789abcdefABCDEF"
 
 # Internal format codes (§3): size in the low nibble, 0x100 = signed, 0x200 = float.
 FORMAT_CODES = {b"u1": 0x001, b"s1": 0x101, b"u2": 0x002, b"s2": 0x102,
@@ -45,6 +47,61 @@ FORMAT_CODES = {b"u1": 0x001, b"s1": 0x101, b"u2": 0x002, b"s2": 0x102,
 
 # Digits go into the integer accumulator only while it is below this (at most 9 digits).
 _ACC_LIMIT = 100000000
+_MASK32 = 0xFFFFFFFF
+
+# Runs found with one regex call instead of a Python loop per byte (H10 profile: the parser's
+# per-byte peeks were a large part of what a fuzzed line costs the emulator).
+_SPACES = re.compile(rb" *")
+_SEPARATORS = re.compile(rb"[ ;]*")
+_TOKEN = re.compile(rb"[^ ;]*")
+# A number and the spaces after it (every number parser skips them).
+_UNSIGNED = re.compile(rb"([0-9]*) *")
+_HEX = re.compile(rb"([0-9a-fA-F]*) *")
+_SIGNED = re.compile(rb"([+-]?)([0-9]*) *")
+_FLOAT = re.compile(rb"([+-]?)([0-9]*)(?:\.([0-9]*))? *")
+_FORMAT = re.compile(rb"(u1|s1|u2|s2|u4|s4|f4) *")   # two characters; what follows is not checked
+_COMMAND = re.compile(rb"[ ;]*([^ ;]*)(?:[ ;] *)?")   # separators, a token, one separator, spaces
+
+
+_POWERS10 = [1.0]
+
+
+def _f32_power10(n: int) -> float:
+    """10^n as the float parser builds it: ``n`` float32 multiplications by 10 (exact up to
+    10^10, rounded after that), kept in a table so a look-up replaces the loop."""
+    while len(_POWERS10) <= n:
+        _POWERS10.append(f32(_POWERS10[-1] * 10.0))
+    return _POWERS10[n]
+
+
+def _accumulate(whole: bytes, fraction: bytes) -> Tuple[int, int, int]:
+    """The float parser's 32-bit digit accumulator (§3) over the digits before and after the
+    point: (accumulator, integer digits that did not fit, fraction digits kept)."""
+    if len(whole) + len(fraction) <= 9:
+        return int(whole + fraction), 0, len(fraction)   # nine digits always fit
+    acc = overflow = frac = 0
+    for c in whole:
+        if acc < _ACC_LIMIT:
+            acc = acc * 10 + c - 0x30
+        else:
+            overflow += 1
+    for c in fraction:
+        if acc < _ACC_LIMIT:
+            acc = acc * 10 + c - 0x30
+            frac += 1
+    return acc, overflow, frac
+
+
+@lru_cache(maxsize=64)
+def prefix_table(names: Tuple[str, ...]) -> Dict[bytes, str]:
+    """Every non-empty prefix of every name -> the first name (in matching order) it starts.
+    Built once per name list, so matching a token is one dict lookup (§2's rule unchanged)."""
+    table: Dict[bytes, str] = {}
+    for name in names:
+        encoded = name.encode("ascii")
+        for end in range(1, len(encoded) + 1):
+            table.setdefault(encoded[:end], name)
+    return table
 
 
 class CommandError(Exception):
@@ -88,152 +145,119 @@ class Cursor:
         return self.data[self.pos:]
 
     def skip_spaces(self) -> None:
-        while self.peek() == SPACE:
-            self.pos += 1
+        self.pos = _SPACES.match(self.data, self.pos).end()
 
     def skip_separators(self) -> None:
         """Skip a run of spaces and ``;`` (what separates commands)."""
-        while self.peek() in (SPACE, SEMI):
-            self.pos += 1
+        self.pos = _SEPARATORS.match(self.data, self.pos).end()
 
     def token(self) -> bytes:
         """The bytes up to the next space, ``;`` or end (not consumed)."""
-        end = self.pos
-        while end < len(self.data) and self.data[end] not in (SPACE, SEMI):
-            end += 1
-        return self.data[self.pos:end]
+        return _TOKEN.match(self.data, self.pos).group()
 
     # -- matcher -------------------------------------------------------------------------
     def match(self, names: Sequence[str]) -> Optional[str]:
         """First of ``names`` that the next token is a non-empty prefix of (§2), or None."""
         tok = self.token()
-        if not tok:
+        name = prefix_table(tuple(names)).get(tok) if tok else None
+        if name is None:
             return None
-        for name in names:
-            if name.encode("ascii").startswith(tok):
-                self.pos += len(tok)
-                if self.peek() in (SPACE, SEMI):  # one separator, then spaces
-                    self.pos += 1
-                self.skip_spaces()
-                return name
-        return None
+        self.pos += len(tok)
+        if self.pos < len(self.data):   # the token ended at a separator: take it, then spaces
+            self.pos += 1
+        self.skip_spaces()
+        return name
+
+    def next_command(self, prefixes: Dict[bytes, str]) -> Tuple[bytes, Optional[str]]:
+        """Skip separators, then (token, the command it names or None); the token is empty at
+        the end of the line. A named command is consumed like :meth:`match`; an unknown token
+        is left in place. One regex call: this runs for every command of every line."""
+        m = _COMMAND.match(self.data, self.pos)
+        tok = m.group(1)
+        name = prefixes.get(tok) if tok else None
+        self.pos = m.end() if name is not None else m.start(1)
+        return tok, name
 
     # -- numbers -------------------------------------------------------------------------
-    def _digits(self) -> tuple[int, int]:
-        """(value mod 2^32, number of digits) of the digit run at the position."""
-        value = n = 0
-        while True:
-            c = self.peek()
-            if c is None or c not in _DIGITS:
-                return value, n
-            value = (value * 10 + c - 0x30) & 0xFFFFFFFF
-            n += 1
-            self.pos += 1
+    # The ``_scan_*`` parsers return None (position unchanged) when no number starts here; the
+    # public ones raise. Failing without an exception matters: ``select``/``combi``/``write``
+    # probe for optional numbers on every argument.
+    def _scan_unsigned(self) -> Optional[int]:
+        m = _UNSIGNED.match(self.data, self.pos)
+        digits = m.group(1)
+        if not digits:
+            return None
+        self.pos = m.end()
+        return int(digits) & _MASK32             # the firmware's accumulator wraps mod 2^32
 
-    def _fail(self, start: int, what: str) -> CommandError:
-        self.pos = start
-        return CommandError(f"expected {what} at {self.data[start:start + 12]!r}")
-
-    def unsigned(self) -> int:
-        start = self.pos
-        value, n = self._digits()
-        if n == 0:
-            raise self._fail(start, "an unsigned number")
-        self.skip_spaces()
-        return value
-
-    def signed(self) -> int:
-        start = self.pos
-        negative = False
-        if self.peek() in (0x2B, 0x2D):  # '+' '-'
-            negative = self.peek() == 0x2D
-            self.pos += 1
-        value, n = self._digits()
-        if n == 0:
-            raise self._fail(start, "a signed number")
-        if negative:
-            value = (-value) & 0xFFFFFFFF
-        self.skip_spaces()
+    def _scan_signed(self) -> Optional[int]:
+        m = _SIGNED.match(self.data, self.pos)
+        sign, digits = m.groups()
+        if not digits:
+            return None
+        value = int(digits) & _MASK32
+        if sign == b"-":
+            value = (-value) & _MASK32
+        self.pos = m.end()
         return value - (1 << 32) if value & 0x80000000 else value
 
-    def float(self) -> float:
-        start = self.pos
-        negative = False
-        if self.peek() in (0x2B, 0x2D):
-            negative = self.peek() == 0x2D
-            self.pos += 1
-        acc = 0          # the 32-bit digit accumulator
-        scale = 1.0      # float: x10 for every integer digit that did not fit
-        frac = 0         # fraction digits kept (leading zeros included)
-        seen = False
-        while self.peek() is not None and self.peek() in _DIGITS:
-            seen = True
-            if acc < _ACC_LIMIT:
-                acc = acc * 10 + self.data[self.pos] - 0x30
-            else:
-                scale = f32(scale * 10.0)
-            self.pos += 1
-        if self.peek() == 0x2E:  # '.'
-            self.pos += 1
-            while self.peek() is not None and self.peek() in _DIGITS:
-                seen = True
-                if acc < _ACC_LIMIT:
-                    acc = acc * 10 + self.data[self.pos] - 0x30
-                    frac += 1
-                self.pos += 1
-        if not seen:
-            raise self._fail(start, "a number")
-        divisor = 1.0
-        for _ in range(frac):
-            divisor = f32(divisor * 10.0)
-        value = f32(f32(float(acc)) * (-scale if negative else scale))
-        self.skip_spaces()
-        return f32(value / divisor)
+    def _scan_float(self) -> Optional[float]:
+        m = _FLOAT.match(self.data, self.pos)
+        sign, whole, fraction = m.groups()
+        if not whole and not fraction:
+            return None
+        acc, overflow, frac = _accumulate(whole, fraction or b"")
+        scale = _f32_power10(overflow)     # x10 (float) for every integer digit that did not fit
+        value = f32(f32(float(acc)) * (-scale if sign == b"-" else scale))
+        self.pos = m.end()
+        return f32(value / _f32_power10(frac))
 
-    def hex32(self) -> int:
-        start = self.pos
-        value = n = 0
-        while self.peek() is not None and self.peek() in _HEX:
-            value = ((value << 4) | int(chr(self.data[self.pos]), 16)) & 0xFFFFFFFF
-            n += 1
-            self.pos += 1
-        if n == 0:
-            raise self._fail(start, "hex digits")
-        self.skip_spaces()
+    def _scan_hex32(self) -> Optional[int]:
+        m = _HEX.match(self.data, self.pos)
+        digits = m.group(1)
+        if not digits:
+            return None
+        self.pos = m.end()
+        return int(digits, 16) & _MASK32
+
+    def _scan_hexbyte(self) -> Optional[int]:
+        value = self._scan_hex32()
+        return None if value is None else value & 0xFF
+
+    def _scan_format(self) -> Optional[int]:
+        m = _FORMAT.match(self.data, self.pos)
+        if m is None:
+            return None
+        self.pos = m.end()
+        return FORMAT_CODES[m.group(1)]
+
+    def _need(self, value: Optional[T], what: str) -> T:
+        if value is None:
+            raise CommandError(f"expected {what} at {self.data[self.pos:self.pos + 12]!r}")
         return value
 
+    def unsigned(self) -> int:
+        return self._need(self._scan_unsigned(), "an unsigned number")
+
+    def signed(self) -> int:
+        return self._need(self._scan_signed(), "a signed number")
+
+    def float(self) -> float:
+        return self._need(self._scan_float(), "a number")
+
+    def hex32(self) -> int:
+        return self._need(self._scan_hex32(), "hex digits")
+
     def hexbyte(self) -> int:
-        return self.hex32() & 0xFF
+        return self._need(self._scan_hexbyte(), "hex digits")
 
     def format(self) -> int:
-        code = FORMAT_CODES.get(self.data[self.pos:self.pos + 2])
-        if code is None:
-            raise self._fail(self.pos, "a format (u1 s1 u2 s2 u4 s4 f4)")
-        self.pos += 2
-        self.skip_spaces()
-        return code
+        return self._need(self._scan_format(), "a format (u1 s1 u2 s2 u4 s4 f4)")
 
     # -- optional forms ------------------------------------------------------------------
-    def _try(self, parse: Callable[[], T]) -> Optional[T]:
-        try:
-            return parse()
-        except CommandError:
-            return None
-
-    def try_unsigned(self) -> Optional[int]:
-        return self._try(self.unsigned)
-
-    def try_signed(self) -> Optional[int]:
-        return self._try(self.signed)
-
-    def try_float(self) -> Optional[float]:
-        return self._try(self.float)
-
-    def try_hex32(self) -> Optional[int]:
-        return self._try(self.hex32)
-
-    def try_hexbyte(self) -> Optional[int]:
-        return self._try(self.hexbyte)
-
-    def try_format(self) -> Optional[int]:
-        return self._try(self.format)
+    try_unsigned = _scan_unsigned
+    try_signed = _scan_signed
+    try_float = _scan_float
+    try_hex32 = _scan_hex32
+    try_hexbyte = _scan_hexbyte
+    try_format = _scan_format

@@ -94,17 +94,24 @@ class MotorPhysics:
         for _ in range(int(dt_ms)):
             self._step_1ms(duty)
 
+    def at_rest(self, duty: Drive) -> bool:
+        """True if a step with ``duty`` changes nothing: the shaft stands and is held, or the
+        drive cannot overcome static friction (then it stays so until the duty changes)."""
+        return self.omega == 0.0 and (self.hold or abs(self._drive_acc(duty, self.omega)) <= self.friction)
+
+    def _drive_acc(self, duty: Drive, w: float) -> float:
+        if duty is None or duty == "coast":
+            return -w / COAST_TAU_S
+        d = max(-255, min(255, int(duty)))
+        return (self.rated * d / 255.0 - w) / TAU_S
+
     def _step_1ms(self, duty: Drive) -> None:
         dt = 0.001
         if self.hold:
             self.omega = 0.0
             return
         w = self.omega
-        if duty is None or duty == "coast":
-            drive_acc = -w / COAST_TAU_S
-        else:
-            d = max(-255, min(255, int(duty)))
-            drive_acc = (self.rated * d / 255.0 - w) / TAU_S
+        drive_acc = self._drive_acc(duty, w)
         if w == 0.0:
             # Static friction: the shaft starts only when the drive overcomes it.
             if abs(drive_acc) <= self.friction:

@@ -29,10 +29,17 @@ Debug bits (§7.4): 1 serial trace, 4 signatures, 8 DATA payloads, 32 unknown me
 Interfaces other modules use: ``connected``, ``mode_data(mode)``, ``describe()``, ``settled``,
 ``send_to_device(frame)``, ``send_select(mode)``, the world actions ``plug(spec)``, ``unplug()``,
 ``device_data(mode, payload)``, ``press_button(pressed)``, ``set_data_rate(ms)``,
-``hold_shaft(held)``, ``set_shaft_position(deg)``.
+``hold_shaft(held)``, ``set_shaft_position(deg)``; ``due`` and ``wake()`` (below).
+
+Idle milliseconds: most milliseconds a port (and its device) does nothing, so after each tick
+the port works out ``due``, the first millisecond at which its tick may do something (a timer,
+a byte on the wire, a device step; see :meth:`Port._next_due`), and the Hat skips it until
+then. Whatever changes the port's state from outside a tick (commands, world actions, the
+motor driver's output) calls :meth:`Port.wake`, so skipping never changes what happens when.
 """
 from __future__ import annotations
 
+import math
 import random
 from collections import deque
 from typing import TYPE_CHECKING, Deque, Dict, List, Optional, Tuple
@@ -117,6 +124,15 @@ class Port:
         self._handshake_at: Optional[int] = None
         self._next_nack: Optional[int] = None
         self._dev_rx = lpf2.Assembler(keep_system=True)
+        self.due: float = 0     # the Hat ticks the port from this virtual ms on (0: at once)
+
+    def wake(self) -> None:
+        """Something outside the port's tick changed its state: tick it again from the next ms."""
+        self.due = 0
+        self.hat.wake()
+        dev = self.device
+        if isinstance(dev, ActiveDevice):
+            dev.inputs_changed()
 
     # -- what other modules read ---------------------------------------------------------------
     @property
@@ -159,6 +175,7 @@ class Port:
         """A framed message from the HAT; silently dropped while the port UART is off."""
         if not self._uart_on:
             return
+        self.wake()
         self.hat.event("dev", port=self.index, hex=frame.hex(" ").upper())
         dev = self.device
         self._dev_rx.reset()
@@ -180,12 +197,14 @@ class Port:
             return
         device.port = self
         self.device = device
+        self.wake()
 
     def unplug(self) -> None:
         if self.device is not None:
             self.device.port = None
         self.device = None
         self._wire.clear()
+        self.wake()
 
     def _active(self, what: str) -> ActiveDevice:
         dev = self.device
@@ -197,15 +216,18 @@ class Port:
         """``@data P M HH..`` (payload bytes or a list of ints) / ``@data P M auto`` (None)."""
         data = None if payload is None else bytes(payload)
         self._active("@data").world_data(int(mode), data)
+        self.wake()
 
     def set_data_rate(self, ms: int) -> None:
         self._active("@rate").set_rate(int(ms))
+        self.wake()
 
     def press_button(self, pressed: bool) -> None:
         dev = self.device
         if not isinstance(dev, PassiveDevice):
             raise ValueError(f"@button: no passive device on port {self.index}")
         dev.press(pressed)
+        self.wake()
 
     def _motor(self, what: str) -> MotorDevice:
         dev = self.device
@@ -215,12 +237,45 @@ class Port:
 
     def hold_shaft(self, held: bool) -> None:
         self._motor("@hold").hold(held)
+        self.wake()
 
     def set_shaft_position(self, deg: float) -> None:
         self._motor("@pos").set_position(deg)
+        self.wake()
 
     # -- time ------------------------------------------------------------------------------------
     def tick(self, now: int) -> None:
+        """One millisecond of the port; then ``due`` says when the next one can matter."""
+        self._tick(now)
+        self.due = self._next_due(now)
+
+    def _next_due(self, now: int) -> float:
+        """The first millisecond after ``now`` in which :meth:`_tick` may change anything, given
+        the state now (a wake covers later changes). Conservative: when unsure, ``now + 1``."""
+        dev = self.device
+        if isinstance(dev, ActiveDevice):
+            dev_due = dev.next_due(now)
+            if dev_due <= now + 1:
+                return now + 1             # e.g. a moving motor: no need to look further
+        else:
+            dev_due = math.inf
+        if self._pending_disconnect or self._queue:
+            return now + 1
+        phase = self._phase
+        if phase in _WAITING:
+            due = self._next
+        elif phase == "data":
+            due = min(self.reporter.next_due(now), self._next_nack,
+                      self._last_msg + DATA_TIMEOUT_MS + 1)
+        elif phase == "gone":
+            due = math.inf                 # only waits for the pending disconnect
+        else:
+            return now + 1                 # state 0, setup and handshake: every millisecond
+        if self._wire:
+            due = min(due, math.ceil(self._wire[0][0]))   # the next byte's arrival
+        return min(due, dev_due)
+
+    def _tick(self, now: int) -> None:
         dev = self.device
         if isinstance(dev, ActiveDevice):
             frames = dev.tick(now)

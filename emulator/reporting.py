@@ -18,6 +18,7 @@ reports use the latest stored payload; DATA messages carry a 3-bit mode, so a se
 """
 from __future__ import annotations
 
+import math
 import struct
 from typing import TYPE_CHECKING, List, Optional
 
@@ -85,6 +86,7 @@ class Reporter:
         self._origin: Optional[int] = None  # R5+: where the report timer counts from
 
     # -- commands --------------------------------------------------------------------------
+    # Each command changes what the report engine does next: the port must tick again (wake).
     def select(self, mode: int, offset: Optional[int] = None, fmt: Optional[int] = None,
                once: bool = False) -> None:
         """``select``/``selonce`` with a mode (and the variable form's offset and format)."""
@@ -98,6 +100,7 @@ class Reporter:
         self._seen = 0
         self._fresh = False
         self._due = self._origin = None
+        self.port.wake()
         if send:
             self.port.send_select(mode)
 
@@ -105,21 +108,25 @@ class Reporter:
         """``select`` with no argument: stop reporting, send nothing."""
         self.mode = -1
         self.rate = RATE_OFF
+        self.port.wake()
 
     def bad_format(self, offset: int) -> None:
         """``select <m> <off>`` with a bad or missing format: reporting off, offset kept."""
         self.offset = offset
         self.mode = -1
         self.rate = RATE_OFF
+        self.port.wake()
 
     def set_rate(self, ms: int) -> None:
         """``selrate`` (R5+): only the rate changes (clamped to 0..1e9)."""
         self.rate = max(0, min(MAX_RATE_MS, ms))
+        self.port.wake()
 
     def combi_changed(self) -> None:
         """A ``combi`` message was sent (R5+ drops the selection so the next select re-sends)."""
         if self.combi_deselects:
             self.mode = -1
+        self.port.wake()
 
     def connection_changed(self) -> None:
         """Connect, disconnect or timeout. The R5+ engine resets the select state (§5, §6.2).
@@ -139,6 +146,19 @@ class Reporter:
         if mode == self.mode:
             self._seen += 1
             self._fresh = True
+
+    def next_due(self, now: int) -> float:
+        """The first millisecond after ``now`` in which :meth:`tick` can print or change state
+        without a new DATA message (messages arrive on port ticks of their own)."""
+        if self.mode < 0 or self._seen == 0:
+            return math.inf
+        if self.fixed:
+            return now + 1 if self._due is None else self._due
+        if self.rate in (RATE_OFF, RATE_ONCE, 0):
+            return math.inf                # these only report a fresh message
+        if self._origin is None:
+            return now + 1
+        return self._origin + self.rate    # when past (throttled): every millisecond
 
     def tick(self, now: int) -> None:
         fresh, self._fresh = self._fresh, False

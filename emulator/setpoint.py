@@ -32,6 +32,11 @@ def _clamp(x: float, lo: float, hi: float) -> float:
     return x
 
 
+def _same_sign(a: float, b: float) -> bool:
+    # Equal floats differ only as 0.0 and -0.0 (which the debug line prints differently).
+    return a != 0.0 or math.copysign(1.0, a) == math.copysign(1.0, b)
+
+
 class SetpointGenerator:
     """Shape, parameters and phase accumulator of one port's set point.
 
@@ -107,6 +112,9 @@ class SetpointGenerator:
             if u >= self.period:
                 u = 0.0
         self.acc = u
+        a = self.a
+        if self.shape == "square" and a == self.b and _same_sign(a, self.b):
+            return a, done          # a constant (the usual case): its phase does not matter
         x = f32(f32(u / self.period) + self.phase)
         if x >= 1.0:
             x = f32(x - 1.0)

@@ -51,6 +51,8 @@ class Uart:
             self._wire_in += data[:max(room, 0)]
 
     def host_read(self) -> bytes:
+        if not self._out:
+            return b""          # the real-time loop asks after every pass
         out = bytes(self._out)
         self._out.clear()
         return out
@@ -101,6 +103,14 @@ class Uart:
     def idle(self) -> bool:
         """True when no byte is in flight in either direction."""
         return not (self._wire_in or self.tx)
+
+    def quiet(self) -> bool:
+        """True when :meth:`tick` would change nothing: no pace, or nothing in flight and both
+        directions' credit already at its cap."""
+        if self.baud is None:
+            return True
+        cap = self.baud + _BYTE_COST
+        return self.idle() and self._credit_in == cap and self._credit_out == cap
 
     # -- internals -----------------------------------------------------------------------
     def _receive(self, data: bytes) -> None:

@@ -11,20 +11,20 @@ skip what depends on it (see :data:`UNSPECIFIED`).
 """
 from __future__ import annotations
 
-import copy
 import re
 import struct
 from dataclasses import dataclass, field
+from functools import cache, lru_cache
 from typing import Dict, List, Optional, Tuple, Union
 
 from buildhat_conformance.protocol.profiles import Profile
 
-__all__ = ["HatModel", "PortModel", "Expect", "LineFate", "UNSPECIFIED", "CR", "LINE_MAX", "expected_duty"]
+__all__ = ["HatModel", "PortModel", "Expect", "LineFate", "UNSPECIFIED", "CR", "LINE_MAX", "expected_duty",
+           "joined"]
 
 CR, LF, BS, DEL, NUL = 0x0D, 0x0A, 0x08, 0x7F, 0x00
 LINE_MAX = 256            # CMDBUFLEN (§1)
 ACC_LIMIT = 100000000     # the float parser's digit accumulator stops growing here (§3)
-FORMATS = (b"u1", b"s1", b"u2", b"s2", b"u4", b"s4", b"f4")
 
 # Situations FIRMWARE-FACTS does not settle; a line that hits one is not judged on them.
 UNSPECIFIED = {
@@ -75,6 +75,24 @@ def _exact(data: bytes, what: str, oracle: str = "fate") -> Expect:
     return Expect("exact", data=data, oracle=oracle, what=what)
 
 
+# Items predicted over and over, made once (Expect is frozen; H10 profile: building them was a
+# visible share of a prediction).
+_CRLF_ITEM = _exact(b"\r\n", "CRLF after CR")
+_VIN_ITEM = Expect("pattern", pattern=r"\d+\.\d\d V", what="vin")
+_SIGNATURE_ITEM = Expect("pattern", pattern=r"Firmware signature:( [0-9A-F]{2}){64}", what="signature")
+_LISTING_ITEM = Expect("listing")
+
+
+@lru_cache(maxsize=16)
+def _prompt_item(port: int) -> Expect:
+    return _exact(f"P{port}>".encode(), "prompt", "state")
+
+
+@lru_cache(maxsize=1024)
+def _error_item(failed: str) -> Expect:
+    return _exact(b"Error\r\n", f"Error (from {failed!r})")
+
+
 @dataclass
 class LineFate:
     """What one CR-terminated line did according to the model."""
@@ -89,6 +107,15 @@ class LineFate:
     @property
     def error(self) -> bool:
         return self.failed is not None
+
+
+def joined(first: List[Expect], second: List[Expect]) -> List[Expect]:
+    """The prediction for two inputs fed at once, from the predictions for each in turn: an
+    unfinished line's echo that runs on into the second is one item, as :meth:`HatModel.feed`
+    of both would give (the echo only changes at a CR, which ends a run)."""
+    if first and second and first[-1].what == "echo" and second[0].what == "echo":
+        return first[:-1] + [_exact(first[-1].data + second[0].data, "echo", "state")] + second[1:]
+    return first + second
 
 
 # -- state ----------------------------------------------------------------------------------
@@ -111,6 +138,16 @@ class PortModel:
     device_modes: int = 0         # modes of the established active device here (0: none or unknown)
     tampered: bool = False        # write1/write2/combi reached the device: its mode is not ours to know
 
+    def copy(self) -> PortModel:
+        """An independent copy: every field is immutable except ``combi`` (a dict of ints).
+        Much cheaper than ``dataclasses.replace``/``deepcopy``; the runner copies every port
+        before and after every input."""
+        fields = self.__dict__.copy()
+        fields["combi"] = self.combi.copy()
+        dup = object.__new__(type(self))
+        dup.__dict__ = fields
+        return dup
+
     def reporting(self, selrate_engine: bool) -> bool:
         if not 0 <= self.mode <= 7:     # modes 8..15 never report (§6.1)
             return False
@@ -129,113 +166,117 @@ class _Fail(Exception):
     """A command printed Error (the rest of the line is dropped)."""
 
 
-@dataclass
+# Each token and the spaces after it matched with one regex call, not a Python loop per byte
+# (H10 profile: the model's per-byte loops were its main cost).
+_COMMAND = re.compile(rb"[ ;]*([^ ;]*)(?:[ ;] *)?")   # separators, a token, one separator, spaces
+_WORD = re.compile(rb"([^ ;]*)(?:[ ;] *)?")
+_UNSIGNED = re.compile(rb"([0-9]*) *")
+_HEX = re.compile(rb"([0-9a-fA-F]*) *")
+_SIGNED = re.compile(rb"([+-]?)([0-9]*) *")
+_FLOAT = re.compile(rb"([+-]?)([0-9]*)(?:\.([0-9]*))? *")
+_FORMAT = re.compile(rb"(u1|s1|u2|s2|u4|s4|f4) *")   # exactly two characters; what follows is not checked
+
+
+@lru_cache(maxsize=64)
+def _prefixes(names: Tuple[str, ...]) -> Dict[bytes, str]:
+    """The matcher (§2) as a table: every non-empty prefix of a name -> the first name it starts."""
+    table: Dict[bytes, str] = {}
+    for name in names:
+        encoded = name.encode()
+        for end in range(1, len(encoded) + 1):
+            table.setdefault(encoded[:end], name)
+    return table
+
+
+def _float_value(whole: bytes, fraction: bytes) -> float:
+    """The float parser's accumulator (§3) over the digits before and after the point."""
+    if len(whole) + len(fraction) <= 9:
+        # Nine digits always fit (the accumulator stops only once it reaches 10^8).
+        return f32(f32(float(int(whole + fraction))) / 10.0 ** len(fraction))
+    acc = k = f = 0
+    for c in whole:
+        if acc < ACC_LIMIT:
+            acc = acc * 10 + c - 0x30
+        else:
+            k += 1             # further integer digits scale by 10
+    for c in fraction:
+        if acc < ACC_LIMIT:
+            acc = acc * 10 + c - 0x30
+            f += 1             # further fraction digits are ignored
+    return f32(f32(float(acc) * 10.0 ** k) / 10.0 ** f)
+
+
 class _Cursor:
-    s: bytes
-    pos: int = 0
+    __slots__ = ("s", "pos")
 
-    def peek(self) -> int:
-        return self.s[self.pos] if self.pos < len(self.s) else -1
+    def __init__(self, s: bytes, pos: int = 0):
+        self.s = s
+        self.pos = pos
 
-    def skip_spaces(self) -> None:
-        while self.peek() == 0x20:
-            self.pos += 1
+    def command(self, prefixes: Dict[bytes, str]) -> Tuple[bytes, Optional[str]]:
+        """Past the separators, (the token, the command it names or None); the token is empty
+        at the end of the line. A command is consumed like :meth:`word` consumes a name."""
+        m = _COMMAND.match(self.s, self.pos)
+        tok = m.group(1)
+        name = prefixes.get(tok) if tok else None
+        if name is not None:
+            self.pos = m.end()
+        return tok, name
 
     # Number parsers (§3). Each returns None and leaves the position alone when no number
     # starts here, and skips the spaces (not ';') after a number it read.
-    def _digits(self, i: int, hexa: bool = False) -> int:
-        ok = b"0123456789abcdefABCDEF" if hexa else b"0123456789"
-        while i < len(self.s) and self.s[i] in ok:
-            i += 1
-        return i
-
     def unsigned(self) -> Optional[int]:
-        j = self._digits(self.pos)
-        if j == self.pos:
+        m = _UNSIGNED.match(self.s, self.pos)
+        digits = m.group(1)
+        if not digits:
             return None
-        v = int(self.s[self.pos:j]) % 2**32
-        self.pos = j
-        self.skip_spaces()
-        return v
+        self.pos = m.end()
+        return int(digits) % 2**32
 
     def signed(self) -> Optional[int]:
-        i = self.pos
-        neg = False
-        if i < len(self.s) and self.s[i] in b"+-":
-            neg = self.s[i] == ord("-")
-            i += 1
-        j = self._digits(i)
-        if j == i:
+        m = _SIGNED.match(self.s, self.pos)
+        sign, digits = m.groups()
+        if not digits:
             return None
-        v = int(self.s[i:j]) % 2**32
-        if neg:
+        v = int(digits) % 2**32
+        if sign == b"-":
             v = (-v) % 2**32
-        self.pos = j
-        self.skip_spaces()
+        self.pos = m.end()
         return v - 2**32 if v >= 2**31 else v
 
     def float(self) -> Optional[float]:
-        i, n = self.pos, len(self.s)
-        neg = False
-        if i < n and self.s[i] in b"+-":
-            neg = self.s[i] == ord("-")
-            i += 1
-        acc = k = f = digits = 0
-        while i < n and 0x30 <= self.s[i] <= 0x39:
-            if acc < ACC_LIMIT:
-                acc = acc * 10 + self.s[i] - 0x30
-            else:
-                k += 1             # further integer digits scale by 10
-            digits += 1
-            i += 1
-        if i < n and self.s[i] == ord("."):
-            i += 1
-            while i < n and 0x30 <= self.s[i] <= 0x39:
-                if acc < ACC_LIMIT:
-                    acc = acc * 10 + self.s[i] - 0x30
-                    f += 1         # further fraction digits are ignored
-                digits += 1
-                i += 1
-        if digits == 0:
+        m = _FLOAT.match(self.s, self.pos)
+        sign, whole, fraction = m.groups()
+        if not whole and not fraction:
             return None
-        value = f32(f32(float(acc) * 10.0 ** k) / 10.0 ** f)
-        self.pos = i
-        self.skip_spaces()
-        return -value if neg else value
+        value = _float_value(whole, fraction or b"")
+        self.pos = m.end()
+        return -value if sign == b"-" else value
 
     def hex32(self) -> Optional[int]:
-        j = self._digits(self.pos, hexa=True)
-        if j == self.pos:
+        m = _HEX.match(self.s, self.pos)
+        digits = m.group(1)
+        if not digits:
             return None
-        v = int(self.s[self.pos:j], 16) % 2**32
-        self.pos = j
-        self.skip_spaces()
-        return v
+        self.pos = m.end()
+        return int(digits, 16) % 2**32
 
     def format(self) -> Optional[bytes]:
-        tok = self.s[self.pos:self.pos + 2]
-        if tok not in FORMATS:     # exactly two characters; what follows is not checked
+        m = _FORMAT.match(self.s, self.pos)
+        if m is None:
             return None
-        self.pos += 2
-        self.skip_spaces()
-        return tok
+        self.pos = m.end()
+        return m.group(1)
 
-    def word(self, names: Tuple[str, ...]) -> Optional[str]:
-        """The matcher (§2): first name the token is a non-empty prefix of."""
-        j = self.pos
-        while j < len(self.s) and self.s[j] not in b" ;":
-            j += 1
-        tok = self.s[self.pos:j]
-        if not tok:
-            return None
-        for name in names:
-            if name.encode().startswith(tok):
-                self.pos = j
-                if j < len(self.s):      # one separator byte, then any spaces
-                    self.pos += 1
-                self.skip_spaces()
-                return name
-        return None
+    def word(self, prefixes: Dict[bytes, str]) -> Optional[str]:
+        """The matcher (§2): first name the token is a non-empty prefix of (``prefixes`` from
+        :func:`_prefixes`)."""
+        m = _WORD.match(self.s, self.pos)
+        tok = m.group(1)
+        name = prefixes.get(tok) if tok else None
+        if name is not None:
+            self.pos = m.end()
+        return name
 
     # the same, raising _Fail
     def need(self, value):  # type: ignore[no-untyped-def]
@@ -268,107 +309,135 @@ class HatModel:
         self.tainted: List[str] = []           # reasons the model lost track of the state
         self.selrate_engine = profile.feature("report_engine") == "selrate"
         self.per_port_plimit = profile.feature("plimit_scope") == "per_port"
+        # What depends on the profile alone, looked up once rather than on every line.
+        self._hash_comments = bool(profile.feature("hash_comments"))
+        self._commands = _prefixes(tuple(profile.commands))
+        self._set_keywords = _prefixes(tuple(profile.set_keywords))
+        self._pid_extra = int(profile.feature("pid_numbers")) - 6
+        self._combi_clears = bool(profile.feature("combi_clears_selection"))
+        self._help_item = _exact(profile.help_bytes, "help text")
+        version_line = f"Firmware version: {profile.version_string}\r\n".encode()
+        self._version_item = _exact(version_line, "version line")
+        self._signature_item = _SIGNATURE_ITEM      # unknown signature: its form only
+        if profile.signature is not None:
+            hexes = "".join(f" {b:02X}" for b in profile.signature)
+            self._signature_item = _exact(f"Firmware signature:{hexes}\r\n".encode(), "signature line")
 
     def clone(self) -> HatModel:
         """An independent copy (the profile, which never changes, is shared)."""
-        dup = copy.copy(self)
-        dup.devices = dict(self.devices)
-        dup.ports = [copy.deepcopy(p) for p in self.ports]
-        dup.buffer = bytearray(self.buffer)
-        dup.tainted = list(self.tainted)
+        state = self.__dict__.copy()
+        state["devices"] = dict(self.devices)
+        state["ports"] = [p.copy() for p in self.ports]
+        state["buffer"] = bytearray(self.buffer)
+        state["tainted"] = list(self.tainted)
+        dup = object.__new__(type(self))
+        dup.__dict__ = state
         return dup
+
+    def same_state(self, other: HatModel) -> bool:
+        """True when ``other`` (typically a clone) is in exactly this state: fed the same
+        bytes, the two predict the same."""
+        return vars(self) == vars(other)
+
+    def adopt(self, other: HatModel) -> None:
+        """Take over the state of ``other``, a clone of this model fed since; ``other`` must
+        not be used afterwards (its ports, buffer and lists become this model's)."""
+        vars(self).update(vars(other))
 
     # -- the line editor (§1) --------------------------------------------------------------
     def feed(self, data: bytes) -> Tuple[List[Expect], List[LineFate]]:
         """Predict the answer to ``data`` and apply its effects."""
         out: List[Expect] = []
         fates: List[LineFate] = []
-        echo_run = bytearray()
+        pos, n = 0, len(data)
+        # A run of bytes up to a CR at a time (H10 profile: a Python loop per byte was the
+        # model's main cost); echo can only change when a line is processed, at the CR.
+        while pos < n:
+            end = data.find(b"\r", pos)
+            stop = n if end < 0 else end
+            if stop > pos:
+                echo = self._edit(data[pos:stop])
+                if echo and self.echo:
+                    out.append(_exact(echo, "echo", "state"))
+            if end < 0:
+                break
+            out.append(_CRLF_ITEM)
+            fates.append(self._end_line(out))
+            pos = end + 1
+        return out, fates
 
-        def flush_echo() -> None:
-            if echo_run:
-                out.append(_exact(bytes(echo_run), "echo", "state"))
-                echo_run.clear()
-
-        for b in data:
-            if b == CR:
-                flush_echo()
-                out.append(_exact(b"\r\n", "CRLF after CR"))
-                line = bytes(self.buffer)
-                self.buffer.clear()
-                fate = self._process(line, out)
-                if self.overflowed_then_bs:
-                    fate.unspecified.append("bs_when_full")
-                    self.tainted.append(UNSPECIFIED["bs_when_full"])
-                    self.overflowed_then_bs = False
-                fates.append(fate)
-            elif b in (BS, DEL):
+    def _edit(self, run: bytes) -> bytes:
+        """Store a run of bytes that holds no CR; returns what the editor echoes for it."""
+        if b"\x08" not in run and b"\x7f" not in run:
+            stored = run[:max(0, LINE_MAX - len(self.buffer))]   # the rest is dropped (§1)
+            self.buffer += stored
+            return stored
+        echo = bytearray()
+        for b in run:                        # rubouts: byte by byte
+            if b in (BS, DEL):
                 if len(self.buffer) >= LINE_MAX:
                     self.overflowed_then_bs = True
                 if self.buffer:
                     self.buffer.pop()
-                    if self.echo:
-                        echo_run += b"\x08 \x08"
+                    echo += b"\x08 \x08"
             elif len(self.buffer) < LINE_MAX:
                 self.buffer.append(b)
-                if self.echo:
-                    echo_run.append(b)
-        flush_echo()
-        return out, fates
+                echo.append(b)
+        return bytes(echo)
 
-    def _prompt(self) -> bytes:
-        return f"P{self.port}>".encode()
+    def _end_line(self, out: List[Expect]) -> LineFate:
+        """The CR: the stored line is processed and the buffer starts afresh."""
+        line = bytes(self.buffer)
+        self.buffer.clear()
+        fate = self._process(line, out)
+        if self.overflowed_then_bs:
+            fate.unspecified.append("bs_when_full")
+            self.tainted.append(UNSPECIFIED["bs_when_full"])
+            self.overflowed_then_bs = False
+        return fate
 
     def _process(self, line: bytes, out: List[Expect]) -> LineFate:
         fate = LineFate(raw=line)
-        if self.profile.feature("hash_comments") and line[:1] == b"#":
+        if self._hash_comments and line[:1] == b"#":
             fate.comment = True                  # ignored: no Error and no prompt (R6+)
             return fate
-        text = line.split(b"\x00", 1)[0]         # NUL ends the line for the parser
-        cur = _Cursor(text)
+        cur = _Cursor(line.split(b"\x00", 1)[0])   # NUL ends the line for the parser
         while True:
-            while cur.peek() in (0x20, 0x3B):
-                cur.pos += 1
-            if cur.peek() < 0:
+            token, name = cur.command(self._commands)
+            if not token:
                 break
-            start = cur.pos
-            name = cur.word(tuple(self.profile.commands))
             if name is None:
-                fate.failed = fate.unknown = text[start:].split(b" ")[0].split(b";")[0].decode("latin-1")
+                fate.failed = fate.unknown = token.decode("latin-1")
                 break
             try:
-                getattr(self, "_cmd_" + _ident(name))(cur, out)
+                getattr(self, _handler(name))(cur, out)
             except _Fail:
                 fate.failed = name
                 break
             fate.commands.append(name)
         if fate.failed is not None:
-            out.append(_exact(b"Error\r\n", f"Error (from {fate.failed!r})"))
+            out.append(_error_item(fate.failed))
         if self.echo:
-            out.append(_exact(self._prompt(), "prompt", "state"))
+            out.append(_prompt_item(self.port))
         return fate
 
     # -- commands (§4) ---------------------------------------------------------------------
     def _cmd_help(self, cur: _Cursor, out: List[Expect]) -> None:
-        out.append(_exact(self.profile.help_bytes, "help text"))
+        out.append(self._help_item)
 
     _cmd_q = _cmd_help
 
     def _cmd_version(self, cur: _Cursor, out: List[Expect]) -> None:
-        out.append(_exact(f"Firmware version: {self.profile.version_string}\r\n".encode(), "version line"))
+        out.append(self._version_item)
 
     def _cmd_signature(self, cur: _Cursor, out: List[Expect]) -> None:
-        if self.profile.signature is not None:
-            hexes = "".join(f" {b:02X}" for b in self.profile.signature)
-            out.append(_exact(f"Firmware signature:{hexes}\r\n".encode(), "signature line"))
-        else:
-            out.append(Expect("pattern", pattern=r"Firmware signature:( [0-9A-F]{2}){64}", what="signature"))
+        out.append(self._signature_item)
 
     def _cmd_vin(self, cur: _Cursor, out: List[Expect]) -> None:
-        out.append(Expect("pattern", pattern=r"\d+\.\d\d V", what="vin"))
+        out.append(_VIN_ITEM)
 
     def _cmd_list(self, cur: _Cursor, out: List[Expect]) -> None:
-        out.append(Expect("listing"))
+        out.append(_LISTING_ITEM)
 
     def _cmd_clear_faults(self, cur: _Cursor, out: List[Expect]) -> None:
         pass
@@ -411,7 +480,7 @@ class HatModel:
         p = self._here()
         try:
             self._svar(cur)
-            for _ in range(int(self.profile.feature("pid_numbers")) - 6):
+            for _ in range(self._pid_extra):
                 cur.need(cur.float())
         except _Fail:
             p.pwmmode, p.coast = 0, False        # the error path forces direct PWM (§3)
@@ -425,7 +494,7 @@ class HatModel:
         self._pid(cur, 2)
 
     def _cmd_set(self, cur: _Cursor, out: List[Expect]) -> None:
-        kw = cur.word(tuple(self.profile.set_keywords))
+        kw = cur.word(self._set_keywords)
         p = self._here()
         if kw is None:
             p.constant = cur.need(cur.float())
@@ -491,7 +560,7 @@ class HatModel:
         p = self._here()
         index = _clamp(cur.need(cur.signed()), 0, 7)
         p.tampered = True
-        if self.profile.feature("combi_clears_selection"):
+        if self._combi_clears:
             # §6.2 says combi sets the mode to -1; whether an odd list does so too is not said.
             p.mode = -1
             p.known = False
@@ -505,7 +574,7 @@ class HatModel:
                 raise _Fail()
             pairs += 1
             p.combi[index] = pairs
-        if self.profile.feature("combi_clears_selection"):
+        if self._combi_clears:
             p.known = True
 
     def _write(self, cur: _Cursor, headers: int) -> None:
@@ -575,5 +644,7 @@ def established(p: PortModel, type_id: int) -> None:
     p.combi.clear()
 
 
-def _ident(name: str) -> str:
-    return "q" if name == "?" else re.sub(r"\W", "_", name)
+@cache
+def _handler(name: str) -> str:
+    """The method that runs command ``name`` (``?`` -> ``_cmd_q``, ``pid_diff`` -> ``_cmd_pid_diff``)."""
+    return "_cmd_" + ("q" if name == "?" else re.sub(r"\W", "_", name))

@@ -9,9 +9,10 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass, field
+from functools import lru_cache
 from typing import List, Optional, Tuple
 
-from buildhat_conformance.harness.events import Event, classify
+from buildhat_conformance.harness.events import Event, classify, line_kind
 from buildhat_conformance.protocol.profiles import Profile
 
 from .model import Expect
@@ -75,7 +76,7 @@ def _match_item(item: Expect, actual: bytes, pos: int) -> Optional[int]:
         return pos + len(item.data) if actual.startswith(item.data, pos) else None
     if item.kind == "pattern":
         line = _line_at(actual, pos)
-        if line is None or not re.fullmatch(item.pattern, line.decode("latin-1")):
+        if line is None or not _compiled(item.pattern).fullmatch(line.decode("latin-1")):
             return None
         return pos + len(line) + 2
     # listing: a header for each port in order; an active device's block ends with its position PID
@@ -88,12 +89,17 @@ def _match_item(item: Expect, actual: bytes, pos: int) -> Optional[int]:
         if b"active" in m.group(2):
             while True:
                 line = _line_at(actual, pos)
-                if line is None or classify(line).kind != "list_line":
+                if line is None or line_kind(line) != "list_line":
                     return None
                 pos += len(line) + 2
                 if line.startswith(b"  position PID:"):
                     break
     return pos
+
+
+@lru_cache(maxsize=64)
+def _compiled(pattern: str) -> re.Pattern:
+    return re.compile(pattern)
 
 
 def _show(data: bytes, limit: int = 120) -> str:
@@ -104,12 +110,14 @@ def match_stream(expected: List[Expect], actual: bytes, allowed: frozenset) -> M
     """Walk ``expected`` over ``actual``, skipping asynchronous lines of ``allowed`` kinds."""
     res = MatchResult()
     pos = 0
-    items = list(expected)
-    for idx in range(len(items) + 1):
-        item = items[idx] if idx < len(items) else None
+    for idx in range(len(expected) + 1):
+        item = expected[idx] if idx < len(expected) else None
         while True:
             if item is not None:
-                nxt = _match_item(item, actual, pos)
+                if item.kind == "exact":      # inline: most items are (H10 profile)
+                    nxt = pos + len(item.data) if actual.startswith(item.data, pos) else None
+                else:
+                    nxt = _match_item(item, actual, pos)
                 if nxt is not None:
                     break
             line = _line_at(actual, pos)

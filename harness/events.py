@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 from functools import lru_cache
 from typing import Callable, Dict, FrozenSet, List, Optional, Pattern, Sequence, Tuple, Union
 
-__all__ = ["Event", "classify", "LineSplitter", "LINE_PATTERNS", "KINDS", "PORT_STATUS_KINDS",
+__all__ = ["Event", "classify", "line_kind", "LineSplitter", "LINE_PATTERNS", "KINDS", "PORT_STATUS_KINDS",
            "parse_value", "expected_echo"]
 
 
@@ -333,6 +333,13 @@ def classify(raw: Union[bytes, str], t: float = 0.0) -> Event:
     if text in _help_lines():
         return Event("help", text, data, t, {})
     return Event("unknown", text, data, t, {})
+
+
+@lru_cache(maxsize=8192)
+def line_kind(raw: bytes) -> str:
+    """``classify(raw).kind``, cached per line: the fuzzer notes the kind of every line it
+    reads (H10 profile), and for that needs no Event and no parsed fields."""
+    return classify(raw).kind
 
 
 # -- prompts, partial lines and echo -------------------------------------------------------

@@ -488,6 +488,12 @@ class Session:
         self.fence(timeout)
         return drained
 
+    def wait_new(self, count: int, timeout: float) -> bool:
+        """Block until there are more than ``count`` events, at most ``timeout`` seconds (wall
+        clock; HAT seconds / time_scale for virtual-time targets). True if one came. Waiters
+        wake as the event arrives, not on a polling period (H10: 10 ms polls cost ~5 ms a wait)."""
+        return self._wait_index(lambda e: True, count, max(0.0, timeout)) is not None
+
     def wait_ms(self, ms: float) -> None:
         """Let ``ms`` milliseconds of HAT time pass (real time divided by the time scale)."""
         if ms > 0:

@@ -20,9 +20,16 @@ only say what values each mode holds. Behaviour modelled here (DEVICES.md "Mode 
   HAT's 500 ms watchdog.
 - ``@data P M HH..`` (``world_data``): one DATA message for mode M right away, and mode M keeps
   those bytes until ``@data P M auto``.
+
+Idle milliseconds (see ``emulator/ports.py``): :meth:`ActiveDevice.next_due` tells the port when
+the device next has something to do. A sample that cannot find a new payload is not run at all:
+the payload depends only on the device's own world (changed in :meth:`ActiveDevice.step`, which
+then marks it stale) and on what reaches it through the port (which calls
+:meth:`ActiveDevice.inputs_changed`); the sampling instants it skips are made up by arithmetic.
 """
 from __future__ import annotations
 
+import math
 import random
 import struct
 from typing import Dict, List, Optional, Sequence
@@ -91,6 +98,8 @@ class ActiveDevice:
         self._force = False
         self._last_payload: Optional[bytes] = None
         self._last_sample = -(10 ** 9)
+        self._stale = True            # the payload may differ from the one last sampled
+        self._lazy_grid = False       # the port sleeps through sampling instants (next_due)
         self._last_rate_send = -(10 ** 9)
         self._pending_world: List[tuple[int, bytes]] = []
 
@@ -169,7 +178,9 @@ class ActiveDevice:
 
     # -- values ------------------------------------------------------------------------------
     def model_values(self, mode: int, now: int) -> List[float]:
-        """The model's own values for ``mode`` (format count entries). Subclasses override."""
+        """The model's own values for ``mode`` (format count entries). Subclasses override.
+        They may change only in :meth:`step` (which then sets ``_stale``) or with what reaches
+        the device through its port (drive, messages, world actions): samples rely on it."""
         return [0] * self.modes[mode]["format"]["count"]
 
     def mode_payload(self, mode: int, now: int) -> bytes:
@@ -225,8 +236,48 @@ class ActiveDevice:
     def step(self, now: int) -> None:
         """Advance the device's own world by one millisecond (motors run their physics)."""
 
+    def inputs_changed(self) -> None:
+        """The port passed on a change from outside (a message, a world action, a new drive):
+        the next sample must look at the payload again."""
+        self._stale = True
+
+    def step_due(self, now: int) -> float:
+        """The first millisecond after ``now`` in which :meth:`step` may change anything
+        (subclasses with a world of their own say when; the base device has none)."""
+        return math.inf
+
+    def next_due(self, now: int) -> float:
+        """The first millisecond after ``now`` in which :meth:`tick` may send or change state,
+        as things stand (the port wakes up for anything that changes them from outside)."""
+        due = self.step_due(now)
+        if self.dead:
+            return due
+        state = self.state
+        if state == "data":
+            if self._pending_world or self._force or self._nack:
+                return now + 1
+            if self.rate_ms > 0:
+                return min(due, self._last_rate_send + self.rate_ms)
+            if self._stale:
+                return min(due, self._last_sample + self.sample_ms)
+            # Samples before a change would find the payload they found last time: sleep
+            # through them; tick() moves the sampling instant on as they would have.
+            self._lazy_grid = True
+            return due
+        if state == "setup" and self._setup_at is not None:
+            return min(due, self._setup_at)
+        if state == "data_wait" and self._data_at is not None:
+            return min(due, self._data_at)
+        return due
+
     def tick(self, now: int) -> List[bytes]:
         """Messages the device starts sending at ``now`` (the port's wire paces the bytes)."""
+        if self._lazy_grid:
+            self._lazy_grid = False
+            # The samples due before now were skipped; each would have moved _last_sample on.
+            gap = now - 1 - self._last_sample
+            if gap >= self.sample_ms:
+                self._last_sample += gap // self.sample_ms * self.sample_ms
         self.step(now)
         if self.dead:
             return []
@@ -255,9 +306,11 @@ class ActiveDevice:
         payload = None
         if send or now - self._last_sample >= self.sample_ms:
             self._last_sample = now
-            payload = self.current_payload(now)
-            if payload is not None and payload != self._last_payload:
-                send = True
+            if send or self._stale:       # else: the payload of the last sample, None or sent
+                self._stale = False
+                payload = self.current_payload(now)
+                if payload is not None and payload != self._last_payload:
+                    send = True
         if send:
             if payload is None:
                 payload = self.current_payload(now)

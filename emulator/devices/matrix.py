@@ -12,6 +12,7 @@ non-zero motor drive on its port. If the drive is 0 or coast for more than
 """
 from __future__ import annotations
 
+import math
 import random
 from typing import Optional
 
@@ -44,3 +45,11 @@ class MatrixDevice(ActiveDevice):
             if self.port is not None:
                 self.port.hat.note(f"P{self.port.index}: LED matrix unpowered for more than "
                                    f"{POWER_GRACE_MS} ms: it stops talking (emulator model)")
+
+    def step_due(self, now: int) -> float:
+        # step() only clears or starts the unpowered timer, or kills the matrix when it runs out.
+        if self.dead or self.state != "data" or self._powered():
+            return math.inf if self._unpowered_since is None else now + 1
+        if self._unpowered_since is None:
+            return now + 1
+        return self._unpowered_since + POWER_GRACE_MS + 1

@@ -9,6 +9,7 @@ motor send every few ms (DEVICES.md).
 """
 from __future__ import annotations
 
+import math
 import random
 from typing import List, Optional
 
@@ -19,6 +20,7 @@ __all__ = ["MotorDevice", "JITTER_MIN_MS", "JITTER_MAX_MS"]
 
 JITTER_MIN_MS = 5
 JITTER_MAX_MS = 25
+_ENCODER_MODES = ("APOS", "CALIB")    # the modes whose values include the jitter
 
 
 def _wrap180(deg: int) -> int:
@@ -34,6 +36,10 @@ class MotorDevice(ActiveDevice):
         self._jitter = 0
         self._jitter_next = 0
         self._last_step: Optional[int] = None
+        # The shaft was at rest, under a drive that cannot move it, when the port last worked
+        # out when to tick again: the milliseconds it then slept through moved nothing.
+        self._resting = False
+        self._encoder_modes = {i for i, m in self.modes.items() if m["name"] in _ENCODER_MODES}
 
     def begin_setup(self, now: int) -> None:
         super().begin_setup(now)
@@ -43,14 +49,46 @@ class MotorDevice(ActiveDevice):
         if self._last_step is None:
             self._last_step = now - 1
         dt = now - self._last_step
+        if dt > 1 and self._resting:
+            # The port slept through these milliseconds (see step_due): the shaft stood still
+            # and only the jitter changed. Its draws are made now, in the same order (the rng
+            # is the device's own), before anything reads it.
+            dt = 1
+            while self._jitter_next < now:
+                self._draw_jitter(self._jitter_next)
         if dt > 0:
             self.physics.step(dt, self.port_duty())
             self._last_step = now
         if self.physics.speed_deg_s != 0.0:
             self._jitter = 0
         elif now >= self._jitter_next:
-            self._jitter = self.rng.choice((-1, 0, 1))
-            self._jitter_next = now + self.rng.randint(JITTER_MIN_MS, JITTER_MAX_MS)
+            self._draw_jitter(now)
+
+    def _draw_jitter(self, now: int) -> None:
+        jitter = self.rng.choice((-1, 0, 1))
+        if jitter != self._jitter:
+            self._stale = True
+        self._jitter = jitter
+        self._jitter_next = now + self.rng.randint(JITTER_MIN_MS, JITTER_MAX_MS)
+
+    def step_due(self, now: int) -> float:
+        # Every millisecond while the shaft moves or its drive can move it (a new drive wakes
+        # the port). At rest only the jitter changes; its draws wait for the next tick unless
+        # the sampled payload shows it (APOS, CALIB) and the samples must see each change.
+        physics = self.physics
+        self._resting = physics.omega == 0.0 and physics.at_rest(self.port_duty())
+        if not self._resting:
+            self._stale = True
+            return now + 1
+        if self.state == "data" and self.rate_ms <= 0 and self._shows_encoder():
+            return self._jitter_next
+        return math.inf
+
+    def _shows_encoder(self) -> bool:
+        """The selected mode (or the modes of its combi) reads the absolute encoder."""
+        combi = self.combis.get(self.mode)
+        modes = [m for m, _dataset in combi] if combi else [self.mode]
+        return any(m in self._encoder_modes for m in modes)
 
     @property
     def apos(self) -> int:

@@ -44,5 +44,9 @@ class RealTimeClock:
 
     def seconds_until_next(self) -> float:
         """Wall seconds until the next tick is due (0 if one is due already)."""
-        next_at = self._start + (self.ticks + 1) / 1000.0 / self.speed
+        return self.seconds_until(1)
+
+    def seconds_until(self, ticks: int) -> float:
+        """Wall seconds until the ``ticks``-th tick from now is due (0 if it is due already)."""
+        next_at = self._start + (self.ticks + ticks) / 1000.0 / self.speed
         return max(0.0, next_at - self._now())

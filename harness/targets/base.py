@@ -58,6 +58,9 @@ class Target(abc.ABC):
     #: What this target can do beyond bytes, e.g. {"control", "plug", ...}.
     capabilities: FrozenSet[str] = frozenset()
     control: Optional[Control] = None
+    #: The HAT ends with the target (an emulator the target started itself): nothing done to
+    #: the world around it needs putting back at the end of a run.
+    disposable: bool = False
     #: True between a successful open() and close(); the session opens a target only if False.
     is_open: bool = False
 

@@ -44,6 +44,8 @@ def stop_process_group(proc: subprocess.Popen, grace: float = 2.0) -> None:
 class CommandTarget(Target):
     """A program as a HAT: bytes to its stdin, bytes from its stdout."""
 
+    disposable = True        # the program (and its world) ends with the target
+
     def __init__(self, argv: List[str], url: str = "", env: Optional[dict] = None, cwd: Optional[str] = None):
         if not argv:
             raise TargetError("cmd: needs a command line, e.g. cmd:python3 my_fake_hat.py")

@@ -151,6 +151,8 @@ class EmulatorControl(Control):
 class EmulatorTarget(PyserialTarget):
     """The emulator in its own process, reached through a pty like a real serial port."""
 
+    disposable = True        # the process (and its world) ends with the target
+
     def __init__(self, url: str = "emulator", firmware: Union[str, int, None] = None,
                  speed: Optional[float] = None, devices: Optional[Dict[int, Optional[tuple]]] = None,
                  bootloader: bool = False, seed: Optional[int] = None, version_string: Optional[str] = None,
