@@ -48,6 +48,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="start in the bootloader (as after power-on)")
     p.add_argument("--bootloader-key", metavar="FILE",
                    help="PEM P-256 public key the bootloader verifies with")
+    p.add_argument("--booted", action="store_true",
+                   help="start powered up: start-up done and the devices established, run in virtual "
+                        "time before the link opens (its output went to no host)")
     p.add_argument("--speed", type=float, default=1.0, metavar="N", help="run N times faster than real time")
     p.add_argument("--baud", type=int, metavar="B", help="pace the serial link at B baud (B/10 bytes/s)")
     p.add_argument("--seed", type=int, default=0, metavar="N", help="seed for the device models' noise")
@@ -89,6 +92,9 @@ def _check(args: argparse.Namespace, parser: argparse.ArgumentParser) -> None:
         parser.error("--control is for the real-time modes; a script carries its own world actions")
     if args.script and args.bootloader:
         parser.error("--script starts from the firmware; --bootloader is for the real-time modes")
+    if args.booted and (args.script or args.bootloader):
+        parser.error("--booted starts the firmware of a real-time mode; not with "
+                     + ("--script" if args.script else "--bootloader"))
     if args.tcp:
         from .runners.links import parse_tcp_address
         try:
@@ -147,6 +153,15 @@ def _run_realtime(args: argparse.Namespace, devices: Dict[int, Optional[tuple]])
         emulator = Emulator(firmware=args.firmware, devices=devices, version_string=args.version_string,
                             bootloader=args.bootloader, seed=args.seed, baud=args.baud,
                             bootloader_key=args.bootloader_key, record_events=False)
+        if args.booted:
+            # A HAT powered up before the host opened the port: what it printed then reached
+            # nobody. Seconds of device set-up at real time become milliseconds of CPU.
+            try:
+                emulator.boot()
+            except RuntimeError as exc:         # the layout never came up
+                print(f"buildhat-emulator: --booted: {exc}", file=sys.stderr)
+                return 2
+            emulator.read()
         lint.follow(emulator)
         if args.pty:
             link = PtyLink(args.link)

@@ -141,6 +141,8 @@ def test_script_with_unknown_world_action_fails_clearly(tmp_path):
     ([], "one of the arguments"),
     (["--tcp", "notaport"], "--tcp"),
     (["--script", "/nonexistent/x.script"], "cannot read"),
+    (["--booted", "--bootloader", "--stdio"], "--booted"),
+    (["--booted", "--script", "x.script"], "--booted"),
 ])
 def test_bad_flags_give_clear_errors(args, needle, capsys):
     try:

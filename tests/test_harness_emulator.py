@@ -35,6 +35,25 @@ def test_emulator_open_detect_and_world_actions():
         os.killpg(pid, 0)   # close() ended the emulator's whole process group
 
 
+def test_booted_emulator_starts_with_its_devices_up():
+    """`?booted=1`: as a HAT powered up before the host opened the port. The start-up ran
+    already (its banner reached nobody) and `list` shows the layout at once, where a cold
+    start needs about a second of device set-up at real time (FACTS §5)."""
+    target = make_target("emulator:R7?booted=1&device=3=0x3D")
+    with Session(target) as s:
+        assert b"Type help" not in bytes(s.received)
+        assert target.control.action("@settled").strip().endswith("1")
+        lines = [e.text for e in s.command("list")]
+        for line in ("P0: connected to active ID 30", "P1: connected to active ID 40",
+                     "P2: connected to passive ID 8", "P3: connected to active ID 3D"):
+            assert line in lines
+
+
+def test_booted_and_bootloader_exclude_each_other():
+    with pytest.raises(TargetError, match="booted"):
+        make_target("emulator:?booted=1&bootloader=1")
+
+
 def test_emulator_failing_to_start_carries_its_error():
     with pytest.raises(TargetError) as info:
         make_target("emulator:R99").open()

@@ -157,7 +157,8 @@ class EmulatorTarget(PyserialTarget):
                  speed: Optional[float] = None, devices: Optional[Dict[int, Optional[tuple]]] = None,
                  bootloader: bool = False, seed: Optional[int] = None, version_string: Optional[str] = None,
                  baud: Optional[int] = None, extra_args: Sequence[str] = (),
-                 command: Union[str, Sequence[str], None] = None, startup_timeout: float = _STARTUP_TIMEOUT):
+                 command: Union[str, Sequence[str], None] = None, startup_timeout: float = _STARTUP_TIMEOUT,
+                 booted: bool = False):
         super().__init__(url)
         self.firmware = "latest" if firmware in (None, "") else str(firmware)
         self.speed = speed
@@ -165,6 +166,9 @@ class EmulatorTarget(PyserialTarget):
         self.layout = dict(DEFAULT_LAYOUT)
         self.layout.update(self.devices)
         self.bootloader, self.seed, self.version_string = bootloader, seed, version_string
+        self.booted = booted
+        if booted and bootloader:
+            raise TargetError(f"{url}: booted starts the firmware; it cannot be combined with bootloader")
         self.wire_baud = baud
         self.extra_args = list(extra_args)
         self.command = command
@@ -189,6 +193,8 @@ class EmulatorTarget(PyserialTarget):
             args += ["--device", f"{port}={format_device_spec(self.devices[port])}"]
         if self.bootloader:
             args.append("--bootloader")
+        if self.booted:
+            args.append("--booted")
         if self.seed is not None:
             args += ["--seed", str(self.seed)]
         if self.version_string is not None:
@@ -359,7 +365,8 @@ def from_url(url: str, **options) -> EmulatorTarget:
     """``emulator``, ``emulator:R5``, ``emulator:latest?speed=10&device=0=0x30``.
 
     Options (keywords) override the URL: ``firmware``, ``speed``, ``devices`` ({port: spec},
-    e.g. a script's layout), ``bootloader``, ``seed``, ``version_string``, ``baud``,
+    e.g. a script's layout), ``bootloader``, ``booted`` (start powered up, devices established),
+    ``seed``, ``version_string``, ``baud``,
     ``extra_args``, ``command``, ``startup_timeout``.
     """
     rest = url[len("emulator"):]
@@ -387,10 +394,11 @@ def from_url(url: str, **options) -> EmulatorTarget:
                 kwargs[key] = int(vals[-1])
             except ValueError:
                 raise TargetError(f"{url}: {key} must be an integer, got {vals[-1]!r}") from None
-        elif key == "bootloader":
-            kwargs["bootloader"] = vals[-1] not in ("0", "false", "no")
+        elif key in ("bootloader", "booted"):
+            kwargs[key] = vals[-1] not in ("0", "false", "no")
         else:
-            raise TargetError(f"{url}: unknown option {key!r} (known: speed, device, seed, baud, bootloader)")
+            raise TargetError(f"{url}: unknown option {key!r} "
+                              "(known: speed, device, seed, baud, bootloader, booted)")
     if devices:
         kwargs["devices"] = devices
     if "devices" in options and options["devices"] is not None:
