@@ -33,8 +33,8 @@ def _groups(quick: bool) -> List[Group]:
 
     lines = 100_000 if quick else 1_000_000
     # Seconds per measurement window: three 3 s windows give medians as steady as 5 s ones did
-    # (the run-to-run spread is the machine's load, not the window), and keep `make bench` near
-    # five minutes, most of it the real-time suite's own waiting.
+    # (the run-to-run spread is the machine's load, not the window); most of `make bench`'s
+    # six and a half minutes is the real-time suite's own waiting.
     secs = 1.5 if quick else 3.0
     k = QUICK_SUITE if quick else None
     scaled = f"--speed {suite.SCALED_SPEED:g}"

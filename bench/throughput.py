@@ -144,9 +144,9 @@ def checked_rate(url: str, seconds: float, out_limit: Optional[int] = None, seed
                         break
                     out += max(grow, 0)
                 batch.append(data)
-            datas = guard_debug(runner.sides[0].model, batch)
+            datas, ahead = guard_debug(runner.sides[0].model, batch)
             try:
-                runner.exchange(datas)
+                runner.exchange(datas, ahead)
             except Finding:
                 findings += 1
                 sent += _bytes(link, "send") - sent0

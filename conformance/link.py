@@ -9,7 +9,7 @@ from __future__ import annotations
 import re
 import time
 from dataclasses import dataclass, field
-from typing import Any, Callable, List, Union
+from typing import Any, Callable, List, Optional, Union
 
 from buildhat_conformance.protocol.profiles import Profile
 
@@ -277,22 +277,26 @@ class Hat:
         self._note_wait(min(max_hat_ms, (time.monotonic() - began) * 1000.0 * self.time_scale))
         return out
 
+    def _find(self, start: int, predicate: Callable[[Any], bool], deadline: float) -> Optional[int]:
+        """Index of the first event from ``start`` on (fence events left out) that satisfies
+        ``predicate``, waiting for new ones until the wall-clock deadline; None after it."""
+        i = start
+        while True:
+            events = self.session.events
+            while i < len(events):
+                if i not in self._fence_own and predicate(events[i]):
+                    return i
+                i += 1
+            if not self._await_new(i, deadline):
+                return None
+
     def watch(self, mark: int, predicate: Callable[[Any], bool], hat_ms: float) -> bool:
         """Wait until an event from ``mark`` on satisfies ``predicate`` (True) or ``hat_ms`` of
         HAT time has passed (False). Nothing is consumed: the events stay for the test. The
         time spent counts as mandatory waiting (the HAT's own schedule)."""
         began = time.monotonic()
-        deadline = began + self.seconds(hat_ms)
-        i = mark
         try:
-            while True:
-                events = self.session.events
-                while i < len(events):
-                    if i not in self._fence_own and predicate(events[i]):
-                        return True
-                    i += 1
-                if not self._await_new(i, deadline):
-                    return False
+            return self._find(mark, predicate, began + self.seconds(hat_ms)) is not None
         finally:
             self._note_wait(min(hat_ms, (time.monotonic() - began) * 1000.0 * self.time_scale))
 
@@ -318,28 +322,19 @@ class Hat:
             rx = re.compile(match)
             pred = (lambda e: e.kind == match or bool(rx.search(e.text)))  # noqa: E731
         began = time.monotonic()
-        deadline = began + self.seconds(hat_ms)
-        settled = False
-        i = self._next
-        while True:
-            events = self.session.events
-            while i < len(events):
-                if i not in self._fence_own and pred(events[i]):
-                    self._next = i + 1
-                    # H10: waiting for a line the HAT prints on its own schedule is mandatory.
-                    self._note_wait(min(hat_ms, (time.monotonic() - began) * 1000.0 * self.time_scale))
-                    return events[i]
-                i += 1
-            if settled:
-                seen = [e.text for e in events[self._next:]][-15:]
-                raise AssertionError(f"expected {match!r} within {hat_ms:g} ms of HAT time; "
-                                     f"the last lines were {seen!r}")
-            if time.monotonic() >= deadline:
-                # Time is up: a fence brings in whatever the HAT printed before it; look once more.
-                self._settle()
-                settled = True
-            else:
-                self._await_new(i, deadline)
+        i = self._find(self._next, pred, began + self.seconds(hat_ms))
+        if i is None:
+            # Time is up: a fence brings in whatever the HAT printed before it; look once more.
+            self._settle()
+            i = self._find(self._next, pred, 0.0)
+        if i is None:
+            seen = [e.text for e in self.session.events[self._next:]][-15:]
+            raise AssertionError(f"expected {match!r} within {hat_ms:g} ms of HAT time; "
+                                 f"the last lines were {seen!r}")
+        self._next = i + 1
+        # H10: waiting for a line the HAT prints on its own schedule is mandatory.
+        self._note_wait(min(hat_ms, (time.monotonic() - began) * 1000.0 * self.time_scale))
+        return self.session.events[i]
 
     def world(self, line: str) -> str:
         return self.session.world(line)

@@ -65,9 +65,9 @@ def measure_throughput(url: str = "inprocess", seconds: float = 5.0, batch: int 
         while time.monotonic() - start < seconds:
             chunk = [pool[(i + k) % len(pool)].data for k in range(batch)]
             i += batch
-            datas = guard_debug(runner.sides[0].model, chunk)
+            datas, ahead = guard_debug(runner.sides[0].model, chunk)
             try:
-                runner.exchange(datas)
+                runner.exchange(datas, ahead)
             except Finding:
                 findings += 1
                 runner.close()

@@ -81,7 +81,7 @@ def make_machine(config: FuzzConfig) -> type:
         def _send(self, batch: List[FuzzInput]) -> None:
             # The debug guard is decided on the first side's model and applied to every side,
             # so all targets receive identical bytes.
-            datas = guard_debug(self.runner.sides[0].model, [inp.data for inp in batch])
+            datas, ahead = guard_debug(self.runner.sides[0].model, [inp.data for inp in batch])
             for inp, data in zip(batch, datas):
                 stats.executions += 1
                 stats.lines += data.count(b"\r")
@@ -90,7 +90,7 @@ def make_machine(config: FuzzConfig) -> type:
                 for prod in inp.productions:
                     hypothesis.event(f"production {prod}")
             before = set(self.runner.kinds_seen)
-            self.runner.exchange(datas)
+            self.runner.exchange(datas, ahead)
             for kind in sorted(self.runner.kinds_seen - before):
                 hypothesis.event(f"response {kind}")
             if stats.on_progress is not None:

@@ -4,7 +4,6 @@ replay of a finding's script (fuzz/replay.py), so a replay judges exactly as the
 """
 from __future__ import annotations
 
-import weakref
 from dataclasses import dataclass, field
 from typing import Callable, Dict, List, Optional, Sequence, Set, Tuple
 
@@ -18,7 +17,7 @@ from .model import Expect, HatModel, LineFate, PortModel, established, expected_
 from .oracles import raise_finding
 from .stream import MatchResult, Problem, allowed_kinds, match_stream
 
-__all__ = ["Runner", "Side", "Stats", "PRELUDE", "DEBUG_OFF", "guard_debug"]
+__all__ = ["Runner", "Side", "Stats", "PRELUDE", "DEBUG_OFF", "guard_debug", "Lookahead"]
 
 # Puts any HAT into a state the model knows: echo and debug off, no selection, port 0.
 PRELUDE = b"echo 0\rdebug 0\rport 3\rselect\rport 2\rselect\rport 1\rselect\rport 0\rselect\r"
@@ -112,22 +111,31 @@ def _plan(model: HatModel, data: bytes, guard: bool = False) -> Tuple[bytes, _Pl
 
 
 @dataclass
-class _Lookahead:
-    """What :func:`guard_debug` predicted on its probe, kept for :meth:`Runner.exchange`: sent
-    next from the same state, the same inputs need not be predicted twice (H10 profile: the
-    second prediction was a fifth of the fuzzer's time)."""
+class Lookahead:
+    """What :func:`guard_debug` predicted on its probe, for :meth:`Runner.exchange`: sent next
+    from the same state, the same inputs need not be predicted twice (H10 profile: the second
+    prediction was a fifth of the fuzzer's time). Used at most once."""
 
-    before: HatModel              # the model's state when the probe was taken
+    model: HatModel               # the model the probe was cloned from
+    before: HatModel              # its state when the probe was taken
     datas: List[bytes]
     plans: List[_Plan]
-    after: HatModel               # the probe, fed with every input and fence
+    after: Optional[HatModel]     # the probe, fed with every input and fence (None once used)
+
+    def take(self, model: HatModel, datas: Sequence[bytes]) -> Optional[List[_Plan]]:
+        """The plans, with ``model`` moved on as feeding them would, if ``model`` is the one
+        they were made for, still in that state, and about to send these inputs; else None."""
+        if (self.after is None or model is not self.model or self.datas != list(datas)
+                or not model.same_state(self.before)):
+            return None
+        model.adopt(self.after)
+        self.after = None         # adopt() took over its ports and buffers
+        return self.plans
 
 
-_LOOKAHEAD: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
-
-
-def guard_debug(model: HatModel, datas: Sequence[bytes]) -> List[bytes]:
-    """The inputs with :data:`DEBUG_OFF` appended wherever one would leave debug bit 1 set."""
+def guard_debug(model: HatModel, datas: Sequence[bytes]) -> Tuple[List[bytes], Lookahead]:
+    """The inputs with :data:`DEBUG_OFF` appended wherever one would leave debug bit 1 set,
+    and the predictions made on the way (pass them to :meth:`Runner.exchange`)."""
     probe = model.clone()
     out: List[bytes] = []
     plans: List[_Plan] = []
@@ -135,18 +143,7 @@ def guard_debug(model: HatModel, datas: Sequence[bytes]) -> List[bytes]:
         data, plan = _plan(probe, data, guard=True)
         out.append(data)
         plans.append(plan)
-    _LOOKAHEAD[model] = _Lookahead(model.clone(), list(out), plans, probe)
-    return out
-
-
-def _predict(model: HatModel, datas: Sequence[bytes]) -> List[_Plan]:
-    """The plan of every input, fed to ``model`` in turn (or taken from the lookahead that
-    :func:`guard_debug` left, when the model is still in the state it was taken from)."""
-    ahead = _LOOKAHEAD.pop(model, None)
-    if ahead is not None and ahead.datas == list(datas) and model.same_state(ahead.before):
-        model.adopt(ahead.after)
-        return ahead.plans
-    return [_plan(model, data)[1] for data in datas]
+    return out, Lookahead(model, model.clone(), list(out), plans, probe)
 
 
 class Runner:
@@ -191,14 +188,16 @@ class Runner:
             side.close()
 
     # -- steps ---------------------------------------------------------------------------------
-    def exchange(self, datas: Sequence[bytes]) -> List[List[bytes]]:
-        """Send every input followed by a fence (back to back), then check each answer."""
+    def exchange(self, datas: Sequence[bytes], lookahead: Optional[Lookahead] = None) -> List[List[bytes]]:
+        """Send every input followed by a fence (back to back), then check each answer.
+        ``lookahead``: what :func:`guard_debug` predicted for these inputs, if it did."""
         answers: List[List[bytes]] = []
         for side in self.sides:
             # Pipelined inputs are all fed to the model first; each keeps the state before and
             # after it, which is what its answer (and any line printed meanwhile) is judged by.
             records_before = len(getattr(side.link.target, "line_records", ()))
-            plans = _predict(side.model, datas)
+            plans = (lookahead.take(side.model, datas) if lookahead is not None else None) \
+                or [_plan(side.model, data)[1] for data in datas]
             fates = [fate for plan in plans for fate in plan.fates]
             self.stats.count("liveness")
             try:

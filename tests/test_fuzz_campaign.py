@@ -103,39 +103,31 @@ def test_planted_fault_behind_a_cmd_proxy_replays_as_the_same_finding(tmp_path):
     assert b"Error" in finding.details["received"]
 
 
-@pytest.mark.parametrize("fault,finding", [(None, None), ("mute", "state")])
-def test_state_oracle_expects_reports_from_a_selected_mode(fault, finding):
-    """`select 1` on the motor must report within a 400 ms wait; a HAT that stays silent fails."""
+def _oracle_after(fault, line: bytes, wait_ms: int):
+    """The oracle that fails when ``line`` is sent and ``wait_ms`` pass (None: no finding),
+    against the emulator with ``fault`` planted (None: as it is)."""
     from buildhat_conformance.fuzz.oracles import Finding
     from buildhat_conformance.fuzz.runner import Runner
     factory = _faults().FAULTS[fault] if fault else None
     runner = Runner([("target", _opener(factory), get_profile("R7"))], 0.3, True, devices=LAYOUT)
     try:
         runner.start()
-        runner.exchange([b"select 1\r"])
-        runner.wait(400)
-        got = None
+        runner.exchange([line])
+        runner.wait(wait_ms)
+        return None
     except Finding as exc:
-        got = exc.oracle
+        return exc.oracle
     finally:
         runner.close()
-    assert got == finding
+
+
+@pytest.mark.parametrize("fault,finding", [(None, None), ("mute", "state")])
+def test_state_oracle_expects_reports_from_a_selected_mode(fault, finding):
+    """`select 1` on the motor must report within a 400 ms wait; a HAT that stays silent fails."""
+    assert _oracle_after(fault, b"select 1\r", 400) == finding
 
 
 @pytest.mark.parametrize("fault,finding", [(None, None), ("plimit", "state")])
 def test_state_oracle_checks_the_drive_against_plimit(fault, finding):
     """`set 0.5` in direct PWM mode drives 0.1 * 255 (the default plimit, §7.3): 25, not more."""
-    from buildhat_conformance.fuzz.oracles import Finding
-    from buildhat_conformance.fuzz.runner import Runner
-    factory = _faults().FAULTS[fault] if fault else None
-    runner = Runner([("target", _opener(factory), get_profile("R7"))], 0.3, True, devices=LAYOUT)
-    try:
-        runner.start()
-        runner.exchange([b"set 0.5\r"])
-        runner.wait(50)
-        got = None
-    except Finding as exc:
-        got = exc.oracle
-    finally:
-        runner.close()
-    assert got == finding
+    assert _oracle_after(fault, b"set 0.5\r", 50) == finding
