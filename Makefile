@@ -25,8 +25,10 @@ test: $(STAMP)
 bench: $(STAMP)
 	$(VENV)/bin/buildhat-conformance bench
 
+## Static checks: ruff, and pyright (basedpyright, basic mode) over the package, imports included.
 lint: $(STAMP)
 	$(VENV)/bin/ruff check .
+	$(VENV)/bin/basedpyright
 
 clean:
 	rm -rf $(VENV) reports/*.xml reports/*.html reports/fuzz build *.egg-info

@@ -15,8 +15,7 @@ import platform
 import time
 from typing import Callable, List, Optional, Tuple
 
-from buildhat_conformance import __version__
-
+from ..harness.version import __version__
 from .figures import Figure, render_table, write_json
 
 # (name, measure, [(figure, key)], most runs or None). A group whose one run takes minutes

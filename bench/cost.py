@@ -5,8 +5,8 @@ import os
 import time
 from typing import Dict
 
-from buildhat_conformance.harness.session import Session
-from buildhat_conformance.harness.targets import open_target
+from ..harness.session import Session
+from ..harness.targets import open_target
 
 # Powered up before the host opens the port: the devices' set-up is not what is measured.
 FOUR_MOTORS = "emulator:latest?speed=1&booted=1&device=0=0x30&device=1=0x30&device=2=0x31&device=3=0x41"
@@ -66,7 +66,7 @@ def memory_in_this_process(lines: int = 1_000_000, batch: int = 100) -> Dict:
     with its output read and discarded as a host would. Batches stay well below the
     firmware's 8192-byte receive ring, and every line's answer is counted, so no line is
     silently dropped."""
-    from buildhat_conformance.emulator import Emulator
+    from ..emulator import Emulator
 
     emu = Emulator()
     emu.boot()

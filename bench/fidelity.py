@@ -11,8 +11,8 @@ from __future__ import annotations
 import statistics
 from typing import Dict, List
 
-from buildhat_conformance.harness.session import Session
-from buildhat_conformance.harness.targets import open_target
+from ..harness.session import Session
+from ..harness.targets import open_target
 
 # Real time, powered up before the host opens the port (start-up and device set-up are not what
 # is measured, and took 2.5 s of every run at real time).

@@ -52,7 +52,7 @@ def suite_run(scaled: bool, speed: float = SCALED_SPEED, keyword: Optional[str] 
     """One run of the suite; ``scaled``: at ``speed``, else at real time (speed 1). The JUnit
     file is kept in ``keep`` (``suite-speed<N>.xml``: per-case times and waits, to see where
     the overhead is)."""
-    from buildhat_conformance.conformance.runner import pytest_argv
+    from ..conformance.runner import pytest_argv
 
     speed = speed if scaled else 1.0
     with tempfile.TemporaryDirectory(prefix="bench-suite-") as tmp:
@@ -77,8 +77,6 @@ def suite_run(scaled: bool, speed: float = SCALED_SPEED, keyword: Optional[str] 
 
 
 def _has_randomly() -> bool:
-    try:
-        import pytest_randomly  # noqa: F401
-    except ImportError:
-        return False
-    return True
+    import importlib.util
+
+    return importlib.util.find_spec("pytest_randomly") is not None

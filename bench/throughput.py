@@ -19,8 +19,8 @@ import random
 import time
 from typing import Dict, List, Optional
 
-from buildhat_conformance.harness.targets import make_target
-from buildhat_conformance.protocol.profiles import Profile, get_profile
+from ..harness.targets import make_target
+from ..protocol.profiles import Profile, get_profile
 
 WIRE_BYTES_PER_S = 11520.0     # 115200 baud, 8N1: ten bits a byte (FIRMWARE-FACTS §1)
 POOL_SIZE = 400
@@ -35,8 +35,8 @@ def input_pool(profile: Profile, n: int = POOL_SIZE, seed: int = 1) -> List[byte
     from hypothesis import HealthCheck, given, settings
     from hypothesis import seed as hseed
 
-    from buildhat_conformance.fuzz.grammar import grammar_for
-    from buildhat_conformance.fuzz.strategies import fuzz_input
+    from ..fuzz.grammar import grammar_for
+    from ..fuzz.strategies import fuzz_input
 
     key = (profile.name, n, seed)
     if key in _POOLS:
@@ -76,9 +76,9 @@ def synchronous(profile: Profile, pool: List[bytes]) -> List[bytes]:
 
 
 def _prelude_model(profile: Profile):  # type: ignore[no-untyped-def]
-    from buildhat_conformance.fuzz.link import FENCE
-    from buildhat_conformance.fuzz.model import HatModel
-    from buildhat_conformance.fuzz.runner import PRELUDE
+    from ..fuzz.link import FENCE
+    from ..fuzz.model import HatModel
+    from ..fuzz.runner import PRELUDE
 
     m = HatModel(profile)
     m.feed(PRELUDE + FENCE)
@@ -87,7 +87,7 @@ def _prelude_model(profile: Profile):  # type: ignore[no-untyped-def]
 
 def _predicted_bytes(model, data: bytes) -> int:  # type: ignore[no-untyped-def]
     """Bytes the model says ``data`` (and its fence) will print; the model is advanced."""
-    from buildhat_conformance.fuzz.link import FENCE
+    from ..fuzz.link import FENCE
     items, _ = model.feed(data)
     fence, _ = model.feed(FENCE)
     return sum(len(i.data) if i.kind == "exact" else (4000 if i.kind == "listing" else 80)
@@ -100,9 +100,9 @@ def checked_rate(url: str, seconds: float, out_limit: Optional[int] = None, seed
 
     ``out_limit``: cap the predicted output of one batch (bytes), for paced links.
     Returns lines_per_s and the byte counts both ways (fences included: they cross the wire)."""
-    from buildhat_conformance.fuzz.link import FENCE
-    from buildhat_conformance.fuzz.oracles import Finding
-    from buildhat_conformance.fuzz.runner import Runner, guard_debug
+    from ..fuzz.link import FENCE
+    from ..fuzz.oracles import Finding
+    from ..fuzz.runner import Runner, guard_debug
 
     profile = get_profile(None)
     pool = input_pool(profile, seed=seed)
@@ -187,7 +187,7 @@ FUZZ_BATCH = 8
 
 
 def _fuzz_measure(url: str, seconds: float) -> Dict:
-    from buildhat_conformance.fuzz.bench import measure_throughput
+    from ..fuzz.bench import measure_throughput
 
     res = dict(measure_throughput(url, seconds=seconds, batch=FUZZ_BATCH))
     n = int(res.get("findings") or 0)
@@ -218,9 +218,9 @@ def baud_paced(seconds: float = 8.0, baud: int = 115200) -> Dict:
 
 def campaign_rate(seconds: float = 5.0) -> Dict:
     """A whole Hypothesis campaign in-process (generation and shrinking included), for comparison."""
-    from buildhat_conformance.fuzz.campaign import parse_budget, run_campaign
-    from buildhat_conformance.fuzz.machine import FuzzConfig
-    from buildhat_conformance.fuzz.runner import Stats
+    from ..fuzz.campaign import parse_budget, run_campaign
+    from ..fuzz.machine import FuzzConfig
+    from ..fuzz.runner import Stats
 
     stats = Stats()
     config = FuzzConfig(open_primary=lambda: make_target("inprocess"), profile=get_profile(None), stats=stats)
@@ -229,7 +229,7 @@ def campaign_rate(seconds: float = 5.0) -> Dict:
 
 
 def _one_pty(seconds: float, seed: int) -> Dict:
-    from buildhat_conformance.fuzz.bench import measure_throughput
+    from ..fuzz.bench import measure_throughput
 
     return dict(measure_throughput("emulator:latest?speed=1", seconds=seconds, batch=FUZZ_BATCH,
                                    seed_value=seed))

@@ -1,16 +1,11 @@
-"""Loads the conformance plugin when pytest runs this folder (``pytest conformance --target URL``)."""
-from buildhat_conformance.conformance.fixtures import empty_port, motor_port, second_motor_port  # noqa: E402,F401
-from buildhat_conformance.conformance.plugin import *  # noqa: F401,F403
-from buildhat_conformance.conformance.plugin import (  # noqa: F401 - hooks and fixtures pytest must see
-    _conformance_case,
-    _run,
-    _world_changes,
-    hat,
-    pytest_addoption,
-    pytest_configure,
-    verdict,
-    world,
-)
+"""Loads the conformance plugin when pytest runs this folder (``pytest conformance --target URL``).
 
-# H10: several targets at once (xdist, one worker per HAT); inert with a single target.
-pytest_plugins = ["buildhat_conformance.conformance.multitarget"]
+Plugins are named by their package path, so each loads once, under the name the rest of the
+package imports it by.
+"""
+pytest_plugins = [
+    "buildhat_conformance.conformance.collect",     # test modules import under the package name
+    "buildhat_conformance.conformance.plugin",      # options, the `hat` fixture, verdicts, JUnit
+    "buildhat_conformance.conformance.fixtures",    # port fixtures
+    "buildhat_conformance.conformance.multitarget", # several targets at once; inert with one
+]

@@ -11,7 +11,7 @@ import time
 from dataclasses import dataclass, field
 from typing import Any, Callable, List, Optional, Union
 
-from buildhat_conformance.protocol.profiles import Profile
+from ..protocol.profiles import Profile
 
 __all__ = ["Hat", "Reply", "TargetGone"]
 
@@ -395,8 +395,7 @@ class Hat:
     def _ports_needing_power(self) -> tuple[int, ...]:
         """Ports with a device that disconnects without motor power (the light matrix, per
         devices.json): the fence must not switch their drive off."""
-        from buildhat_conformance.protocol.devices import catalogue
-
+        from ..protocol.devices import catalogue
         from .oracles.listing import parse_list
         try:
             entries = parse_list(self.exchange("list").list_lines())

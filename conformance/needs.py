@@ -14,8 +14,7 @@ from typing import Any, Dict, List, Optional, Tuple
 
 import pytest
 
-from buildhat_conformance.protocol.devices import active_device, passive_device
-
+from ..protocol.devices import active_device, passive_device
 from . import operator
 from .oracles.listing import PortEntry, parse_list
 

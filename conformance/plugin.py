@@ -15,8 +15,7 @@ from typing import Any, Dict, List, Optional, Tuple
 
 import pytest
 
-from buildhat_conformance.protocol.requirements import requirements
-
+from ..protocol.requirements import requirements
 from .junit import Case, JUnitFile
 from .link import Hat
 from .needs import World
@@ -107,10 +106,10 @@ class Run:
             return self.hat
         if self.open_error:
             pytest.fail(self.open_error, pytrace=False)
-        from buildhat_conformance.harness.session import Session
-        from buildhat_conformance.harness.targets import make_target
-        from buildhat_conformance.harness.transcript import TranscriptWriter
-        from buildhat_conformance.protocol.profiles import get_profile
+        from ..harness.session import Session
+        from ..harness.targets import make_target
+        from ..harness.transcript import TranscriptWriter
+        from ..protocol.profiles import get_profile
 
         between = TranscriptWriter(os.path.join(self.transcripts, "_between-cases.jsonl"),
                                    {"target": self.url, "firmware": "unknown", "case": "between cases"})
@@ -267,7 +266,7 @@ def hat(_run: Run) -> Hat:
 @pytest.fixture(autouse=True)
 def _conformance_case(request: Any, _run: Run) -> Any:
     """Per case: its own transcript, the resynchronising fence, and its JUnit properties."""
-    from buildhat_conformance.harness.transcript import TranscriptWriter
+    from ..harness.transcript import TranscriptWriter
 
     hat = _run.open()
     item = request.node

@@ -29,8 +29,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def suite_dir() -> str:
-    from buildhat_conformance import conformance
-    return os.path.dirname(os.path.abspath(conformance.__file__))
+    return os.path.dirname(os.path.abspath(__file__))
 
 
 def pytest_argv(args: argparse.Namespace) -> List[str]:
@@ -55,7 +54,7 @@ def pytest_argv(args: argparse.Namespace) -> List[str]:
 
 def build_html_report(junit: str) -> None:
     """Write ``index.html`` beside the JUnit file (reports/ for `make conformance`)."""
-    from buildhat_conformance.harness.report import build_report
+    from ..harness.report import build_report
 
     try:
         out = build_report([junit], os.path.join(os.path.dirname(junit), "index.html"))

@@ -10,8 +10,8 @@ import threading
 import time
 from typing import Optional
 
-from buildhat_conformance.harness.targets.base import Target
-from buildhat_conformance.harness.transcript import TranscriptWriter
+from ..harness.targets.base import Target
+from ..harness.transcript import TranscriptWriter
 
 __all__ = ["TeeTarget"]
 

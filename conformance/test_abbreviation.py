@@ -13,8 +13,7 @@ from typing import List
 
 import pytest
 
-from buildhat_conformance.protocol.profiles import get_profile, load_profiles
-
+from ..protocol.profiles import get_profile, load_profiles
 from .command_probes import probe
 from .link import Hat
 from .oracles.commands import ambiguous_prefixes, resolve, shortest_resolving_prefix, unique_prefix

@@ -5,8 +5,7 @@ import re
 
 import pytest
 
-from buildhat_conformance.protocol.devices import catalogue
-
+from ..protocol.devices import catalogue
 from .link import Hat
 from .needs import World
 from .oracles.listing import render_active

@@ -4,8 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from buildhat_conformance.protocol.devices import active_type_ids, catalogue
-
+from ..protocol.devices import active_type_ids, catalogue
 from .link import Hat
 from .needs import World
 from .oracles.listing import parse_list, render_active, render_port

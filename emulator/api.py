@@ -13,9 +13,8 @@ from __future__ import annotations
 
 from typing import Any, Callable, Dict, List, Mapping, Optional, Union
 
-from buildhat_conformance.protocol.devices import DEFAULT_LAYOUT, parse_device_spec
-from buildhat_conformance.protocol.profiles import Profile, get_profile, load_profiles
-
+from ..protocol.devices import DEFAULT_LAYOUT, parse_device_spec
+from ..protocol.profiles import Profile, get_profile, load_profiles
 from .bootloader import Bootloader, bootloader_checksum
 from .hat import Hat
 from .uart import Uart

@@ -20,8 +20,7 @@ import hashlib
 import os
 from typing import Any, Callable, Dict, List, Optional, Union
 
-from buildhat_conformance.protocol.profiles import bootloader_data
-
+from ..protocol.profiles import bootloader_data
 from .lineeditor import CRLF, LineEditor
 from .parser import CommandError, Cursor
 from .uart import Uart

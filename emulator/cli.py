@@ -61,7 +61,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _devices(specs: List[str], parser: argparse.ArgumentParser) -> Dict[int, Optional[tuple]]:
-    from buildhat_conformance.protocol.devices import parse_device_spec
+    from ..protocol.devices import parse_device_spec
 
     out: Dict[int, Optional[tuple]] = {}
     for item in specs:
@@ -76,7 +76,7 @@ def _devices(specs: List[str], parser: argparse.ArgumentParser) -> Dict[int, Opt
 
 
 def _check(args: argparse.Namespace, parser: argparse.ArgumentParser) -> None:
-    from buildhat_conformance.protocol.profiles import get_profile
+    from ..protocol.profiles import get_profile
 
     try:
         get_profile(args.firmware)
@@ -112,9 +112,8 @@ def _lint(args: argparse.Namespace):
 
 
 def _run_script(args: argparse.Namespace, devices: Dict[int, Optional[tuple]]) -> int:
-    from buildhat_conformance import __version__
-    from buildhat_conformance.harness.script import ScriptError, load_script
-
+    from ..harness.script import ScriptError, load_script
+    from ..harness.version import __version__
     from .runners.script_runner import ScriptRunError, run_script
 
     try:

@@ -19,8 +19,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any, Callable, Dict, List, Optional
 
-from buildhat_conformance.protocol.profiles import Profile, get_profile
-
+from ..protocol.profiles import Profile, get_profile
 from .commands import run_line
 from .controller import PortController
 from .faults import FaultMonitor

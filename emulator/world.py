@@ -24,7 +24,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any, Callable, Dict, Tuple
 
-from buildhat_conformance.harness.script import Action, parse_world_action
+from ..harness.script import Action, parse_world_action
 
 if TYPE_CHECKING:
     from .hat import Hat

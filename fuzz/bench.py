@@ -6,7 +6,7 @@ generated inputs in pipelined batches (each input followed by its fence) for ``s
 counts. Start-up, Hypothesis's own generation and shrinking are outside the timed part, so the
 figure is the link's steady state:
 
-    from buildhat_conformance.fuzz.bench import measure_throughput
+    from .bench import measure_throughput
     measure_throughput("inprocess")                 # the emulator in this process, virtual time
     measure_throughput("emulator:R7", batch=8)      # buildhat-emulator on a pty, real time
     measure_throughput("/dev/serial0", batch=8)     # a real HAT (its state is reset by the prelude)
@@ -21,10 +21,9 @@ from typing import Callable, Dict, List, Optional, Tuple
 
 from hypothesis import HealthCheck, Phase, given, seed, settings
 
-from buildhat_conformance.harness.targets import make_target
-from buildhat_conformance.harness.targets.base import Target
-from buildhat_conformance.protocol.profiles import Profile
-
+from ..harness.targets import make_target
+from ..harness.targets.base import Target
+from ..protocol.profiles import Profile
 from .grammar import grammar_for
 from .oracles import Finding
 from .runner import Runner, guard_debug

@@ -15,12 +15,11 @@ import sys
 import time
 from typing import Callable, Dict, List, Optional, Tuple
 
-from buildhat_conformance.harness.script import load_script
-from buildhat_conformance.harness.targets import make_target
-from buildhat_conformance.harness.targets.base import Target, TargetError
-from buildhat_conformance.protocol.devices import DEFAULT_LAYOUT
-from buildhat_conformance.protocol.profiles import Profile, get_profile
-
+from ..harness.script import load_script
+from ..harness.targets import make_target
+from ..harness.targets.base import Target, TargetError
+from ..protocol.devices import DEFAULT_LAYOUT
+from ..protocol.profiles import Profile, get_profile
 from .campaign import CampaignResult, parse_budget, run_campaign
 from .findings import write_finding, write_junit
 from .grammar import grammar_for
@@ -82,7 +81,7 @@ def opener_for(url: str) -> Callable[[], Target]:
 
 def detect_profile(open_target: Callable[[], Target], timeout: float = 2.0) -> Profile:
     """The release a target runs, from its answer to ``version`` (via the harness session)."""
-    from buildhat_conformance.harness.session import Session
+    from ..harness.session import Session
     session = Session(open_target())
     try:
         session.open(timeout=timeout)

@@ -11,8 +11,7 @@ from __future__ import annotations
 import math
 from typing import List, Optional, Tuple
 
-from buildhat_conformance.harness.events import Event, classify
-
+from ..harness.events import Event, classify
 from .stream import ASYNC_KINDS
 
 __all__ = ["compare_answers", "VIN_TOLERANCE_V", "VALUE_TOLERANCE", "synchronous_part"]

@@ -13,10 +13,9 @@ import re
 from typing import Dict, List, Optional, Sequence
 from xml.sax.saxutils import escape, quoteattr
 
-from buildhat_conformance.harness.script import Action, format_action
-from buildhat_conformance.harness.transcript import TranscriptWriter
-from buildhat_conformance.protocol.devices import DEFAULT_LAYOUT
-
+from ..harness.script import Action, format_action
+from ..harness.transcript import TranscriptWriter
+from ..protocol.devices import DEFAULT_LAYOUT
 from .link import Trace
 from .oracles import ORACLES, Finding
 

@@ -18,7 +18,7 @@ import re
 from dataclasses import dataclass
 from typing import Dict, List, Optional, Tuple, Union
 
-from buildhat_conformance.protocol.profiles import Profile, get_profile
+from ..protocol.profiles import Profile, get_profile
 
 __all__ = ["ARG_KINDS", "Arg", "Repeat", "Form", "CommandRule", "Grammar", "grammar_for",
            "resolving_prefixes", "SIGNATURES"]

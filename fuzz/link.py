@@ -15,7 +15,7 @@ import time
 from dataclasses import dataclass, field
 from typing import List, Optional, Sequence, Tuple
 
-from buildhat_conformance.harness.targets.base import Target, TargetError
+from ..harness.targets.base import Target, TargetError
 
 __all__ = ["Link", "Trace", "FENCE", "LinkTimeout", "WIRE_BYTES_PER_S"]
 

@@ -14,9 +14,8 @@ import hypothesis
 from hypothesis import strategies as st
 from hypothesis.stateful import RuleBasedStateMachine, precondition, rule
 
-from buildhat_conformance.harness.targets.base import Target
-from buildhat_conformance.protocol.profiles import Profile
-
+from ..harness.targets.base import Target
+from ..protocol.profiles import Profile
 from .grammar import grammar_for
 from .runner import Runner, Stats, guard_debug
 from .strategies import FAMILIES, FuzzInput, fuzz_input

@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 from functools import cache, lru_cache
 from typing import Dict, List, Optional, Tuple, Union
 
-from buildhat_conformance.protocol.profiles import Profile
+from ..protocol.profiles import Profile
 
 __all__ = ["HatModel", "PortModel", "Expect", "LineFate", "UNSPECIFIED", "CR", "LINE_MAX", "expected_duty",
            "joined"]
@@ -630,7 +630,7 @@ def expected_duty(profile: Profile, p: PortModel, global_plimit: int) -> Optiona
 
 def _mode_count(type_id: int) -> int:
     """How many modes an active device has (the device catalogue); 0 if it is not catalogued."""
-    from buildhat_conformance.protocol.devices import active_device
+    from ..protocol.devices import active_device
     try:
         return int(active_device(type_id).get("mode_count", 0))
     except KeyError:

@@ -10,10 +10,9 @@ from __future__ import annotations
 import time
 from typing import Callable, List, Optional, Tuple
 
-from buildhat_conformance.harness.script import Action, Script
-from buildhat_conformance.harness.targets.base import Target
-from buildhat_conformance.protocol.profiles import Profile
-
+from ..harness.script import Action, Script
+from ..harness.targets.base import Target
+from ..protocol.profiles import Profile
 from .link import FENCE
 from .oracles import Finding
 from .replay import replay_script

@@ -8,10 +8,9 @@ from __future__ import annotations
 
 from typing import Callable, List, Optional, Tuple, Union
 
-from buildhat_conformance.harness.script import Script, load_script
-from buildhat_conformance.harness.targets.base import Target
-from buildhat_conformance.protocol.profiles import Profile
-
+from ..harness.script import Script, load_script
+from ..harness.targets.base import Target
+from ..protocol.profiles import Profile
 from .link import FENCE
 from .oracles import Finding
 from .runner import Runner

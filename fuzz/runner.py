@@ -7,10 +7,9 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Callable, Dict, List, Optional, Sequence, Set, Tuple
 
-from buildhat_conformance.harness.events import line_kind
-from buildhat_conformance.harness.targets.base import Target, TargetError
-from buildhat_conformance.protocol.profiles import Profile
-
+from ..harness.events import line_kind
+from ..harness.targets.base import Target, TargetError
+from ..protocol.profiles import Profile
 from .differential import compare_answers
 from .link import FENCE, Link, LinkTimeout
 from .model import Expect, HatModel, LineFate, PortModel, established, expected_duty, joined

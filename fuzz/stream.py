@@ -12,9 +12,8 @@ from dataclasses import dataclass, field
 from functools import lru_cache
 from typing import List, Optional, Tuple
 
-from buildhat_conformance.harness.events import Event, classify, line_kind
-from buildhat_conformance.protocol.profiles import Profile
-
+from ..harness.events import Event, classify, line_kind
+from ..protocol.profiles import Profile
 from .model import Expect
 
 __all__ = ["Problem", "MatchResult", "match_stream", "ASYNC_KINDS", "allowed_kinds", "split_lines"]

@@ -12,10 +12,10 @@ import os
 import re
 import sys
 
-from buildhat_conformance.harness.errors import NeedsCapability, TargetError
-from buildhat_conformance.harness.script import ScriptError, load_script
-from buildhat_conformance.harness.script_runner import run_script
-from buildhat_conformance.harness.targets import make_target
+from .errors import NeedsCapability, TargetError
+from .script import ScriptError, load_script
+from .script_runner import run_script
+from .targets import make_target
 
 EXIT_OK, EXIT_FAILED, EXIT_USAGE, EXIT_NEEDS = 0, 1, 2, 3
 _LAYOUT_SCHEMES = ("emulator", "inprocess")

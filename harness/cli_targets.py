@@ -13,10 +13,10 @@ from typing import List
 
 from serial.tools import list_ports
 
-from buildhat_conformance.harness.targets import TargetError, url_forms
-from buildhat_conformance.harness.targets.emulator import emulator_command
-from buildhat_conformance.harness.targets.serial import pi5_debug_uart_remark
-from buildhat_conformance.protocol.profiles import DEFAULT_FIRMWARE, load_profiles
+from ..protocol.profiles import DEFAULT_FIRMWARE, load_profiles
+from .targets import TargetError, url_forms
+from .targets.emulator import emulator_command
+from .targets.serial import pi5_debug_uart_remark
 
 # Raspberry Pi aliases that list_ports may not report (they are symlinks).
 _PI_LINKS = ("/dev/serial0", "/dev/serial1")

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from typing import Optional
 
-from buildhat_conformance.harness.targets.base import NeedsCapability, TargetError
+from .targets.base import NeedsCapability, TargetError
 
 __all__ = ["TargetError", "NeedsCapability", "SessionError", "ExpectTimeout"]
 

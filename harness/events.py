@@ -286,7 +286,7 @@ PORT_STATUS_KINDS: FrozenSet[str] = frozenset({"list_port", "connected_passive"}
 @lru_cache(maxsize=1)
 def _help_lines() -> FrozenSet[str]:
     """Every help-text line of every release and of the bootloader (§4.3, §9)."""
-    from buildhat_conformance.protocol.profiles import bootloader_data, load_profiles
+    from ..protocol.profiles import bootloader_data, load_profiles
     lines = set()
     for p in load_profiles().values():
         lines.update(p.help_lines)

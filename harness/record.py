@@ -42,7 +42,7 @@ def _now_iso() -> str:
 
 
 def _tool_version() -> str:
-    from buildhat_conformance import __version__
+    from .version import __version__
 
     return __version__
 
@@ -244,7 +244,7 @@ def main(args: argparse.Namespace) -> int:
         except TargetError as exc:
             print(f"record: {exc}", file=sys.stderr)
             return 2
-        from buildhat_conformance.protocol.devices import DEFAULT_LAYOUT
+        from ..protocol.devices import DEFAULT_LAYOUT
 
         timeout = 30.0 if args.boot_timeout is None else args.boot_timeout
         layout = dict(DEFAULT_LAYOUT)

@@ -97,7 +97,7 @@ def plan_replay(transcript: Transcript, transcript_path: Optional[str] = None,
     layout = None
     devices = transcript.meta.get("devices")
     if isinstance(devices, dict):
-        from buildhat_conformance.protocol.devices import parse_device_spec
+        from ..protocol.devices import parse_device_spec
 
         layout = {int(p): parse_device_spec(str(s)) for p, s in devices.items()}
     if script is not None:
@@ -350,7 +350,7 @@ def replay(transcript: Transcript, target, plan: Optional[Plan] = None,  # type:
 
 
 def _tool_version() -> str:
-    from buildhat_conformance import __version__
+    from .version import __version__
 
     return __version__
 

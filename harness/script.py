@@ -11,7 +11,7 @@ import os
 from dataclasses import dataclass, field
 from typing import Dict, List, Optional, Tuple, Union
 
-from buildhat_conformance.protocol.devices import DEFAULT_LAYOUT, parse_device_spec
+from ..protocol.devices import DEFAULT_LAYOUT, parse_device_spec
 
 __all__ = ["Action", "Script", "ScriptError", "parse_script", "load_script", "unescape_raw",
            "escape_raw", "WORLD_ACTIONS", "format_action"]

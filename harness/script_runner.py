@@ -15,14 +15,14 @@ import time
 from dataclasses import dataclass, field
 from typing import Dict, List, Optional
 
-from buildhat_conformance import __version__
-from buildhat_conformance.harness.errors import NeedsCapability, TargetError
-from buildhat_conformance.harness.events import Event
-from buildhat_conformance.harness.script import Script
-from buildhat_conformance.harness.session import Session
-from buildhat_conformance.harness.targets.base import Target
-from buildhat_conformance.harness.transcript import TranscriptWriter
-from buildhat_conformance.protocol.devices import DEFAULT_LAYOUT
+from ..protocol.devices import DEFAULT_LAYOUT
+from .errors import NeedsCapability, TargetError
+from .events import Event
+from .script import Script
+from .session import Session
+from .targets.base import Target
+from .transcript import TranscriptWriter
+from .version import __version__
 
 __all__ = ["ScriptResult", "run_script", "check_capabilities", "target_layout", "format_layout",
            "TAIL_MS"]

@@ -28,11 +28,11 @@ import time
 import weakref
 from typing import Callable, List, Optional, Pattern, Union
 
-from buildhat_conformance.harness.errors import ExpectTimeout, NeedsCapability, SessionError, TargetError
-from buildhat_conformance.harness.events import KINDS, Event, LineSplitter
-from buildhat_conformance.harness.targets.base import Target
-from buildhat_conformance.harness.transcript import TranscriptWriter
-from buildhat_conformance.protocol.profiles import Profile, get_profile, resolve_version
+from ..protocol.profiles import Profile, get_profile, resolve_version
+from .errors import ExpectTimeout, NeedsCapability, SessionError, TargetError
+from .events import KINDS, Event, LineSplitter
+from .targets.base import Target
+from .transcript import TranscriptWriter
 
 __all__ = ["Session", "Match", "describe_events"]
 

@@ -5,8 +5,7 @@ from __future__ import annotations
 import random
 from typing import Optional, Union
 
-from buildhat_conformance.protocol.devices import active_device, parse_device_spec
-
+from ...protocol.devices import active_device, parse_device_spec
 from .active import ActiveDevice
 from .matrix import MatrixDevice
 from .motor import MotorDevice

@@ -1,7 +1,7 @@
 """Passive devices (IDs 1..11): what the HAT's ID scan reads on the port's ID pins."""
 from __future__ import annotations
 
-from buildhat_conformance.protocol.devices import passive_device, passive_ids
+from ...protocol.devices import passive_device, passive_ids
 
 __all__ = ["PassiveDevice", "BUTTON_ID", "BUTTON_RELEASED"]
 

@@ -19,7 +19,7 @@ import termios
 import tty
 from typing import Any, List, Optional
 
-from buildhat_conformance.harness.pty import open_raw_pty
+from ...harness.pty import open_raw_pty
 
 __all__ = ["PtyLink", "TcpLink", "StdioLink", "OUT_LIMIT", "parse_tcp_address"]
 

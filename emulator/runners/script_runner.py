@@ -12,9 +12,8 @@ from __future__ import annotations
 import math
 from typing import IO, Any, Dict, List, Optional, Tuple
 
-from buildhat_conformance.harness.script import Script
-from buildhat_conformance.harness.transcript import TranscriptWriter
-
+from ...harness.script import Script
+from ...harness.transcript import TranscriptWriter
 from ..api import Emulator
 from ..world import WorldError
 

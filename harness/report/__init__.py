@@ -44,8 +44,7 @@ def _plots(runs, max_plots: int) -> list:  # type: ignore[no-untyped-def]
 
 def build_report(junit_paths: Sequence[str], out_path: str, max_plots: int = MAX_PLOTS) -> str:
     """Write the HTML report for one or more JUnit files; returns ``out_path``."""
-    from buildhat_conformance import __version__
-
+    from ..version import __version__
     from .coverage import coverage
     from .excerpt import excerpt_lines
     from .html import render_html

@@ -7,8 +7,7 @@ from collections import Counter
 from dataclasses import dataclass, field
 from typing import Dict, List, Sequence, Tuple
 
-from buildhat_conformance.protocol.requirements import Requirement, requirements
-
+from ...protocol.requirements import Requirement, requirements
 from .junit import VERDICTS, Case, Run
 
 __all__ = ["Row", "Coverage", "coverage"]

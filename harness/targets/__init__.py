@@ -17,7 +17,7 @@ import importlib
 import os
 from typing import Callable, Dict, List, Tuple
 
-from buildhat_conformance.harness.targets.base import Control, NeedsCapability, Target, TargetError
+from .base import Control, NeedsCapability, Target, TargetError
 
 __all__ = ["make_target", "open_target", "register", "url_forms", "Target", "Control", "TargetError",
            "NeedsCapability"]

@@ -15,7 +15,7 @@ import subprocess
 import threading
 from typing import Deque, List, Optional
 
-from buildhat_conformance.harness.targets.base import Target, TargetError
+from .base import Target, TargetError
 
 __all__ = ["CommandTarget", "from_url", "stop_process_group"]
 

@@ -26,10 +26,10 @@ from urllib.parse import parse_qs, urlsplit
 import pexpect
 import serial
 
-from buildhat_conformance.harness.script import WORLD_ACTIONS
-from buildhat_conformance.harness.targets.base import Control, TargetError
-from buildhat_conformance.harness.targets.pyserial_base import PyserialTarget
-from buildhat_conformance.protocol.devices import DEFAULT_LAYOUT, parse_device_spec
+from ...protocol.devices import DEFAULT_LAYOUT, parse_device_spec
+from ..script import WORLD_ACTIONS
+from .base import Control, TargetError
+from .pyserial_base import PyserialTarget
 
 __all__ = ["EmulatorTarget", "EmulatorControl", "from_url", "emulator_command", "format_device_spec"]
 

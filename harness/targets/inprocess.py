@@ -27,7 +27,7 @@ import types
 from typing import Callable, Dict, List, Optional, Tuple
 from urllib.parse import parse_qs
 
-from buildhat_conformance.harness.targets.base import Control, Target, TargetError
+from .base import Control, Target, TargetError
 
 __all__ = ["InProcessTarget", "InProcessControl", "from_url"]
 
@@ -92,7 +92,7 @@ class InProcessTarget(Target):
     def _new(self):  # type: ignore[no-untyped-def]
         if self.factory is not None:
             return self.factory(firmware=self.firmware, devices=self.devices, seed=self.seed, baud=self.baud)
-        from buildhat_conformance.emulator import Emulator
+        from ...emulator import Emulator
         try:
             return Emulator(firmware=self.firmware, devices=self.devices, seed=self.seed, baud=self.baud)
         except KeyError as exc:
@@ -195,7 +195,7 @@ def _independent_copy(obj):  # type: ignore[no-untyped-def]
 
 
 def _parse_devices(values: List[str]) -> Dict[int, object]:
-    from buildhat_conformance.protocol.devices import parse_device_spec
+    from ...protocol.devices import parse_device_spec
     out: Dict[int, object] = {}
     for v in values:
         port, sep, spec = v.partition("=")

@@ -12,7 +12,7 @@ from typing import Optional
 
 import serial
 
-from buildhat_conformance.harness.targets.base import Target, TargetError
+from .base import Target, TargetError
 
 __all__ = ["PyserialTarget", "BAUD"]
 

@@ -10,8 +10,8 @@ from urllib.parse import urlsplit
 
 import serial
 
-from buildhat_conformance.harness.targets.base import TargetError
-from buildhat_conformance.harness.targets.pyserial_base import BAUD, PyserialTarget
+from .base import TargetError
+from .pyserial_base import BAUD, PyserialTarget
 
 __all__ = ["PyserialUrlTarget", "from_url", "SCHEMES"]
 

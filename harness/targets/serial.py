@@ -15,8 +15,8 @@ from urllib.parse import parse_qs, unquote, urlsplit
 
 import serial
 
-from buildhat_conformance.harness.targets.base import TargetError
-from buildhat_conformance.harness.targets.pyserial_base import BAUD, PyserialTarget
+from .base import TargetError
+from .pyserial_base import BAUD, PyserialTarget
 
 __all__ = ["SerialTarget", "from_url", "pi5_debug_uart_remark", "port_holders"]
 
