@@ -37,8 +37,8 @@ def describe_events(events: Sequence[Event], partial: bytes = b"", limit: int = 
     if not events:
         return f"no complete line arrived, only output not ended by CRLF: {partial[-200:]!r}"
     shown = list(events[-limit:])
-    lines: List[str] = [f"{len(events)} event(s) arrived" + (f", the last {len(shown)}:" if len(shown) < len(events)
-                                                             else ":")]
+    tail = f", the last {len(shown)}:" if len(shown) < len(events) else ":"
+    lines: List[str] = [f"{len(events)} event(s) arrived{tail}"]
     lines += [f"  {e}" for e in shown]
     if partial:
         lines.append(f"  and output not ended by CRLF: {partial[-200:]!r}")
