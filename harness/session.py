@@ -501,7 +501,8 @@ class Session(Identification):
                 continue     # the answer was garbled: the next attempt brings a fresh token
             with self._cond:
                 self._splitter.forget_pending()
-                banner = self.events.scan(lambda e: e.kind == "banner", start)
+                banner = self.events.scan(lambda e: e.kind == "banner" and e.fields.get("stage") == "help_hint",
+                                          start)
             self.echo_on = False
             self._note_answer(self.events[answer])
             self._cursor = answer + 1
