@@ -52,6 +52,11 @@ def _flush_live_sessions() -> None:
         s._flush_transcript()
 
 
+def _restart_line(e: Event) -> bool:
+    """the first line of a start-up banner (FACTS §5, §9)"""
+    return e.kind == "banner" and e.fields.get("stage") == "help_hint"
+
+
 def _event_weight(e: Event) -> int:
     # What an event costs in memory, roughly: its bytes, its text and the object around them.
     return 2 * len(e.raw) + 300
@@ -125,6 +130,23 @@ class Session(Identification):
             if hat is not None:
                 return (hat - self._hat0) / self.time_scale
         return (time.monotonic() - self._t0) * 1000.0
+
+    def clock(self) -> float:
+        """Seconds on the session's clock: the wall clock, or for a virtual-time target its
+        HAT time divided by the time scale. Deadlines and durations measured by callers use
+        this, so a virtual-time run never waits on the wall clock."""
+        return self.now_ms() / 1000.0 if self.virtual else time.monotonic()
+
+    def sleep(self, seconds: float) -> None:
+        """Let ``seconds`` pass on :meth:`clock` (a virtual-time target is stepped, not waited
+        for). Unlike :meth:`wait_ms` it counts nothing as mandatory waiting."""
+        if seconds <= 0:
+            self._check()
+        elif self.virtual:
+            self._wait_index(lambda e: False, len(self.events), seconds)
+        else:
+            time.sleep(seconds)
+            self._check()
 
     @property
     def time_scale(self) -> float:
@@ -501,8 +523,7 @@ class Session(Identification):
                 continue     # the answer was garbled: the next attempt brings a fresh token
             with self._cond:
                 self._splitter.forget_pending()
-                banner = self.events.scan(lambda e: e.kind == "banner" and e.fields.get("stage") == "help_hint",
-                                          start)
+                banner = self.events.scan(_restart_line, start)
             self.echo_on = False
             self._note_answer(self.events[answer])
             self._cursor = answer + 1
@@ -523,13 +544,7 @@ class Session(Identification):
         """Let ``ms`` milliseconds of HAT time pass (real time divided by the time scale)."""
         if ms > 0:
             self.note_wait(ms)
-        if ms <= 0:
-            self._check()
-        elif self.virtual:
-            self._wait_index(lambda e: False, len(self.events), ms / 1000.0 / self.time_scale)
-        else:
-            time.sleep(ms / 1000.0 / self.time_scale)
-            self._check()
+        self.sleep(ms / 1000.0 / self.time_scale)
 
     def note_wait(self, hat_ms: float) -> None:
         """Count ``hat_ms`` of HAT time as waiting the protocol requires (H10: callers that
