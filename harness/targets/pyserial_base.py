@@ -12,7 +12,7 @@ from typing import Optional
 
 import serial
 
-from .base import Target, TargetError
+from .base import WRITE_DEADLINE_S, NotReading, Target, TargetError
 
 __all__ = ["PyserialTarget", "BAUD"]
 
@@ -51,8 +51,13 @@ class PyserialTarget(Target):
     def write(self, data: bytes) -> None:
         port = self._require_port()
         try:
+            # The port's write_timeout is the write deadline (port_settings): pyserial raises
+            # SerialTimeoutException when the bytes were not taken in time.
             port.write(data)
             port.flush()
+        except serial.SerialTimeoutException:
+            raise NotReading(f"{self.url} stopped reading: {len(data):,} bytes not taken in "
+                             f"{self.write_deadline:g} s") from None
         except (serial.SerialException, OSError) as exc:
             raise TargetError(f"writing to {self.url} failed: {exc}") from exc
 
@@ -101,7 +106,7 @@ class PyserialTarget(Target):
 
     @staticmethod
     def port_settings() -> dict:
-        """115200 8N1, no flow control, short read timeout."""
+        """115200 8N1, no flow control, short read timeout, the write deadline."""
         return dict(baudrate=BAUD, bytesize=serial.EIGHTBITS, parity=serial.PARITY_NONE,
                     stopbits=serial.STOPBITS_ONE, xonxoff=False, rtscts=False, dsrdtr=False,
-                    timeout=_SLICE, write_timeout=5.0)
+                    timeout=_SLICE, write_timeout=WRITE_DEADLINE_S)

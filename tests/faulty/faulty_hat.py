@@ -1,7 +1,7 @@
 """A faulty Build HAT for ``cmd:`` targets: ``buildhat-emulator --stdio`` behind a link fault.
 
     cmd:python tests/faulty/faulty_hat.py KIND [--after N] [--flood-seconds S] [--garbage-mb M]
-        [-- emulator options...]
+        [--on PREFIX] [--log FILE] [-- emulator options...]
 
 KIND (link_faults.py): ``drop`` / ``corrupt`` one line ending once; ``reboot`` once (the
 emulator is restarted and prints its start-up banner again); go ``silent``; ``deaf`` (stop
@@ -40,15 +40,25 @@ def _write(data: bytes) -> None:
         view = view[n:]
 
 
+def _note(path, text: str) -> None:
+    print(f"faulty_hat: {text}", file=sys.stderr, flush=True)
+    if path:
+        with open(path, "a", encoding="utf-8") as f:
+            f.write(text + "\n")
+
+
 def main(argv: list) -> int:
     parser = argparse.ArgumentParser(prog="faulty_hat.py")
     parser.add_argument("kind", choices=KINDS)
     parser.add_argument("--after", type=int, default=40, help="host lines before the fault fires")
     parser.add_argument("--flood-seconds", type=float, default=0.0, help="flood duration (0: forever)")
     parser.add_argument("--garbage-mb", type=float, default=2.0)
-    parser.add_argument("emulator", nargs="*", help="buildhat-emulator options (after --)")
-    opts = parser.parse_args(argv)
-    fault = LinkFault(opts.kind, opts.after)
+    parser.add_argument("--on", default=None, help="fire at the first host line (after --after) starting so")
+    parser.add_argument("--log", default=None, help="append a line here when the fault fires (for tests)")
+    cut = argv.index("--") if "--" in argv else len(argv)
+    opts = parser.parse_args(argv[:cut])
+    opts.emulator = argv[cut + 1:]       # buildhat-emulator options, after --
+    fault = LinkFault(opts.kind, opts.after, on=opts.on.encode() if opts.on else None)
     child = _emulator(opts.emulator)
     stdin = 0
     if opts.kind == "deaf":
@@ -72,7 +82,10 @@ def main(argv: list) -> int:
                 data = os.read(child.stdout.fileno(), 65536)
                 if not data:
                     return child.wait()
+                was_done = fault.done
                 out = fault.output(data)
+                if fault.done and not was_done:
+                    _note(opts.log, f"{fault.kind}: output {data[:80]!r} went out as {out[:80]!r}")
                 if out:
                     _write(out)
             if stdin in ready:
@@ -81,6 +94,9 @@ def main(argv: list) -> int:
                     child.stdin.close()
                     return child.wait()
                 fired = fault.host(data)
+                if fired:
+                    _note(opts.log, f"{fault.kind} fired after {fault.host_lines} host lines; "
+                                    f"the last: {data[-60:]!r}")
                 if fault.fired and fault.kind == "silent":
                     continue       # swallowed: a hung HAT
                 child.stdin.write(data)
