@@ -29,7 +29,7 @@ __all__ = ["Resync", "BABBLE_LINES", "BABBLE_BINARY", "QUIET_S"]
 #: the host asking nothing, that make the target a babbler (a flood): a HAT prints nothing unasked
 #: but its reports, and those are known kinds.
 BABBLE_LINES = 10
-QUIET_S = 0.2
+QUIET_S = 0.5
 #: Binary bytes (not printable text, CR or LF) in one case's output above which it is garbage;
 #: a test's own control bytes echoed back are a few dozen at most.
 BABBLE_BINARY = 1024
@@ -50,6 +50,8 @@ class Resync:
         self._scanned = self.session.mark()  # events before this were looked at for a start-up banner
         self._case_bytes = 0            # byte offset where the current case's traffic began
         self._case_events = 0           # event index where the current case's traffic began
+        self._cases = 0                 # cases begun (resyncs)
+        self._babbled_in = -2           # the case in which the target was last heard babbling
         #: The HAT restarted; the next resync puts the suite's preconditions back.
         self.rebooted = False
         self.restarts = 0               # restarts seen (and recovered from) in this run
@@ -117,14 +119,20 @@ class Resync:
             return None
         # Many unknown lines: a firmware answering wrongly, or something babbling? Listen a
         # moment without asking anything; a HAT (even a buggy one) prints no such lines unasked.
-        mark = s.mark()
-        s.sleep(QUIET_S)
-        unasked = [e for e in s.events[mark:] if e.kind == "unknown"]
-        if len(unasked) < BABBLE_LINES:
-            return None
-        return TargetFault(GARBLED, f"a flood of lines no Build HAT prints: {len(unasked):,} came in "
-                                    f"{QUIET_S:g} s while the host asked nothing (the first: "
-                                    f"{unasked[0].text[:60]!r})")
+        mark, deadline = s.mark(), s.clock() + QUIET_S
+        unasked: List[Any] = []
+        while len(unasked) < BABBLE_LINES and s.clock() < deadline:
+            s.wait_new(s.mark(), deadline - s.clock())
+            unasked = [e for e in s.events[mark:] if e.kind == "unknown"]
+        if len(unasked) >= BABBLE_LINES:
+            self._babbled_in = self._cases
+            return TargetFault(GARBLED, f"a flood of lines no Build HAT prints: {len(unasked):,} more came "
+                                        f"while the host asked nothing (the first: {unasked[0].text[:60]!r})")
+        if self._babbled_in >= self._cases - 1:
+            # The flood heard in the last case ended during this one.
+            return TargetFault(GARBLED, f"{unknown:,} lines no Build HAT prints came during this case, the "
+                                        "end of the flood heard in the case before")
+        return None
 
     def cleanup_lines(self, powered: tuple[int, ...] = ()) -> List[str]:
         """What the fence between test cases sends: echo/debug off, every port quiet and in
@@ -158,6 +166,7 @@ class Resync:
         s = self.session
         self._case_bytes = len(s.received)
         self._case_events = s.mark()
+        self._cases += 1
         for _round in range(3):
             start = s.mark()
             try:

@@ -12,7 +12,7 @@ from typing import Optional
 
 import serial
 
-from .base import WRITE_DEADLINE_S, NotReading, Target, TargetError
+from .base import NotReading, Target, TargetError
 
 __all__ = ["PyserialTarget", "BAUD"]
 
@@ -104,9 +104,8 @@ class PyserialTarget(Target):
             raise TargetError(f"{self.url} is not open")
         return self.port
 
-    @staticmethod
-    def port_settings() -> dict:
+    def port_settings(self) -> dict:
         """115200 8N1, no flow control, short read timeout, the write deadline."""
         return dict(baudrate=BAUD, bytesize=serial.EIGHTBITS, parity=serial.PARITY_NONE,
                     stopbits=serial.STOPBITS_ONE, xonxoff=False, rtscts=False, dsrdtr=False,
-                    timeout=_SLICE, write_timeout=WRITE_DEADLINE_S)
+                    timeout=_SLICE, write_timeout=self.write_deadline)
