@@ -108,7 +108,7 @@ def gpio_reset_from_options(values: Dict[str, str], url: str,
     extra = [k for k in ("chip", "reset_line", "boot0_line") if k in values]
     if kind is None:
         if extra:
-            raise TargetError(f"{url}: {', '.join(extra)} only mean something with reset=gpio")
+            raise TargetError(f"{url}: {', '.join(extra)} mean something only with reset=gpio")
         return None
     if kind != "gpio":
         raise TargetError(f"{url}: reset={kind!r} is not known; the one way is reset=gpio (a Raspberry Pi's "
