@@ -7,6 +7,7 @@ import os
 import pathlib
 import subprocess
 import sys
+import time
 
 import gpiod
 import pytest
@@ -71,8 +72,8 @@ def test_reset_pulse_is_the_official_sequence():
     chip, sleeps = FakeChip(), []
     GpioReset("/dev/gpiochip4", request_lines=chip, sleep=sleeps.append).reset(bootloader=True)
     # BOOT0 (22) low from the start, RESET (4) high, then low 10 ms, high 10 ms, release, 0.5 s
-    assert chip.log[0] == ("request", "/dev/gpiochip4", {BOOT0_LINE: Value.INACTIVE, RESET_LINE: Value.ACTIVE},
-                           "buildhat-conformance")
+    levels = {BOOT0_LINE: Value.INACTIVE, RESET_LINE: Value.ACTIVE}
+    assert chip.log[0] == ("request", "/dev/gpiochip4", levels, "buildhat-conformance")
     assert chip.log[1:] == [("set", 4, Value.INACTIVE), ("set", 4, Value.ACTIVE), ("release",)]
     assert sleeps == [0.01, 0.01, 0.5]
     assert chip.level[BOOT0_LINE] == Value.INACTIVE       # never raised: a raised BOOT0 is the USB ROM
@@ -121,7 +122,6 @@ def test_load_resets_a_running_hat_through_gpio(tmp_path):
     control = EmulatorControl(sock)
     try:
         pty = emu.stdout.readline().strip()
-        import time
         control.connect(time.monotonic() + 20)
         # the wire: RESET rising again after it was low restarts the HAT (in its bootloader: BOOT0 low)
         def wire(line, value):
