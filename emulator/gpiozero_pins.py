@@ -24,8 +24,8 @@ from .control_client import ENV_ADDRESS, ControlClient, ControlError
 
 __all__ = ["EmulatorPinFactory", "EmulatorPin", "HAT_PINS"]
 
-#: BCM GPIO number -> the pin name ``@gpio`` takes.
-HAT_PINS = {4: "reset", 22: "boot0"}
+#: gpiozero's name of the BCM GPIO -> the pin name ``@gpio`` takes.
+HAT_PINS = {"GPIO4": "reset", "GPIO22": "boot0"}
 
 
 class EmulatorPin(MockPin):
@@ -44,7 +44,7 @@ class EmulatorPin(MockPin):
         self._tell()
 
     def _tell(self) -> None:
-        name = HAT_PINS.get(self.info.number)
+        name = HAT_PINS.get(self.info.name)     # (info.number is the header pin: 7 for GPIO4)
         if name is None:
             return
         level = ("1" if self._state else "0") if self._function == "output" else "z"
