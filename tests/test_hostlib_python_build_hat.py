@@ -1,7 +1,8 @@
 """The real python-build-hat library from PyPI, unmodified, over the emulator's pty (GitHub issue 8).
 
 Matrix: buildhat 0.9.0 against the release it bundles (1737564117), 0.5.7 against 1636109636; and
-0.5.12 against 1636109636, which it replaces by its own image after a GPIO reset (our gpiozero pin factory). Every
+0.5.12 against 1636109636, which it replaces by its own image after a GPIO reset (our gpiozero pin
+factory). Every
 scenario (tests/hostlib/scenarios/) runs in the library's own venv with a hard time limit; the values
 it reports are checked against what the emulator was told (tests/hostlib/matrix.py). All scenarios
 start together on the first test that needs one, so the part costs about its longest scenario.
@@ -197,7 +198,8 @@ def test_gpio_reset_then_upload_of_the_bundled_image(outcomes) -> None:
     low = [i for i, n in enumerate(notes) if n.startswith("RESET (GPIO 4) pulled low")]
     up = [i for i, n in enumerate(notes) if n.startswith("RESET (GPIO 4) released with BOOT0 0")]
     assert low and up and low[0] < up[0], notes
-    hat_text = "".join(e.get("line", "") + e.get("partial", "") for e in got.transcript if e.get("dir") == "hat")
+    hat_text = "".join(e.get("line", "") + e.get("partial", "")
+                       for e in got.transcript if e.get("dir") == "hat")
     host_text = "".join(e.get("bytes", "") for e in got.transcript if e.get("dir") == "host")
     assert "BHBL>" in hat_text and "Checksum OK" in hat_text and "Rebooting..." in hat_text, hat_text[-2000:]
     assert "clear\r" in host_text and re.search(r"load \d+ \d+\r", host_text), host_text[:300]
@@ -209,7 +211,7 @@ def test_gpio_reset_then_upload_of_the_bundled_image(outcomes) -> None:
     assert v["color.reflected"] == hl.COLOR["reflected"], got.explain()
     assert v["color.rgbi"] == [int(x / 1024 * 255) for x in hl.COLOR["rgbi"]], got.explain()
     assert v["distance"] == hl.DISTANCE["far"], got.explain()
-    # The matrix has no read-back: set_pixels and clear are 3 lines each (select, write1, deselect), all taken.
+    # No read-back of the matrix: set_pixels and clear are 3 lines each (select, write1, deselect), all taken.
     before, after = json.loads(v["lint_before_matrix"]), json.loads(v["lint_after_matrix"])
     assert after["lines"] - before["lines"] >= 6 and after["counts"]["error"] == 0, (before, after)
     assert "matrix.set_pixels.error" not in v and "matrix.clear.error" not in v, got.explain()
