@@ -100,13 +100,21 @@ def flood_memory(seconds: float = FLOOD_SECONDS) -> Dict:
             for line in open(log, encoding="utf-8"):
                 if line.startswith("flood ended after "):
                     flooded = int(line.split()[3])
-        kept = 0
+        # The flood's lines are numbered: the transcript is complete when it holds every number
+        # up to the last the HAT sent (the log's count; the highest seen if the HAT was stopped
+        # before it could log, e.g. when the harness could not keep up and the script ended).
+        kept, highest = 0, -1
         if os.path.exists(transcript):
             with open(transcript, encoding="utf-8") as fh:
-                kept = sum(1 for line in fh if '"line":"FLOOD ' in line)
+                for line in fh:
+                    at = line.find('"line":"FLOOD ')
+                    if at >= 0:
+                        kept += 1
+                        highest = max(highest, int(line[at + 14:].split(" ", 1)[0]))
+        flooded = flooded or highest + 1
         if not flooded:
             raise RuntimeError(f"the flood did not run (script: {err.strip()[-200:]})")
         if os.environ.get("BENCH_KEEP_FLOOD"):
             shutil.copyfile(transcript, os.environ["BENCH_KEEP_FLOOD"])
     return {"rss_mib": peak / 1024.0, "kept_pct": 100.0 * kept / flooded,
-            "note": f"{seconds:g} s flood, {flooded:,} lines; the issue's 10 min: run flood_memory(600)"}
+            "note": f"{seconds:g} s flood, {flooded:,} lines; the issue's 10 min: flood_memory(600)"}
