@@ -10,7 +10,7 @@ did is said in one line (conformance/target_fault.py).
 """
 from __future__ import annotations
 
-from typing import Any, List, Optional
+from typing import TYPE_CHECKING, Any, List, Optional
 
 from ..harness.errors import ExpectTimeout, TargetError
 from .target_fault import (
@@ -39,9 +39,14 @@ class Resync:
     """The link-recovery half of :class:`conformance.link.Hat` (a mixin: it uses the Hat's
     session, event cursor and ``exchange``)."""
 
-    session: Any
-    _next: int
-    _fence_own: set
+    if TYPE_CHECKING:   # provided by Hat
+        session: Any
+        _next: int
+        _fence_own: set
+
+        def exchange(self, text: Any, timeout_ms: float = ...) -> Any: ...
+        def seconds(self, hat_ms: float) -> float: ...
+        def has(self, command: str) -> bool: ...
 
     def _init_resync(self) -> None:
         self._powered_checked = False
@@ -57,15 +62,6 @@ class Resync:
         self.restarts = 0               # restarts seen (and recovered from) in this run
         self._restart_asked = False     # the case reset the HAT itself (a world action)
         self._restart_at: Optional[int] = None
-
-    def exchange(self, text: Any, timeout_ms: float = 2000) -> Any:  # the Hat's
-        raise NotImplementedError
-
-    def seconds(self, hat_ms: float) -> float:  # the Hat's
-        raise NotImplementedError
-
-    def has(self, command: str) -> bool:  # the Hat's
-        raise NotImplementedError
 
     def _recover(self, start: int, start_byte: int, waited: float) -> TargetFault:
         """The counted fence found no answer: sync by content to put the link back in step, and
