@@ -82,3 +82,25 @@ def test_a_serial_port_nobody_reads_is_found_out_at_the_deadline() -> None:
         target.close()
         os.close(master)
         os.close(slave)
+
+
+def test_a_socket_nobody_reads_is_found_out_at_the_deadline() -> None:
+    import socket
+
+    server = socket.socket()
+    server.bind(("127.0.0.1", 0))
+    server.listen(1)
+    target = make_target(f"socket://127.0.0.1:{server.getsockname()[1]}")
+    target.write_deadline = DEADLINE
+    target.open()
+    peer, _ = server.accept()        # accepted, never read
+    try:
+        began = time.monotonic()
+        with pytest.raises(NotReading, match="stopped reading"):
+            for _ in range(16):      # the kernel's socket buffers hold a few MB
+                target.write(MUCH)
+        assert time.monotonic() - began < 30
+    finally:
+        target.close()
+        peer.close()
+        server.close()
