@@ -17,6 +17,7 @@ figures are blank and say why.
 from __future__ import annotations
 
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -29,6 +30,7 @@ REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 FAULTY = os.path.join(REPO, "tests", "faulty", "faulty_hat.py")
 FLOOD_SECONDS = 60.0
 EMULATOR = ["--", "--booted", "--speed", "20"]
+_FLOOD_NUMBER = re.compile(r"FLOOD (\d+) the quick")
 
 
 def _command(name: str) -> List[str]:
@@ -103,15 +105,16 @@ def flood_memory(seconds: float = FLOOD_SECONDS) -> Dict:
         # The flood's lines are numbered: the transcript is complete when it holds every number
         # up to the last the HAT sent (the log's count; the highest seen if the HAT was stopped
         # before it could log, e.g. when the harness could not keep up and the script ended).
-        kept, highest = 0, -1
+        # A flood line can share a transcript line with the HAT's own output (the two are
+        # interleaved on the link), so numbers are looked for anywhere in the HAT's text.
+        seen = set()
         if os.path.exists(transcript):
             with open(transcript, encoding="utf-8") as fh:
                 for line in fh:
-                    at = line.find('"line":"FLOOD ')
-                    if at >= 0:
-                        kept += 1
-                        highest = max(highest, int(line[at + 14:].split(" ", 1)[0]))
-        flooded = flooded or highest + 1
+                    if '"dir":"hat"' in line:
+                        seen.update(int(n) for n in _FLOOD_NUMBER.findall(line))
+        kept = len(seen)
+        flooded = flooded or (max(seen) + 1 if seen else 0)
         if not flooded:
             raise RuntimeError(f"the flood did not run (script: {err.strip()[-200:]})")
         if os.environ.get("BENCH_KEEP_FLOOD"):
