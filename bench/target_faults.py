@@ -16,6 +16,7 @@ figures are blank and say why.
 """
 from __future__ import annotations
 
+import json
 import os
 import re
 import shutil
@@ -105,14 +106,22 @@ def flood_memory(seconds: float = FLOOD_SECONDS) -> Dict:
         # The flood's lines are numbered: the transcript is complete when it holds every number
         # up to the last the HAT sent (the log's count; the highest seen if the HAT was stopped
         # before it could log, e.g. when the harness could not keep up and the script ended).
-        # A flood line can share a transcript line with the HAT's own output (the two are
-        # interleaved on the link), so numbers are looked for anywhere in the HAT's text.
+        # The HAT's byte stream is every `partial` and every `line` + CRLF in order (TRANSCRIPT.md):
+        # a line that waited for its end is a partial and then a line, and a flood line can share
+        # a line with the HAT's own output, so numbers are looked for in that stream.
         seen = set()
         if os.path.exists(transcript):
             with open(transcript, encoding="utf-8") as fh:
-                for line in fh:
-                    if '"dir":"hat"' in line:
-                        seen.update(int(n) for n in _FLOOD_NUMBER.findall(line))
+                carry = ""
+                for text in fh:
+                    if '"dir":"hat"' not in text:
+                        continue
+                    event = json.loads(text)
+                    if "partial" in event:
+                        carry += event["partial"]
+                    elif "line" in event:
+                        seen.update(int(n) for n in _FLOOD_NUMBER.findall(carry + event["line"]))
+                        carry = ""
         kept = len(seen)
         flooded = flooded or (max(seen) + 1 if seen else 0)
         if not flooded:

@@ -23,12 +23,15 @@ from .target_fault import (
     target_fault_of,
 )
 
-__all__ = ["Resync", "BABBLE_LINES", "BABBLE_BINARY", "QUIET_S"]
+__all__ = ["Resync", "BABBLE_LINES", "BABBLE_BURST", "BABBLE_BINARY", "QUIET_S"]
 
 #: Lines no Build HAT prints (event kind ``unknown``), in one case and again in QUIET_S seconds of
 #: the host asking nothing, that make the target a babbler (a flood): a HAT prints nothing unasked
 #: but its reports, and those are known kinds.
 BABBLE_LINES = 10
+#: As many such lines in one case are a flood whatever follows: no answer is that long (a
+#: release's whole help text is ~60 lines, and those are known).
+BABBLE_BURST = 100
 QUIET_S = 0.5
 #: Binary bytes (not printable text, CR or LF) in one case's output above which it is garbage;
 #: a test's own control bytes echoed back are a few dozen at most.
@@ -113,6 +116,10 @@ class Resync:
         unknown = sum(1 for e in s.events[self._case_events:] if e.kind == "unknown")
         if unknown < BABBLE_LINES:
             return None
+        if unknown >= BABBLE_BURST:
+            self._babbled_in = self._cases
+            return TargetFault(GARBLED, f"a flood of lines no Build HAT prints: {unknown:,} came during this "
+                                        "case")
         # Many unknown lines: a firmware answering wrongly, or something babbling? Listen a
         # moment without asking anything; a HAT (even a buggy one) prints no such lines unasked.
         mark, deadline = s.mark(), s.clock() + QUIET_S

@@ -8,7 +8,7 @@ older than the bound are gone, and slices that reach back before them start at t
 """
 from __future__ import annotations
 
-from typing import Callable, Generic, Iterator, List, Optional, TypeVar, Union, overload
+from typing import Callable, Generic, Iterator, List, Optional, Tuple, TypeVar, Union, overload
 
 __all__ = ["EventHistory", "ByteHistory", "MAX_EVENTS", "MAX_BYTES"]
 
@@ -28,21 +28,31 @@ class EventHistory(Generic[T]):
     def __init__(self, limit: int = MAX_EVENTS, weigh: Optional[Callable[[T], int]] = None,
                  max_weight: int = MAX_EVENT_BYTES):
         self.limit = max(1, int(limit))
-        self._items: List[T] = []
-        self.dropped = 0                  # how many items were forgotten (the index of _items[0])
+        # (how many items were forgotten, the items kept): one attribute, replaced whole when
+        # trimming, so a reader in another thread never sees a count and a list that disagree.
+        self._state: Tuple[int, List[T]] = (0, [])
         self._weigh = weigh
         self._weights: List[int] = []
         self._weight = 0
         self.max_weight = max_weight
 
+    @property
+    def dropped(self) -> int:
+        return self._state[0]
+
+    @property
+    def _items(self) -> List[T]:
+        return self._state[1]
+
     def __len__(self) -> int:
-        return self.dropped + len(self._items)
+        dropped, items = self._state
+        return dropped + len(items)
 
     def append(self, item: T) -> None:
         self.extend([item])
 
     def extend(self, items: List[T]) -> None:
-        self._items.extend(items)
+        self._state[1].extend(items)
         if self._weigh is not None:
             weights = [self._weigh(i) for i in items]
             self._weights.extend(weights)
@@ -62,15 +72,15 @@ class EventHistory(Generic[T]):
             return
         if excess <= 0:
             return
-        del self._items[:excess]
+        dropped, kept = self._state
+        self._state = (dropped + excess, kept[excess:])
         if self._weigh is not None:
             self._weight -= sum(self._weights[:excess])
             del self._weights[:excess]
-        self.dropped += excess
 
     def scan(self, pred: Callable[[T], bool], start: int) -> Optional[int]:
         """Absolute index of the first kept item from ``start`` on that satisfies ``pred``."""
-        items, base = self._items, self.dropped
+        base, items = self._state
         for k in range(max(0, start - base), len(items)):
             if pred(items[k]):
                 return k + base
@@ -83,14 +93,15 @@ class EventHistory(Generic[T]):
     def __getitem__(self, index: slice) -> List[T]: ...
 
     def __getitem__(self, index: Union[int, slice]) -> Union[T, List[T]]:
+        dropped, items = self._state
         if isinstance(index, slice):
-            start, stop, step = index.indices(len(self))
-            return self._items[max(0, start - self.dropped):max(0, stop - self.dropped):step]
+            start, stop, step = index.indices(dropped + len(items))
+            return items[max(0, start - dropped):max(0, stop - dropped):step]
         if index < 0:
-            index += len(self)
-        if index < self.dropped:
+            index += dropped + len(items)
+        if index < dropped:
             raise IndexError(f"event {index} is no longer kept in memory (the transcript has it)")
-        return self._items[index - self.dropped]
+        return items[index - dropped]
 
     def __iter__(self) -> Iterator[T]:
         return iter(list(self._items))
@@ -109,37 +120,48 @@ class ByteHistory:
 
     def __init__(self, limit: int = MAX_BYTES):
         self.limit = max(1, int(limit))
-        self._data = bytearray()
-        self.dropped = 0
+        # (bytes forgotten, bytes kept), replaced whole when trimming (see EventHistory).
+        self._state: Tuple[int, bytearray] = (0, bytearray())
+
+    @property
+    def dropped(self) -> int:
+        return self._state[0]
+
+    @property
+    def _data(self) -> bytearray:
+        return self._state[1]
 
     def __len__(self) -> int:
-        return self.dropped + len(self._data)
+        dropped, data = self._state
+        return dropped + len(data)
 
     def __iadd__(self, data: bytes) -> ByteHistory:
-        self._data += data
-        excess = len(self._data) - self.limit
+        dropped, kept = self._state
+        kept += data
+        excess = len(kept) - self.limit
         if excess > self.limit // 4:
-            del self._data[:excess]
-            self.dropped += excess
+            self._state = (dropped + excess, kept[excess:])
         return self
 
     def __getitem__(self, index: Union[int, slice]) -> Union[int, bytes]:
+        dropped, data = self._state
         if isinstance(index, slice):
-            start, stop, step = index.indices(len(self))
-            return bytes(self._data[max(0, start - self.dropped):max(0, stop - self.dropped):step])
+            start, stop, step = index.indices(dropped + len(data))
+            return bytes(data[max(0, start - dropped):max(0, stop - dropped):step])
         if index < 0:
-            index += len(self)
-        if index < self.dropped:
+            index += dropped + len(data)
+        if index < dropped:
             raise IndexError(f"byte {index} is no longer kept in memory (the transcript has it)")
-        return self._data[index - self.dropped]
+        return data[index - dropped]
 
     def __bytes__(self) -> bytes:
         return bytes(self._data)
 
     def find(self, sub: bytes, start: int = 0) -> int:
         """Absolute offset of ``sub`` from ``start`` on, or -1."""
-        i = self._data.find(sub, max(0, start - self.dropped))
-        return -1 if i < 0 else i + self.dropped
+        dropped, data = self._state
+        i = data.find(sub, max(0, start - dropped))
+        return -1 if i < 0 else i + dropped
 
     def endswith(self, suffix: bytes) -> bool:
         return self._data.endswith(suffix)

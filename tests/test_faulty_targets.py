@@ -33,10 +33,12 @@ RUN_LIMIT_S = 180      # a bound, not a measurement: a run that hangs fails here
 
 # name: (faulty_hat.py arguments, suite files, extra suite options)
 RUNS = {
-    # One glitch of each kind in turn, each on a line a test case sends (`vin`), with cases between.
+    # One glitch of each kind in turn, each on a line a test case sends (`vin`), with cases between,
+    # and a short flood last. No stop after N faults in a row: on a loaded machine the harness
+    # reads the flood slowly, so it can reach into several cases.
     "glitches": (["drop,corrupt,reboot,garbage,flood", "--after", "0", "--gap", "10", "--on", "vin",
-                  "--garbage-mb", "0.5", "--flood-seconds", "0.5"],
-                 ["test_link.py", "test_separators.py"], []),
+                  "--garbage-mb", "0.5", "--flood-lines", "300"],
+                 ["test_link.py", "test_separators.py"], ["--max-target-faults", "0"]),
     "silent": (["silent", "--after", "0", "--on", "vin"], ["test_link.py"], ["--max-target-faults", "2"]),
     "deaf": (["deaf", "--after", "0", "--on", "vin"], ["test_link.py"], ["--max-target-faults", "1"]),
     "exit": (["exit", "--after", "0", "--on", "vin"], ["test_link.py"], []),
@@ -123,17 +125,19 @@ def test_after_each_single_glitch_the_following_cases_pass(runs: Dict[str, Run])
     run = runs["glitches"]
     fired = [line.split()[0] for line in run.log.splitlines() if " fired after " in line]
     assert fired == ["drop", "corrupt", "reboot", "garbage", "flood"], run.log
-    faults = [c for c in run.cases if c.verdict == "target-fault"]
-    # Each glitch costs at most the case it hit (a flood of 0.5 s at most two).
-    assert 3 <= len(faults) <= 6, [(c.name, c.message.splitlines()[0]) for c in faults]
-    assert "not-run" not in run.verdicts and not run.stopped
-    kinds = " ".join(c.message.splitlines()[0] for c in faults)
-    for what in ("(rebooted)", "binary garbage", "a flood of lines"):
-        assert what in kinds, kinds
-    # Between and after the glitches the HAT answers again and the cases pass.
+    lines = [c.message.splitlines()[0] if c.message else "" for c in run.cases]
+    flood = next(i for i, line in enumerate(lines) if "flood" in line)
+    single = [line for line in lines[:flood] if line.startswith("target fault")]
+    # Each single glitch (a lost or corrupted line ending, a restart, a burst of garbage) costs
+    # at most the case it hit; the cases between them pass.
+    assert 3 <= len(single) <= 4, single
+    for what in ("(rebooted)", "binary garbage"):
+        assert any(what in line for line in single), single
     assert all(v in ("pass", "informational", "known deviation", "target-fault") for v in run.verdicts)
-    last_fault = max(i for i, v in enumerate(run.verdicts) if v == "target-fault")
-    assert run.verdicts[last_fault + 1:].count("pass") >= 5, run.verdicts
+    assert run.verdicts[:flood].count("pass") >= flood - len(single) - 2, run.verdicts[:flood]
+    # After the flood has passed, the HAT answers again and the cases pass.
+    assert "not-run" not in run.verdicts and not run.stopped
+    assert run.verdicts[-5:] == ["pass"] * 5, run.verdicts
 
 
 def test_a_silent_hat_stops_the_run_after_n_faults_in_a_row(runs: Dict[str, Run]) -> None:

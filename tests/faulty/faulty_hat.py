@@ -7,9 +7,9 @@ KIND (link_faults.py), or several separated by commas, each firing ``--gap`` hos
 one before it has done its work: ``drop`` / ``corrupt`` one line ending once; ``reboot`` once (the
 emulator is restarted and prints its start-up banner again); go ``silent``; ``deaf`` (stop
 reading stdin; the stdin pipe is shrunk to one page, as small as a UART's buffers, so the
-host feels it within seconds); ``flood`` 3,000 junk lines/s (for ``--flood-seconds``, default
-forever); ``garbage`` (``--garbage-mb`` MiB of binary noise, then normal again); ``exit``
-mid-run. Each fires once the host has sent N lines (default 40).
+host feels it within seconds); ``flood`` 3,000 junk lines/s (for ``--flood-seconds`` or
+``--flood-lines``, default forever); ``garbage`` (``--garbage-mb`` MiB of binary noise, then
+normal again); ``exit`` mid-run. Each fires once the host has sent N lines (default 40).
 """
 from __future__ import annotations
 
@@ -63,6 +63,7 @@ def main(argv: list) -> int:
     parser.add_argument("--after", type=int, default=40, help="host lines before the fault fires")
     parser.add_argument("--gap", type=int, default=40, help="host lines between one fault's end and the next")
     parser.add_argument("--flood-seconds", type=float, default=0.0, help="flood duration (0: forever)")
+    parser.add_argument("--flood-lines", type=int, default=0, help="flood this many lines (0: no limit)")
     parser.add_argument("--garbage-mb", type=float, default=2.0)
     parser.add_argument("--on", default=None, help="fire at the first host line (after --after) starting so")
     parser.add_argument("--log", default=None, help="append a line here when the fault fires (for tests)")
@@ -89,10 +90,13 @@ def main(argv: list) -> int:
             ready, _, _ = select.select(reading, [], [], 0.001 if flooding else 0.5)
             if flooding:
                 due = int((time.monotonic() - flood_from) * FLOOD_PER_S) - flooded
+                if opts.flood_lines:
+                    due = min(due, opts.flood_lines - flooded)
                 if due > 0:
                     _write(fault.flood_lines(due, flooded))
                     flooded += due
-                if opts.flood_seconds and time.monotonic() - flood_from >= opts.flood_seconds:
+                if (opts.flood_seconds and time.monotonic() - flood_from >= opts.flood_seconds) or \
+                        (opts.flood_lines and flooded >= opts.flood_lines):
                     fault.done = True
                     _note(opts.log, f"flood ended after {flooded} lines")
             if child.stdout in ready:
