@@ -120,7 +120,8 @@ def test_junit_cases_carry_verdict_class_and_requirements(sample):
     assert by["test_ledmode_rig"].verdict == "skip"
     assert by["test_bias"].transcript == str(sample / "bias.jsonl")
     assert run.target == "emulator:1737564117" and run.profile == "R7"
-    assert run.counts() == {"pass": 2, "fail": 1, "skip": 1, "known_deviation": 1, "informational": 1}
+    assert run.counts() == {"pass": 2, "fail": 1, "skip": 1, "known_deviation": 1, "informational": 1,
+                            "target_fault": 0, "not_run": 0}
     assert run.problems == []
 
 

@@ -42,6 +42,41 @@ def _plots(runs, max_plots: int) -> list:  # type: ignore[no-untyped-def]
     return out
 
 
+def _triage(runs, failures):  # type: ignore[no-untyped-def]
+    """The first screen's data: failure groups, changes since each run's previous run of the
+    same target (when it lives in a run folder), deviation explanations, requirement statements."""
+    from ...conformance.deviations import deviations
+    from ...protocol.requirements import requirements
+    from .html import Triage
+    from .junit import read_junit
+    from .runs import previous_junit
+    from .triage import changes_since, group_failures
+
+    changes = {}
+    for run in runs:
+        prev = previous_junit(run.path)
+        if prev:
+            try:
+                changes[run.path] = (os.path.basename(os.path.dirname(prev)),
+                                     changes_since(read_junit(prev), run))
+            except (OSError, ValueError, SyntaxError):   # ElementTree's ParseError is a SyntaxError
+                changes[run.path] = None
+        else:
+            changes[run.path] = None
+    explained = {k: (d.explain, d.facts) for k, d in deviations().items()}
+    statements = {r.id: r.statement for r in requirements()}
+    return Triage(group_failures(failures), changes, explained, statements)
+
+
+def _timing_plots(runs) -> list:  # type: ignore[no-untyped-def]
+    from .plots import timing_plots
+    from .timing import collect_timing
+
+    paths = [(c.transcript, c.name) for run in runs for c in run.cases
+             if c.transcript and os.path.isfile(c.transcript)]
+    return timing_plots(collect_timing(paths))
+
+
 def build_report(junit_paths: Sequence[str], out_path: str, max_plots: int = MAX_PLOTS) -> str:
     """Write the HTML report for one or more JUnit files; returns ``out_path``."""
     from ..version import __version__
@@ -58,7 +93,7 @@ def build_report(junit_paths: Sequence[str], out_path: str, max_plots: int = MAX
     for run in runs:
         for case in run.cases:
             path = case.transcript
-            if case.verdict in ("fail", "known_deviation") and path and os.path.isfile(path):
+            if case.verdict in ("fail", "known_deviation", "target_fault") and path and os.path.isfile(path):
                 t: Optional[float] = None
                 raw_t = case.prop("transcript_t") or case.prop("fail_t")
                 if raw_t:
@@ -70,8 +105,10 @@ def build_report(junit_paths: Sequence[str], out_path: str, max_plots: int = MAX
                     excerpts[id(case)] = excerpt_lines(path, around_t=t)
                 except (OSError, ValueError):
                     pass
-    plots = _plots(runs, max_plots)
-    text = render_html(runs, coverage(runs), excerpts, plots, have_matplotlib(), __version__)
+    failures = [(r, c) for r in runs for c in r.cases if c.verdict == "fail"]
+    plots = _timing_plots(runs) + _plots(runs, max_plots)
+    text = render_html(runs, coverage(runs), excerpts, plots, have_matplotlib(), __version__,
+                       _triage(runs, failures))
     os.makedirs(os.path.dirname(os.path.abspath(out_path)), exist_ok=True)
     with open(out_path, "w", encoding="utf-8") as fh:
         fh.write(text)

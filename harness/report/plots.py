@@ -11,8 +11,10 @@ from typing import List, Optional
 
 from ..transcript import iter_events
 from .series import PidSeries, WaveRun, ideal_setpoint, pid_series, wave_runs
+from .timing import Timing
 
-__all__ = ["Plot", "have_matplotlib", "plot_pid", "plot_wave", "plots_for_transcript"]
+__all__ = ["Plot", "have_matplotlib", "plot_pid", "plot_wave", "plots_for_transcript", "plot_histogram",
+           "timing_plots"]
 
 
 @dataclass
@@ -79,7 +81,8 @@ def plot_wave(run: WaveRun, title: str) -> Optional[bytes]:
     end = run.measured_t[-1] if run.measured_t else run.t0 + 2000 * run.period
     n = 400
     ts = [run.t0 + (end - run.t0) * i / n for i in range(n + 1)]
-    ax.plot(ts, [ideal_setpoint(run, t) for t in ts], color="#999999", label="ideal (from the command)")
+    ax.plot(ts, [ideal_setpoint(run, t) for t in ts], color="#999999",
+            label="oracle: the shape the command asks for")
     ax.plot(run.measured_t, run.measured_sp, ".", color="#d62728", markersize=3,
             label="measured sp (debug 16)")
     ax.set_xlabel("time (ms)")
@@ -130,3 +133,34 @@ def plots_for_transcript(path: str, label: str = "", min_samples: int = 1) -> Li
         title = f"{name}: PID on P{port}"
         plots.append(Plot(title, "pid", plot_pid(s, title), _pid_summary(s)))
     return plots
+
+
+def plot_histogram(values: List[float], title: str, xlabel: str) -> Optional[bytes]:
+    if not have_matplotlib() or not values:
+        return None
+    plt, fig, (ax,) = _figure(1)
+    ax.hist(values, bins=min(40, max(5, len(values) // 5)), color="#1f77b4")
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel("count")
+    ax.set_title(title, fontsize=10)
+    return _png(plt, fig, 1)
+
+
+def timing_plots(timing: Timing) -> List[Plot]:
+    """The run's report-period histogram and done-lateness histogram, each with its numbers."""
+    out: List[Plot] = []
+    if timing.periods:
+        p = sorted(timing.periods)
+        title = "Report period: time between data lines of one port"
+        out.append(Plot(title, "periods", plot_histogram(p, title, "ms between lines"), [
+            f"{len(p)} intervals; median {p[len(p) // 2]:g} ms, min {p[0]:g} ms, max {p[-1]:g} ms "
+            "(FIRMWARE-FACTS §6.2: the reporting engine's period)"]))
+    if timing.lateness:
+        late = timing.lateness
+        worst = max(range(len(late)), key=lambda i: abs(late[i]))
+        title = "pulse/ramp done: lateness after the requested period"
+        out.append(Plot(title, "lateness", plot_histogram(late, title, "ms after t0 + period"), [
+            f"{len(late)} done line(s); lateness {min(late):g} .. {max(late):g} ms "
+            f"(worst: {timing.lateness_labels[worst]}); FIRMWARE-FACTS §7.1: the end comes after the "
+            "period's ticks, the first 0-10 ms after the command"]))
+    return out

@@ -188,8 +188,12 @@ def exchange_of(case: Case) -> Exchange:
             pick = commands[-1]
             # The command whose reply holds the received line that differs, if one does.
             probe = ex.first_received if ex.first_received not in ("", NOTHING) else ""
+            words = set(re.findall(r"[\w?]+", ex.why))
             if probe:
                 pick = next((c for c in reversed(commands) if probe in c[1]), pick)
+            elif words:
+                # A reason that names the command ("pid takes 10 parameters"): the last one sent.
+                pick = next((c for c in reversed(commands) if c[0].split()[0] in words), pick)
             ex.sent, ex.reply = pick[0], pick[1][:40]
     return ex
 
