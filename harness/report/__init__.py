@@ -84,7 +84,6 @@ def build_report(junit_paths: Sequence[str], out_path: str, max_plots: int = MAX
     from .excerpt import excerpt_lines
     from .html import render_html
     from .junit import read_junit
-    from .plots import have_matplotlib
 
     if not junit_paths:
         raise ValueError("build_report needs at least one JUnit file")
@@ -107,7 +106,7 @@ def build_report(junit_paths: Sequence[str], out_path: str, max_plots: int = MAX
                     pass
     failures = [(r, c) for r in runs for c in r.cases if c.verdict == "fail"]
     plots = _timing_plots(runs) + _plots(runs, max_plots)
-    text = render_html(runs, coverage(runs), excerpts, plots, have_matplotlib(), __version__,
+    text = render_html(runs, coverage(runs), excerpts, plots, __version__,
                        _triage(runs, failures))
     os.makedirs(os.path.dirname(os.path.abspath(out_path)), exist_ok=True)
     with open(out_path, "w", encoding="utf-8") as fh:

@@ -1,7 +1,6 @@
 """The self-contained HTML report: inline CSS, images as data URIs, no script, no network."""
 from __future__ import annotations
 
-import base64
 import datetime
 from dataclasses import dataclass, field
 from typing import Dict, List, Optional, Sequence, Tuple
@@ -59,7 +58,7 @@ td.n{text-align:right;font-variant-numeric:tabular-nums}
 white-space:pre-wrap;overflow-wrap:anywhere;margin:.3em 0}
 .muted{color:#777} .warn{color:#a00} .tag{display:inline-block;padding:0 5px;border-radius:3px;font-size:12px}
 figure{margin:1em 0;display:inline-block;width:49%;vertical-align:top} figcaption{font-size:12px;color:#555}
-img{max-width:100%;border:1px solid #ddd}
+svg.chart{max-width:100%;height:auto;border:1px solid #ddd;background:#fff}
 code{font-size:12px;white-space:pre-wrap;overflow-wrap:anywhere} td.tests,.tests{font-size:12px;color:#555}
 td.byrun{font-size:12px}
 .verdict{padding:1px 10px;border-radius:4px} .verdict.fail{background:#c62828;color:#fff}
@@ -73,7 +72,8 @@ color:#222;text-decoration:none} .chip b{font-size:15px}
 table.xr{width:100%;table-layout:fixed;margin:.2em 0}
 table.xr td,table.xr th{font:12px monospace;padding:1px 4px;
 white-space:pre-wrap;overflow-wrap:anywhere} table.xr th{font-family:inherit}
-tr.first td,.legendmark{background:#ffcdd2;outline:2px solid #c62828} tr.diff td{background:#fdeaea}
+tr.first td,span.first,.legendmark{background:#ffcdd2;outline:2px solid #c62828}
+tr.diff td{background:#fdeaea}
 .why{font-size:12.5px;margin:.2em 0} .case{border-left:3px solid #f9d0d0;padding-left:8px;margin:.5em 0}
 details>summary{cursor:pointer}
 """
@@ -136,7 +136,7 @@ def _coverage_section(cov: Coverage, runs: Sequence[Run]) -> str:
                     f'<td class="tests">{_e(tests)}</td></tr>')
     per_run = f"<th>by run (1..{len(runs)})</th>" if multi else ""
     cols = ("<col style='width:10.5em'><col style='width:4em'><col style='width:24%'>"
-            + "<col style='width:4.2em'>" * len(VERDICTS) + "<col style='width:7.5em'>"
+            + "<col style='width:4.6em'>" * len(VERDICTS) + "<col style='width:7.5em'>"
             + ("<col style='width:7em'>" if multi else "") + "<col>")
     table = (f"<table class=cov><colgroup>{cols}</colgroup>"
              f"<tr><th>ID</th><th>obs</th><th>statement</th>{head}"
@@ -194,27 +194,21 @@ def _deviations_section(items: List[Tuple[Run, Case]], excerpts: Dict[int, List[
     return (f"<h2 id=deviations>Known deviations ({len(items)} case(s), {len(groups)} kind(s))</h2>"
             "<p class=muted>Where a release is known (FIRMWARE-FACTS) to differ from the 2021-10 document "
             "and did exactly what the facts say: expected, not a finding.</p><table class=wide><colgroup>"
-            "<col style='width:15em'><col style='width:38%'><col style='width:7em'><col style='width:4em'>"
+            "<col style='width:15em'><col style='width:38%'><col style='width:7em'><col style='width:4.5em'>"
             "<col style='width:9em'><col></colgroup><tr><th>deviation</th><th>what it means</th>"
-            "<th>FIRMWARE-FACTS</th><th>cases</th><th>requirements</th><th>tests</th></tr>"
+            "<th>FACTS §</th><th>cases</th><th>requirements</th><th>tests</th></tr>"
             f"{''.join(rows)}</table>")
 
 
-def _plots_section(plots: List[Plot], have_png: bool) -> str:
+def _plots_section(plots: List[Plot]) -> str:
     parts = ["<h2 id=plots>Timing and controller plots</h2>"]
     if not plots:
         parts.append("<p class=muted>No transcript of these runs holds data lines, "
                      "<code>pulse/ramp done</code> lines or <code>debug 16</code> PID lines, "
                      "so there is nothing to plot.</p>")
         return "".join(parts)
-    if not have_png:
-        parts.append("<p class=warn>matplotlib is not installed, so the figures are given as numbers only "
-                     "(install the <code>plots</code> extra of this package for pictures).</p>")
     for p in plots:
-        body = ""
-        if p.png:
-            data = base64.b64encode(p.png).decode("ascii")
-            body = f'<img alt="{_e(p.title)}" src="data:image/png;base64,{data}">'
+        body = p.svg      # built by svg.py, every text in it escaped
         caption = "<br>".join(_e(s) for s in p.summary)
         parts.append(f"<figure>{body}<figcaption><b>{_e(p.title)}</b><br>{caption}</figcaption></figure>")
     return "".join(parts)
@@ -249,7 +243,7 @@ def _side_by_side(runs: Sequence[Run]) -> str:
 
 
 def render_html(runs: Sequence[Run], cov: Coverage, excerpts: Dict[int, List[str]], plots: List[Plot],
-                have_png: bool, tool_version: str, triage: Optional[Triage] = None) -> str:
+                tool_version: str, triage: Optional[Triage] = None) -> str:
     from .triage import group_failures
 
     triage = triage or Triage()
@@ -271,7 +265,7 @@ def render_html(runs: Sequence[Run], cov: Coverage, excerpts: Dict[int, List[str
         f"<p class=muted>{nav}</p>",
         by_requirement_section(groups, triage.statements, excerpts),
         _deviations_section(deviations, excerpts, triage.deviations),
-        _plots_section(plots, have_png),
+        _plots_section(plots),
         _runs_section(runs),
         _coverage_section(cov, runs),
         _side_by_side(runs),

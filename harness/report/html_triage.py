@@ -110,11 +110,16 @@ def exchange_html(ex: Exchange) -> str:
         body = ("<table class=xr><tr><th>expected</th><th>received from the target</th></tr>"
                 + "".join(rows) + "</table>")
     elif ex.reply:
-        shown = ex.reply[:MAX_REPLY]
-        more = f"<br><span class=muted>… {len(ex.reply) - len(shown)} more line(s)</span>" \
-            if len(ex.reply) > len(shown) else ""
-        body = ("<div class=reply><span class=lbl>received</span><code>"
-                + "<br>".join("&lt; " + _line(s) for s in shown) + f"</code>{more}</div>")
+        # A window of the reply that holds the wrong line (marked), else its beginning.
+        start = max(0, min(ex.mark - MAX_REPLY // 2, len(ex.reply) - MAX_REPLY)) if ex.mark >= 0 else 0
+        shown = ex.reply[start:start + MAX_REPLY]
+        before = f"<span class=muted>… {start} line(s) before</span><br>" if start else ""
+        after = len(ex.reply) - start - len(shown)
+        more = f"<br><span class=muted>… {after} more line(s)</span>" if after else ""
+        lines = [f"<span class=first>&lt; {_line(s)}</span>" if start + i == ex.mark else "&lt; " + _line(s)
+                 for i, s in enumerate(shown)]
+        body = ("<div class=reply><span class=lbl>received</span><code>" + before
+                + "<br>".join(lines) + f"</code>{more}</div>")
     else:
         body = ""
     return f"<div class=exchange>{sent}{body}</div>"

@@ -13,7 +13,7 @@ LABEL = {"pass": "pass", "fail": "fail", "target_fault": "target fault", "not_ru
          "hole": "HOLE (no test)", "untested": "not exercised"}
 
 SHORT = {"pass": "pass", "fail": "FAIL", "target_fault": "T fault", "not_run": "not run", "skip": "skip",
-         "known_deviation": "deviation", "informational": "info", "hole": "no test", "untested": "not run"}
+         "known_deviation": "known dev.", "informational": "info", "hole": "no test", "untested": "not run"}
 
 #: The terminal's progress letters (conformance/progress.py's legend).
 LETTER = {"pass": ".", "fail": "F", "target_fault": "T", "not_run": "N", "skip": "s",

@@ -23,6 +23,10 @@ __all__ = ["Exchange", "headline", "exchange_of", "FailureGroup", "group_failure
 
 # The parameter ``hat`` shown by pytest as the failing line's context: a repr, never a reason.
 _REPR = re.compile(r"<[\w.]+ object at 0x[0-9a-fA-F]+>")
+# An exception's module path in front of its name says nothing to a firmware engineer.
+_MODULE_PATH = re.compile(r"^(?:[a-z_]\w*\.)+(?=[A-Z]\w*: )")
+# "... got '<line>'" in an oracle's reason: the received line that is wrong.
+_GOT = re.compile(r"\bgot (?P<q>['\"])(?P<line>.*?)(?P=q)(?:$|[,;)]|\s)")
 _FENCE = "version"
 NOTHING = "(nothing)"
 
@@ -32,12 +36,12 @@ def headline(case: Case) -> str:
     (``hat = <...Hat object at 0x...>``, a source line), else the first ``E`` line."""
     msg = case.message.strip().splitlines()[0] if case.message.strip() else ""
     if msg and not _REPR.search(msg):
-        return msg
+        return _MODULE_PATH.sub("", msg)
     for line in case.detail.splitlines():
         if line.startswith("E "):
             text = line[1:].strip()
             if text and not _REPR.search(text):
-                return re.sub(r"^(AssertionError|Failed): ", "", text)
+                return _MODULE_PATH.sub("", re.sub(r"^(AssertionError|Failed): ", "", text))
     return _REPR.sub("<…>", msg) or "(no message)"
 
 
@@ -112,6 +116,7 @@ class Exchange:
     received: Optional[List[str]] = None
     first_expected: str = ""                      # the first differing line, each side
     first_received: str = ""
+    mark: int = -1                                # the index in ``reply`` of the line that is wrong
 
     @property
     def key(self) -> str:
@@ -189,13 +194,32 @@ def exchange_of(case: Case) -> Exchange:
             # The command whose reply holds the received line that differs, if one does.
             probe = ex.first_received if ex.first_received not in ("", NOTHING) else ""
             words = set(re.findall(r"[\w?]+", ex.why))
+            quoted = [m.group("line") for m in _GOT.finditer(ex.why)]
             if probe:
                 pick = next((c for c in reversed(commands) if probe in c[1]), pick)
+            elif quoted:
+                pick = next((c for c in reversed(commands) if quoted[0] in c[1]), pick)
             elif words:
                 # A reason that names the command ("pid takes 10 parameters"): the last one sent.
                 pick = next((c for c in reversed(commands) if c[0].split()[0] in words), pick)
-            ex.sent, ex.reply = pick[0], pick[1][:40]
+            ex.sent, ex.reply = pick[0], pick[1]
+            ex.mark = _wrong_line(ex)
     return ex
+
+
+def _wrong_line(ex: Exchange) -> int:
+    """Where in the reply the wrong line is: the assertion's first differing received line, or
+    the line an oracle's reason quotes after ``got``."""
+    wanted = [ex.first_received] if ex.first_received not in ("", NOTHING) else []
+    wanted += [m.group("line") for m in _GOT.finditer(ex.why)]
+    for want in wanted:
+        for i, line in enumerate(ex.reply):
+            if line == want:
+                return i
+        for i, line in enumerate(ex.reply):
+            if want.strip() and want.strip() in line:
+                return i
+    return -1
 
 
 @dataclass
