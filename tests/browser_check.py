@@ -24,8 +24,12 @@ var all=document.body.getElementsByTagName('*');
 for(var i=0;i<all.length;i++){var el=all[i],r=el.getBoundingClientRect();
  if(r.width===0&&r.height===0)continue;
  var what=el.tagName+' '+(el.textContent||'').replace(/\\s+/g,' ').slice(0,80);
- if(r.right>W+1)out.push('runs off the right edge by '+Math.round(r.right-W)+' px: '+what);
- else if(el.scrollWidth>el.clientWidth+1&&getComputedStyle(el).overflowX!=='visible')
+ // a box, or its content overflowing it visibly (SVG parts: their box; their scrollWidth is in
+ // the picture's own units)
+ var right=el instanceof HTMLElement?r.left+Math.max(r.width,el.scrollWidth):r.right;
+ if(right>W+1)out.push('runs off the right edge by '+Math.round(right-W)+' px: '+what);
+ else if(el instanceof HTMLElement&&el.scrollWidth>el.clientWidth+1&&
+   getComputedStyle(el).overflowX!=='visible')
   out.push('scrolls sideways inside: '+what);}
 function box(sel){var e=document.querySelector(sel);return e?e.getBoundingClientRect():null;}
 function top(sel){var b=box(sel);return b?Math.round(b.top):-1;}

@@ -33,6 +33,17 @@ def _safe(text: str, limit: int = 60) -> str:
     return re.sub(r"[^A-Za-z0-9._-]+", "_", text).strip("_.")[:limit] or "target"
 
 
+def _target_name(target: str) -> str:
+    """What names a target in a folder name: the URL, or for ``cmd:`` the program it runs
+    (``cmd:python tests/planted/proxy.py wrong`` -> ``cmd-proxy``), not its whole command line."""
+    if not target.startswith("cmd:"):
+        return target
+    words = target[4:].split()
+    prog = next((w for w in words[1:] if not w.startswith("-") and ("/" in w or "." in w)), words[0] if words
+                else "cmd")
+    return "cmd-" + os.path.splitext(os.path.basename(prog))[0]
+
+
 @dataclass
 class RunFolder:
     root: str          # the reports folder
@@ -58,7 +69,7 @@ class RunFolder:
 def start(root: str, targets: Sequence[str], now: Optional[datetime.datetime] = None) -> RunFolder:
     """Make a new, empty run folder (a suffix keeps two runs in the same second apart)."""
     now = now or datetime.datetime.now(datetime.timezone.utc)
-    base = f"{now.strftime(_STAMP)}-{_safe('+'.join(targets))}"
+    base = f"{now.strftime(_STAMP)}-{_safe('+'.join(_target_name(t) for t in targets))}"
     runs = os.path.join(os.path.abspath(root), RUNS)
     os.makedirs(runs, exist_ok=True)
     for n in range(1, 1000):

@@ -45,6 +45,18 @@ def headline(case: Case) -> str:
     return _REPR.sub("<…>", msg) or "(no message)"
 
 
+def _assert_reason(detail: str) -> str:
+    """An ``assert`` that is not one string comparison, in one line: the statement from the
+    test's source, then pytest's explanation of its values (reprs of objects left out)."""
+    source = next((ln[1:].strip() for ln in detail.splitlines() if ln.startswith(">") and "assert" in ln), "")
+    explained = " ".join(ln[1:].strip() for ln in detail.splitlines() if ln.startswith("E "))
+    explained = re.sub(r"^AssertionError: ", "", _REPR.sub("…", explained))
+    explained = re.sub(r"<built-in method (\w+) of \w+ object at 0x[0-9a-fA-F]+>", r"\1", explained)
+    explained = re.sub(r"\s+", " ", explained)
+    text = f"{source} — {explained}" if source and explained else source or explained
+    return text[:300] + ("…" if len(text) > 300 else "")
+
+
 def _lines(value: object) -> List[str]:
     """A literal from an assertion as lines, the way the HAT's CRLF-ended lines read."""
     text = value.decode("latin-1") if isinstance(value, bytes) else str(value)
@@ -93,6 +105,8 @@ def _assertion(detail: str) -> Optional[Tuple[List[str], List[str]]]:
             got_l = plus
         if "..." in repr(want) and minus:
             want_l = minus
+        if got_l == want_l:
+            continue      # one equal part of a longer expression (``a == b and c == d``)
         return got_l, want_l
     return None
 
@@ -184,6 +198,8 @@ def exchange_of(case: Case) -> Exchange:
         ex.first_expected, ex.first_received = _first_difference(ex.expected, ex.received)
         if ex.why.startswith(("assert ", "assert(")):
             ex.why = ex.key      # the assertion's own text says less than its two sides
+    elif ex.why.startswith(("assert ", "assert(")):
+        ex.why = _assert_reason(case.detail) or ex.why
     if case.transcript and os.path.isfile(case.transcript):
         try:
             commands = _commands(case.transcript)
@@ -219,6 +235,10 @@ def _wrong_line(ex: Exchange) -> int:
         for i, line in enumerate(ex.reply):
             if want.strip() and want.strip() in line:
                 return i
+    # A reason that names a whole reply line in backquotes (`P0: pulse done` 16 ms after ...).
+    for want in re.findall(r"`([^`]+)`", ex.why):
+        if want in ex.reply:
+            return ex.reply.index(want)
     return -1
 
 
