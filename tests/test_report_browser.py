@@ -14,6 +14,7 @@ import shutil
 import struct
 import subprocess
 import sys
+from typing import Tuple
 
 import pytest
 
@@ -37,7 +38,8 @@ def artefacts() -> str:
 
 
 @pytest.fixture(scope="module")
-def failing_report(tmp_path_factory) -> str:
+def failing_run(tmp_path_factory) -> Tuple[str, str]:
+    """The report's path and the run's terminal output."""
     cwd = tmp_path_factory.mktemp("planted")
     target = f"cmd:{sys.executable} {PROXY} wrong --booted"
     proc = subprocess.run([sys.executable, "-m", "buildhat_conformance.cli", "run", "--target", target,
@@ -48,7 +50,33 @@ def failing_report(tmp_path_factory) -> str:
     assert last and " fail" in last[-1] and "skip" in last[-1], proc.stdout[-2000:]
     html = os.path.join(cwd, "reports", "latest", "index.html")
     assert os.path.isfile(html), proc.stdout[-2000:]
-    return html
+    return html, proc.stdout
+
+
+@pytest.fixture(scope="module")
+def failing_report(failing_run) -> str:
+    return failing_run[0]
+
+
+def test_terminal_says_what_runs_and_where_the_report_is(failing_run) -> None:
+    html, out = failing_run
+    lines = out.splitlines()
+    legend = next(i for i, ln in enumerate(lines) if ln.startswith("letters: "))
+    for letter in (". pass", "F fail", "s skip", "K known deviation", "I informational", "T target fault",
+                   "N not run"):
+        assert letter in lines[legend]
+    # The coast run-down case waits for the motor in real time (seconds): named while it runs,
+    # on a line of its own between the progress letters.
+    slow = [ln for ln in lines if re.fullmatch(r"  … test_drive\.py::test_coast_lets_the_motor_run_down "
+                                               r"\(\d+ s\)", ln)]
+    assert slow, out[:3000]
+    assert lines.index(slow[0]) > legend
+    closing = [ln for ln in lines if ln.startswith("conformance: ")][-1]
+    m = re.fullmatch(r"conformance: (\d+) case\(s\): (.*) in \d+ s; report: (.*)", closing)
+    assert m, closing
+    counts = dict((w, int(n)) for n, w in re.findall(r"(\d+) ([a-z -]+?)(?:,|$)", m.group(2)))
+    assert sum(counts.values()) == int(m.group(1)) and counts["fail"] >= 1 and counts["skip"] >= 1
+    assert os.path.realpath(m.group(3)) == os.path.realpath(html)
 
 
 def test_failing_report_reads_in_the_first_screen(failing_report) -> None:
