@@ -106,9 +106,14 @@ def test_failures_group_by_first_differing_line_and_the_report_says_so(tmp_path)
     cases.append({"name": "test_unplug",
                   "skipped": "needs unplugging a device: target has no 'unplug' control",
                   "props": [("req", "EV-DISCONNECT")]})
-    cases.append({"name": "test_after_reboot", "failure": ("target rebooted", "the HAT printed its banner"),
+    died = ("E   buildhat_conformance.harness.targets.base.TargetError: cmd:hat: the command exited with "
+            "status 2; its last stderr lines:\n      usage: hat [-h]\n      hat: error: bad option")
+    cases.append({"name": "test_after_reboot", "failure": ("target fault (unreachable): it exited", died),
                   "props": [("verdict", "target-fault")]})
-    cases.append({"name": "test_next", "props": [("verdict", "not-run")]})
+    for name in ("test_next", "test_after_next"):
+        cases.append({"name": name, "failure": ("buildhat_conformance.conformance.plugin.NotRun: not run: "
+                                                "cannot open target cmd:hat", ""),
+                      "props": [("verdict", "not-run")]})
     run = read_junit(junit(tmp_path / "j.xml", cases))
     fails = [(run, c) for c in run.cases if c.verdict == "fail"]
     groups = group_failures(fails)
@@ -119,14 +124,17 @@ def test_failures_group_by_first_differing_line_and_the_report_says_so(tmp_path)
     text = open(out, encoding="utf-8").read()
     head = text[:text.index("id=by-requirement")]
     assert "FAILS: 4 finding(s)" in head
-    for count, word in ((4, "fail"), (1, "target fault"), (1, "not run"), (1, "skip"), (0, "pass")):
+    for count, word in ((4, "fail"), (1, "target fault"), (2, "not run"), (1, "skip"), (0, "pass")):
         assert f"<b>{count}</b> {word}</a>" in head, word
     failures = head[head.index("id=failures"):head.index("id=faults")]
     assert "3 kind(s)" not in failures and "2 kind(s)" in failures
     assert "&gt; ?</code>" in failures
     assert "<tr class=first><td>port &lt;n&gt;</td><td>Port &lt;n&gt;</td></tr>" in failures
     faults = head[head.index("id=faults"):head.index("id=skips")]
-    assert "test_after_reboot" in faults and "target rebooted" in faults and "test_next" in faults
+    assert "test_after_reboot" in faults and "it exited" in faults
+    assert "<pre>usage: hat [-h]\nhat: error: bad option</pre>" in faults        # why it died, in sight
+    assert "<b>2</b> case(s): <span class=tests>test_after_next, test_next</span></td>" \
+           "<td>cannot open target cmd:hat</td>" in faults                     # not-run: one row per reason
     skips = head[head.index("id=skips"):]
     assert "needs unplugging a device: target has no &#x27;unplug&#x27; control" in skips
     legend = text[text.index("id=legend"):]

@@ -4,11 +4,12 @@ that failed), target faults, skips with what to connect; and the legend of every
 from __future__ import annotations
 
 import difflib
+import re
 from typing import Dict, List, Optional, Sequence, Tuple
 
 from .junit import VERDICTS, Case, Run
 from .markup import LABEL, LETTER, MEANING, esc, tag, tests_cell
-from .triage import NOTHING, Change, Exchange, FailureGroup, headline, skip_reasons
+from .triage import MODULE_PATH, NOTHING, Change, Exchange, FailureGroup, headline, skip_reasons
 
 __all__ = ["summary_section", "failure_groups_section", "by_requirement_section", "faults_section",
            "skips_section", "legend_section", "exchange_html"]
@@ -195,16 +196,45 @@ def by_requirement_section(groups: List[FailureGroup], statements: Dict[str, str
     return "".join(parts)
 
 
+def _fault_detail(case: Case) -> str:
+    """The error as raised, up to its chained repeats: it carries the target's last stderr lines."""
+    text = case.detail.split("\n\nThe above exception was the direct cause", 1)[0].strip()
+    return MODULE_PATH.sub("", text)[:3000]
+
+
 def faults_section(items: List[Tuple[Run, Case]]) -> str:
+    """Each target fault with what happened (and the error in full, one click away); the cases
+    not run after it grouped by their reason."""
     if not items:
         return ""
-    rows = "".join(f"<tr><td>{tag(c.verdict)}</td><td><code>{esc(c.test_id)}</code></td>"
-                   f"<td>{esc(headline(c))}</td></tr>" for _r, c in items)
+    rows = []
+    for _r, c in items:
+        if c.verdict != "target_fault":
+            continue
+        detail = _fault_detail(c)
+        # A target program's last stderr lines say why it died: shown, not behind a click.
+        _before, _s, tail = detail.partition("its last stderr lines:")
+        stderr = [ln.strip() for ln in tail.splitlines() if ln.strip()][-8:]
+        more = (f"<pre>{esc(chr(10).join(stderr))}</pre>" if stderr else "") + (
+            f"<details><summary>the error in full</summary><pre>{esc(detail)}</pre></details>"
+            if detail else "")
+        rows.append(f"<tr><td>{tag(c.verdict)}</td><td><code>{esc(c.test_id)}</code></td>"
+                    f"<td>{esc(headline(c))}{more}</td></tr>")
+    not_run: Dict[str, List[Case]] = {}
+    for _r, c in items:
+        if c.verdict == "not_run":
+            reason = re.sub(r"^(NotRun: )?(not run: )?", "", headline(c))
+            not_run.setdefault(reason, []).append(c)
+    for reason, cases in not_run.items():
+        rows.append(f"<tr><td>{tag('not_run')}</td><td><b>{len(cases)}</b> case(s): "
+                    f"<span class=tests>{esc(_clip(tests_cell([('', c) for c in cases]), 400))}</span></td>"
+                    f"<td>{esc(reason)}</td></tr>")
     return ("<h2 id=faults>Target faults and cases not run</h2><p class=muted>The target (or the link) "
             "failed here: silent, dead, rebooted or garbled. These are not protocol findings; fix the "
             "setup and run again.</p><table class=wide><colgroup><col style='width:9em'>"
             "<col style='width:35%'>"
-            f"<col></colgroup><tr><th>verdict</th><th>case</th><th>what happened</th></tr>{rows}</table>")
+            "<col></colgroup><tr><th>verdict</th><th>case</th><th>what happened</th></tr>"
+            f"{''.join(rows)}</table>")
 
 
 def skips_section(items: List[Tuple[Run, Case]]) -> str:

@@ -18,13 +18,13 @@ from typing import Dict, List, Optional, Sequence, Tuple
 from ..transcript import field_bytes, iter_events
 from .junit import Case, Run
 
-__all__ = ["Exchange", "headline", "exchange_of", "FailureGroup", "group_failures", "skip_reasons",
-           "Change", "changes_since"]
+__all__ = ["MODULE_PATH", "NOTHING", "Exchange", "headline", "exchange_of", "FailureGroup", "group_failures",
+           "skip_reasons", "Change", "changes_since"]
 
 # The parameter ``hat`` shown by pytest as the failing line's context: a repr, never a reason.
 _REPR = re.compile(r"<[\w.]+ object at 0x[0-9a-fA-F]+>")
 # An exception's module path in front of its name says nothing to a firmware engineer.
-_MODULE_PATH = re.compile(r"^(?:[a-z_]\w*\.)+(?=[A-Z]\w*: )")
+MODULE_PATH = re.compile(r"^(?:[a-z_]\w*\.)+(?=[A-Z]\w*: )")
 # "... got '<line>'" in an oracle's reason: the received line that is wrong.
 _GOT = re.compile(r"\bgot (?P<q>['\"])(?P<line>.*?)(?P=q)(?:$|[,;)]|\s)")
 _FENCE = "version"
@@ -36,12 +36,12 @@ def headline(case: Case) -> str:
     (``hat = <...Hat object at 0x...>``, a source line), else the first ``E`` line."""
     msg = case.message.strip().splitlines()[0] if case.message.strip() else ""
     if msg and not _REPR.search(msg):
-        return _MODULE_PATH.sub("", msg)
+        return MODULE_PATH.sub("", msg)
     for line in case.detail.splitlines():
         if line.startswith("E "):
             text = line[1:].strip()
             if text and not _REPR.search(text):
-                return _MODULE_PATH.sub("", re.sub(r"^(AssertionError|Failed): ", "", text))
+                return MODULE_PATH.sub("", re.sub(r"^(AssertionError|Failed): ", "", text))
     return _REPR.sub("<…>", msg) or "(no message)"
 
 
