@@ -62,6 +62,8 @@ def test_each_run_has_its_folder_and_nothing_ran_changes_nothing(tmp_path) -> No
         reports / "runs" / folders[-1])
     assert runs.previous_junit(str(reports / "runs" / folders[-1] / "junit.xml")) == str(
         reports / "runs" / folders[0] / "junit.xml")
+    html = (reports / "index.html").read_text(encoding="utf-8")
+    assert f"Since the previous run of this target ({folders[0]}): no verdict changed." in html
 
     listed = conformance(tmp_path, "report", "--list")
     assert [ln.split()[0] for ln in listed.stdout.splitlines()] == folders, listed.stdout
