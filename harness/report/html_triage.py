@@ -275,5 +275,9 @@ def legend_section() -> str:
         "<tr><td><span class='first legendmark'>marked row</span></td><td>the first line where what was "
         "received differs from what was expected; later differing rows are shaded lighter</td></tr>"
         "<tr><td><code>test_x ×12</code></td><td>twelve parametrized cases of one test</td></tr>"
+        "<tr><td>by run (1..N)</td><td>with several runs in one report: the requirement's status in each "
+        "run, numbered as in the runs table</td></tr>"
+        "<tr><td>T fault, not run, known dev., info</td><td>the verdict columns: target fault, not run, "
+        "known deviation, informational (above)</td></tr>"
         "<tr><td>§N</td><td>a section of FIRMWARE-FACTS, the record of how each firmware release behaves"
         "</td></tr></table>")
