@@ -4,7 +4,13 @@ conformance runner calls after a run; ``buildhat-conformance report`` is its com
 from __future__ import annotations
 
 import os
-from typing import Dict, List, Optional, Sequence
+from typing import TYPE_CHECKING, Dict, List, Optional, Sequence, Tuple
+
+if TYPE_CHECKING:     # the report's modules load on first use: a run imports this package early
+    from .html import Triage
+    from .junit import Case, Run
+    from .plots import Plot
+    from .triage import Change
 
 __all__ = ["build_report"]
 
@@ -42,7 +48,7 @@ def _plots(runs, max_plots: int) -> list:  # type: ignore[no-untyped-def]
     return out
 
 
-def _triage(runs, failures):  # type: ignore[no-untyped-def]
+def _triage(all_runs: List[Run], failures: List[Tuple[Run, Case]]) -> Triage:
     """The first screen's data: failure groups, changes since each run's previous run of the
     same target (when it lives in a run folder), deviation explanations, requirement statements."""
     from ...conformance.deviations import deviations
@@ -52,8 +58,8 @@ def _triage(runs, failures):  # type: ignore[no-untyped-def]
     from .runs import previous_junit
     from .triage import changes_since, group_failures
 
-    changes = {}
-    for run in runs:
+    changes: Dict[str, Optional[Tuple[str, List[Change]]]] = {}
+    for run in all_runs:
         prev = previous_junit(run.path)
         if prev:
             try:
@@ -68,7 +74,7 @@ def _triage(runs, failures):  # type: ignore[no-untyped-def]
     return Triage(group_failures(failures), changes, explained, statements)
 
 
-def _timing_plots(runs) -> list:  # type: ignore[no-untyped-def]
+def _timing_plots(runs: List[Run]) -> List[Plot]:
     from .plots import timing_plots
     from .timing import collect_timing
 
