@@ -18,13 +18,23 @@ FENCE_ANSWER = "Firmware version: 1737564117 2025-01-22T16:41:57+00:00"
 HAT_REPR = "hat = <buildhat_conformance.conformance.link.Hat object at 0x7f45c3dcdb90>"
 
 
-def transcript(path, exchanges, t0: float = 0.0) -> str:
-    """The suite's shape: a clean-up line and its fence, then each command, its fence, its reply
-    and the fence's answer (a CR's empty line first)."""
-    events = [{"dir": "meta", "firmware": "1737564117"},
-              {"t": t0, "dir": "host", "bytes": "echo 0 ; port 0 ; select\r"},
-              {"t": t0 + 1, "dir": "host", "bytes": "version\r"},
-              {"t": t0 + 2, "dir": "hat", "line": ""}, {"t": t0 + 2, "dir": "hat", "line": FENCE_ANSWER}]
+# The link's clean-up before a case, one write ending in its resynchronising fence.
+RESYNC = "\recho 0 ; port 0 ; select\rport 3 ; pwmparams 0 0\r\recho 1\recho 0 ; version\u0000sync-170a-8\r"
+
+
+def transcript(path, exchanges, t0: float = 0.0, resync: bool = False) -> str:
+    """The suite's shape: a clean-up line and its fence (separate writes, or the link's one
+    resynchronising write), then each command, its fence, its reply and the fence's answer (a
+    CR's empty line first)."""
+    events = [{"dir": "meta", "firmware": "1737564117"}]
+    if resync:
+        events += [{"t": t0, "dir": "host", "bytes": RESYNC}, {"t": t0 + 2, "dir": "hat", "line": ""},
+                   {"t": t0 + 2, "dir": "hat", "line": "P0>echo 0 ; version\u0000sync-170a-8"}]
+    else:
+        events += [{"t": t0, "dir": "host", "bytes": "echo 0 ; port 0 ; select\r"},
+                   {"t": t0 + 1, "dir": "host", "bytes": "version\r"},
+                   {"t": t0 + 2, "dir": "hat", "line": ""}]
+    events += [{"t": t0 + 2, "dir": "hat", "line": FENCE_ANSWER}]
     t = t0 + 10
     for command, reply in exchanges:
         events += [{"t": t, "dir": "host", "bytes": command + "\r"},
@@ -70,7 +80,8 @@ E         + Port <n>
 
 def help_case(tmp_path, name="test_help_text[R7]"):
     path = transcript(tmp_path / f"{name}.jsonl",
-                      [("list", ["P0: no device detected"]), ("?", ["help", "Port <n>", "list"])])
+                      [("?", ["help", "Port <n>", "list"]), ("list", ["P0: no device detected"])],
+                      resync=True)
     return {"name": name, "failure": (HAT_REPR, HELP_DETAIL),
             "props": [("req", "CMD-HELP"), ("transcript", path), ("verdict", "fail")]}
 
@@ -80,7 +91,7 @@ def test_the_failing_exchange_is_the_command_sent_and_its_wrong_line(tmp_path) -
     [case] = run.cases
     assert headline(case).startswith("assert 'help") and "object at 0x" not in headline(case)
     ex = exchange_of(case)
-    assert ex.sent == "?"                      # not the list before it, not the help text's end
+    assert ex.sent == "?"        # the case's first command, right after the link's clean-up; not the list
     assert ex.reply == ["", "help", "Port <n>", "list"]    # the command's own CR first
     assert ex.expected == ["help", "port <n>", "list"] and ex.received == ["help", "Port <n>", "list"]
     assert (ex.first_expected, ex.first_received) == ("port <n>", "Port <n>")

@@ -156,6 +156,21 @@ def _first_difference(expected: List[str], received: List[str]) -> Tuple[str, st
     return NOTHING, NOTHING
 
 
+def _host_lines(ev: dict) -> List[str]:
+    """The lines of one host write (the link may write several at once, each ended by CR)."""
+    parts = field_bytes(ev, "bytes").decode("latin-1").split("\r")
+    if len(parts) > 1 and parts[-1] == "":
+        parts.pop()
+    return [p.strip("\n") for p in parts]
+
+
+def _is_fence(line: str) -> bool:
+    """``version`` as the line's last command; the link's resynchronising fence carries a
+    marker after a NUL (``echo 0 ; version\\0sync-...``)."""
+    last = line.split(";")[-1].strip()
+    return last == _FENCE or last.startswith(_FENCE + "\0")
+
+
 def _commands(path: str) -> List[Tuple[str, List[str]]]:
     """The test's own commands with the lines the HAT printed after each. The clean-up before
     the case ends with the first fence. A fence (``version`` sent right after a command) is
@@ -164,20 +179,22 @@ def _commands(path: str) -> List[Tuple[str, List[str]]]:
     out: List[Tuple[str, List[str]]] = []
     started = False
     fenced = False           # a fence was sent and its answer has not come yet
-    prev_host = ""
+    after_fence = False      # the last host line was a fence (or nothing yet)
     for ev in iter_events(path):
         kind = ev.get("dir")
         if kind == "host":
-            cmd = field_bytes(ev, "bytes").decode("latin-1").rstrip("\r\n")
-            is_fence = cmd == _FENCE and (not started or prev_host not in ("", _FENCE))
-            prev_host = cmd
-            if is_fence:
-                fenced = started
-                started = True
-                continue
-            if started and cmd:
-                out.append((cmd, []))
-                fenced = False
+            for cmd in _host_lines(ev):
+                # A version right after a command is a fence; one after a fence is the test's own.
+                is_fence = _is_fence(cmd) and (not started or (not after_fence and bool(out)))
+                if is_fence:
+                    fenced = started
+                    started = True
+                    after_fence = True
+                    continue
+                if started and cmd:
+                    out.append((cmd, []))
+                    fenced = False
+                    after_fence = False
         elif kind == "hat" and out:
             line = ev.get("line", ev.get("partial", ""))
             if fenced and line.startswith("Firmware version: "):
@@ -185,7 +202,7 @@ def _commands(path: str) -> List[Tuple[str, List[str]]]:
                     out[-1][1].pop()
                 fenced = False
                 continue
-            if fenced or not prev_host == _FENCE:
+            if fenced or not after_fence:
                 out[-1][1].append(line)
     return out
 
