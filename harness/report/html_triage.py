@@ -244,7 +244,7 @@ def skips_section(items: List[Tuple[Run, Case]]) -> str:
                    f"<td class=tests>{esc(tests_cell([('', c) for c in cases]))}</td></tr>"
                    for reason, cases in skip_reasons(items))
     return ("<h2 id=skips>Skipped: what to connect to run them</h2><table class=wide><colgroup>"
-            "<col style='width:4em'><col style='width:45%'><col></colgroup>"
+            "<col style='width:4.8em'><col style='width:45%'><col></colgroup>"
             f"<tr><th>cases</th><th>reason (what the case needs)</th><th>tests</th></tr>{rows}</table>")
 
 
