@@ -192,3 +192,11 @@ def test_charts_are_svg_with_round_ticks() -> None:
     svg = histogram([100.0] * 9 + [110.0], "periods <ms>", "ms")
     assert svg.startswith("<svg class=chart") and "periods &lt;ms&gt;" in svg
     assert re.findall(r"<title>(\d+)</title>", svg) == ["9", "1"]      # one bar per filled bin
+
+
+def test_every_known_deviation_is_explained_for_the_report() -> None:
+    from buildhat_conformance.conformance.deviations import deviations
+
+    for key, d in deviations().items():
+        assert d.explain and d.explain.endswith(".") and len(d.explain) < 400, key
+        assert re.fullmatch(r"§\d+(\.\d+)?(, §\d+(\.\d+)?)*", d.facts), (key, d.facts)
