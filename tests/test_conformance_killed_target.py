@@ -51,5 +51,7 @@ def test_killing_the_target_mid_run(tmp_path) -> None:
                 assert t.hat_lines(), f"{path} holds no HAT output"
     # Every case pytest ran is in the file: its own summary line counts them.
     counted = r"(\d+) (?:passed|failed|errors?|skipped|target-fault|not-run|known deviation|informational)"
-    ran = sum(int(n) for n in re.findall(counted, text.splitlines()[-1]))
+    # (pytest's summary line, "... in 7.80s"; the suite's closing line comes after it)
+    summary = next(ln for ln in reversed(text.splitlines()) if re.search(r" in \d+\.\d+s\b", ln))
+    ran = sum(int(n) for n in re.findall(counted, summary))
     assert len(cases) == ran > 0, f"{len(cases)} cases in the JUnit file, pytest ran {ran}\n{text[-1500:]}"
