@@ -21,7 +21,7 @@ from .markup import esc as _e
 from .markup import tag as _tag
 from .markup import tests_cell as _tests_cell
 from .plots import Plot
-from .triage import Change, FailureGroup, headline
+from .triage import Change, FailureGroup, headline, scrub
 
 __all__ = ["render_html", "Triage"]
 
@@ -162,7 +162,7 @@ def _case_list(items: List[Tuple[Run, Case]], excerpts: Dict[int, List[str]]) ->
             if case.prop(key):
                 parts.append(f"<p class=why><b>{key}:</b> {_e(case.prop(key))}</p>")
         if case.detail:
-            parts.append(f"<details><summary>details</summary><pre>{_e(case.detail)}</pre></details>")
+            parts.append(f"<details><summary>details</summary><pre>{_e(scrub(case.detail))}</pre></details>")
         ex = excerpts.get(id(case))
         if ex:
             parts.append(f"<details><summary>transcript <code>{_e(case.transcript)}</code></summary>"

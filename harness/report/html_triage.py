@@ -9,7 +9,7 @@ from typing import Dict, List, Optional, Sequence, Tuple
 
 from .junit import VERDICTS, Case, Run
 from .markup import LABEL, LETTER, MEANING, esc, tag, tests_cell
-from .triage import MODULE_PATH, NOTHING, Change, Exchange, FailureGroup, headline, skip_reasons
+from .triage import MODULE_PATH, NOTHING, Change, Exchange, FailureGroup, headline, scrub, skip_reasons
 
 __all__ = ["summary_section", "failure_groups_section", "by_requirement_section", "faults_section",
            "skips_section", "legend_section", "exchange_html"]
@@ -199,7 +199,7 @@ def by_requirement_section(groups: List[FailureGroup], statements: Dict[str, str
 def _fault_detail(case: Case) -> str:
     """The error as raised, up to its chained repeats: it carries the target's last stderr lines."""
     text = case.detail.split("\n\nThe above exception was the direct cause", 1)[0].strip()
-    return MODULE_PATH.sub("", text)[:3000]
+    return scrub(MODULE_PATH.sub("", text))[:3000]
 
 
 def faults_section(items: List[Tuple[Run, Case]]) -> str:
