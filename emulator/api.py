@@ -159,7 +159,7 @@ class Emulator:
             machine = self.machine
             if isinstance(machine, Hat):
                 due = min(max(machine.idle_until(), machine.now + 1), end)
-                machine.advance(due - machine.now)  # the ticks before `due` only count time
+                machine.advance(int(due) - machine.now)  # the ticks before `due` only count time
             else:
                 machine.tick()                      # the bootloader (it may boot a Hat)
             self._now = self.machine.now
