@@ -26,7 +26,8 @@ SUBCOMMANDS = {
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="buildhat-conformance", description=__doc__.splitlines()[0])
+    summary = (__doc__ or "").partition("\n")[0]          # no docstring under python -OO
+    parser = argparse.ArgumentParser(prog="buildhat-conformance", description=summary)
     parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for name, (_module, help_text) in SUBCOMMANDS.items():

@@ -78,7 +78,7 @@ class World:
 
     @staticmethod
     def spec_of(entry: PortEntry) -> Spec:
-        return None if entry.kind == "empty" else (entry.kind, int(entry.id))
+        return None if entry.id is None else (entry.kind, entry.id)    # no ID: "empty"
 
     def settled_entry(self, port: int, spec: Spec, attempts: int = 8) -> PortEntry:
         """The port's ``list`` entry once it shows ``spec``; R1 shows a passive port as empty

@@ -269,6 +269,7 @@ def _conformance_case(request: Any, _run: Run) -> Any:
     from ..harness.transcript import TranscriptWriter
 
     hat = _run.open()
+    assert _run.tee is not None          # open() made it
     item = request.node
     verdict = Verdict(hat.profile.name)
     item.stash[_verdict_key] = verdict

@@ -14,7 +14,8 @@ DEFAULT_LAYOUT = {0: ("active", 0x30), 1: ("active", 0x40), 2: ("passive", 8), 3
 
 @lru_cache(maxsize=1)
 def catalogue() -> dict:
-    text = resources.files(__package__).joinpath("devices.json").read_text(encoding="utf-8")
+    data = resources.files(__name__.rpartition(".")[0]).joinpath("devices.json")   # in this package
+    text = data.read_text(encoding="utf-8")
     return json.loads(text)
 
 

@@ -33,9 +33,10 @@ def test_virtual_time_verdicts_equal_the_wall_clock_run() -> None:
         assert set(virtual_results) == set(wall_results)
         differ = {name: (wall_results[name].verdict, virtual_results[name].verdict)
                   for name in wall_results if wall_results[name].verdict != virtual_results[name].verdict}
+        def why(result) -> str:
+            return result.message.splitlines()[0] if result.message else ""
         assert not differ, "verdicts (wall clock, virtual time) differ: " + "; ".join(
-            f"{n}: {w} vs {v} ({virtual_results[n].message.splitlines()[0] if virtual_results[n].message else ''}"
-            f"{wall_results[n].message.splitlines()[0] if wall_results[n].message else ''})"
+            f"{n}: {w} vs {v} ({why(virtual_results[n])}{why(wall_results[n])})"
             for n, (w, v) in sorted(differ.items()))
         failed = [n for n, r in virtual_results.items() if r.verdict == "fail"]
         assert not failed, f"the virtual-time run failed: {failed}"
