@@ -107,8 +107,8 @@ def _live_layout(session: Session, want: Dict[int, Optional[tuple]],
         layout: Dict[int, Optional[tuple]] = {}
         for e in session.command("list"):
             if e.is_port_status and e.port is not None:
-                state = e.fields.get("state")
-                layout[e.port] = None if state == "none" else (str(state), int(e.fields["id"]))
+                state, ident = e.fields.get("state"), e.fields.get("id")   # no id: state "none"
+                layout[e.port] = (str(state), ident) if isinstance(ident, int) else None
         polls_left -= 1
         if all(layout.get(p) == s for p, s in want.items()) or time.monotonic() >= deadline \
                 or polls_left <= 0:
