@@ -4,6 +4,7 @@ from __future__ import annotations
 import json
 from functools import lru_cache
 from importlib import resources
+from typing import Optional
 
 __all__ = ["catalogue", "active_device", "active_type_ids", "passive_ids", "passive_device",
            "parse_device_spec", "DEFAULT_LAYOUT"]
@@ -38,6 +39,15 @@ def passive_ids() -> list:
 
 def passive_device(pid: int) -> dict:
     return catalogue()["passive"][str(pid)]
+
+
+def format_device_spec(spec: Optional[tuple]) -> str:
+    """The SPEC text (as in a script's ``@device``) of a parsed spec: the inverse of
+    :func:`parse_device_spec`."""
+    if spec is None:
+        return "none"
+    kind, ident = spec
+    return f"0x{ident:02X}" if kind == "active" else f"passive {ident}"
 
 
 def parse_device_spec(spec: str):

@@ -14,6 +14,7 @@ from typing import IO, Any, Dict, List, Optional, Tuple
 
 from ...harness.script import Script
 from ...harness.transcript import TranscriptWriter
+from ...protocol.devices import format_device_spec
 from ..api import Emulator
 from ..world import WorldError
 
@@ -24,13 +25,6 @@ TAIL_MS = 20
 
 class ScriptRunError(RuntimeError):
     """A script action the emulator could not perform (the message names the line)."""
-
-
-def _spec_text(spec: Optional[tuple]) -> str:
-    if spec is None:
-        return "none"
-    kind, value = spec
-    return f"0x{value:02X}" if kind == "active" else f"passive {value}"
 
 
 class _Recorder:
@@ -100,7 +94,7 @@ def run_script(script: Script, out: IO[str], *, firmware: Any = None,
     meta = {
         "firmware": hat.version_string, "profile": emu.profile.name,
         "target": "emulator", "script": script.source, "name": script.name,
-        "devices": {str(p): _spec_text(s) for p, s in sorted(layout.items())},
+        "devices": {str(p): format_device_spec(s) for p, s in sorted(layout.items())},
         "prelude_ms": prelude, "tool": "buildhat-emulator", "version": tool_version,
     }
     if baud:

@@ -26,7 +26,7 @@ from urllib.parse import parse_qs, urlsplit
 import pexpect
 import serial
 
-from ...protocol.devices import DEFAULT_LAYOUT, parse_device_spec
+from ...protocol.devices import DEFAULT_LAYOUT, format_device_spec, parse_device_spec
 from ..script import WORLD_ACTIONS
 from .base import Control, TargetError
 from .pyserial_base import PyserialTarget, SerialPort
@@ -56,14 +56,6 @@ def emulator_command(command: Union[str, Sequence[str], None] = None) -> List[st
         return [found]
     raise TargetError("buildhat-emulator not found: install this package ('pip install -e .' in the "
                       "checkout) or set BUILDHAT_EMULATOR to the command that starts it")
-
-
-def format_device_spec(spec: Optional[tuple]) -> str:
-    """The SPEC text (as in a script's @device) for a parsed spec."""
-    if spec is None:
-        return "none"
-    kind, ident = spec
-    return f"0x{ident:02X}" if kind == "active" else f"passive {ident}"
 
 
 class EmulatorControl(Control):
