@@ -12,7 +12,7 @@ from typing import Optional, Protocol
 
 import serial
 
-from .base import Target, TargetError
+from .base import NotReading, Target, TargetError
 
 __all__ = ["PyserialTarget", "SerialPort", "BAUD"]
 
@@ -72,8 +72,13 @@ class PyserialTarget(Target):
     def write(self, data: bytes) -> None:
         port = self._require_port()
         try:
+            # The port's write_timeout is the write deadline (port_settings): pyserial raises
+            # SerialTimeoutException when the bytes were not taken in time.
             port.write(data)
             port.flush()
+        except serial.SerialTimeoutException:
+            raise NotReading(f"{self.url} stopped reading: {len(data):,} bytes not taken in "
+                             f"{self.write_deadline:g} s") from None
         except (serial.SerialException, OSError) as exc:
             raise TargetError(f"writing to {self.url} failed: {exc}") from exc
 
@@ -120,9 +125,8 @@ class PyserialTarget(Target):
             raise TargetError(f"{self.url} is not open")
         return self.port
 
-    @staticmethod
-    def port_settings() -> dict:
-        """115200 8N1, no flow control, short read timeout."""
+    def port_settings(self) -> dict:
+        """115200 8N1, no flow control, short read timeout, the write deadline."""
         return dict(baudrate=BAUD, bytesize=serial.EIGHTBITS, parity=serial.PARITY_NONE,
                     stopbits=serial.STOPBITS_ONE, xonxoff=False, rtscts=False, dsrdtr=False,
-                    timeout=_SLICE, write_timeout=5.0)
+                    timeout=_SLICE, write_timeout=self.write_deadline)
