@@ -22,6 +22,7 @@ class Deviation:
     profiles: FrozenSet[str]
     document: str
     firmware: str
+    explain: str = ""        # one sentence for the report: what the difference means to a host
 
     def applies_to(self, profile_name: str) -> bool:
         return profile_name in self.profiles
@@ -33,7 +34,7 @@ def deviations() -> Dict[str, Deviation]:
     text = data.read_text(encoding="utf-8")
     raw = json.loads(text)["deviations"]
     return {key: Deviation(key, d["requirement"], d["facts"], frozenset(d["profiles"]), d["document"],
-                           d["firmware"]) for key, d in raw.items()}
+                           d["firmware"], d.get("explain", "")) for key, d in raw.items()}
 
 
 def deviation(key: str) -> Deviation:

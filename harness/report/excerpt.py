@@ -85,7 +85,8 @@ def excerpt_lines(path: str, around_t: Optional[float] = None, before: int = 25,
         idx = next((i for i, e in enumerate(items)
                     if isinstance(e, dict) and float(e.get("t", 0)) >= around_t), len(items))
         chosen = items[max(0, idx - before):idx + after]
-    lines = [s for s in (e if isinstance(e, str) else format_event(e) for e in chosen) if s is not None]
+    shown = (e if isinstance(e, str) else format_event(e) for e in chosen if isinstance(e, (str, dict)))
+    lines = [s for s in shown if s is not None]
     if len(chosen) < len(items):
         lines.insert(0, f"{'':>13}  … {len(items) - len(chosen)} earlier/later item(s) not shown")
     return lines
