@@ -225,7 +225,7 @@ def _run_realtime(args: argparse.Namespace, devices: Dict[int, Optional[tuple]])
             link.close()
         _report(lint)
         if recorder is not None:
-            lint.finish()       # open chatty bursts become findings (notes) before the end event
+            lint.finish()       # an open overrun episode becomes a finding (a note) before the end event
             recorder.close(status)
 
 
