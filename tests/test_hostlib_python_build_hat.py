@@ -19,6 +19,7 @@ import pytest
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
 from hostlib import matrix as hl  # noqa: E402
+from hostlib.firmware_values import vin_volts  # noqa: E402
 from hostlib.venvs import FIRMWARE_OF, SUPPORTED  # noqa: E402
 
 pytestmark = [pytest.mark.slow, pytest.mark.timeout(300)]
@@ -70,13 +71,6 @@ def wrap180(deg: int) -> int:
 
 def near(value: int, want: int, tol: int) -> bool:
     return abs(value - want) <= tol
-
-
-def vin_volts(adc: int) -> float:
-    """FIRMWARE-FACTS §4.4: mV = ((adc*57)/10)*3300/4096 in integers, printed via k = (mV+4)//10."""
-    mv = ((adc * 57) // 10) * 3300 // 4096
-    k = (mv + 4) // 10
-    return float(f"{k // 100}.{k % 100:02d}")
 
 
 @pytest.mark.parametrize("version", SUPPORTED)
