@@ -221,7 +221,7 @@ def _undo_of(words: List[str], devices: Dict[int, Any]) -> Optional[str]:
     if head == "@portfault" and port == "1":
         return "@portfault 0"
     if head == "@adc":
-        from .hat import DEFAULT_ADC
+        from .api import DEFAULT_ADC  # (emulator/hat.py is for the composition roots only)
         return f"@adc {DEFAULT_ADC}"
     if head in ("@plug", "@unplug") and port.isdigit():
         from ..protocol.devices import DEFAULT_LAYOUT
