@@ -45,7 +45,7 @@ def test_pyserial_host_reads_what_the_fixture_sets(buildhat_emulator) -> None:
 
 
 @pytest.mark.buildhat_emulator(firmware="1737564117", devices={0: "0x3E", 1: None, 2: None, 3: None},
-                               baud=115200)   # wire-rate pacing, as tests/hostlib/matrix.py explains
+                               baud=115200, args=["--booted"])   # wire-rate pacing: tests/hostlib/matrix.py
 def test_real_library_on_the_fixture(buildhat_emulator) -> None:
     try:
         python = buildhat_python("0.9.0")

@@ -60,14 +60,16 @@ class _Recorder:
             self._write(t, kind, payload)
 
     def _write(self, t: int, kind: str, payload: Any) -> None:
+        writer = self.writer
+        assert writer is not None            # _put keeps a backlog until start() sets it
         rel = t - self.t0
         if kind == "hat":
-            self.writer.hat(rel, payload)
+            writer.hat(rel, payload)
         elif kind == "host":
-            self.writer.host(rel, payload)
+            writer.host(rel, payload)
         else:
-            self.writer.flush_partial()      # keep the file in time order
-            self.writer.event(kind, rel, **payload)
+            writer.flush_partial()           # keep the file in time order
+            writer.event(kind, rel, **payload)
 
     def start(self, writer: TranscriptWriter, t0: int) -> None:
         self.writer, self.t0 = writer, t0
@@ -93,8 +95,10 @@ def run_script(script: Script, out: IO[str], *, firmware: Any = None,
     emu.step()                      # one more ms, so all start-up output is at t < 0
     rec.pump()
     prelude = emu.now
+    hat = emu.hat
+    assert hat is not None                # a script starts from the firmware, never the bootloader
     meta = {
-        "firmware": emu.hat.version_string, "profile": emu.profile.name,
+        "firmware": hat.version_string, "profile": emu.profile.name,
         "target": "emulator", "script": script.source, "name": script.name,
         "devices": {str(p): _spec_text(s) for p, s in sorted(layout.items())},
         "prelude_ms": prelude, "tool": "buildhat-emulator", "version": tool_version,
