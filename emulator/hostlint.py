@@ -71,17 +71,24 @@ class Finding:
 
 @dataclass
 class _Episode:
-    """An open overrun: from the first line that overfilled the receive ring until it drains to half."""
+    """An open overrun: on the receive side (``rx``) from the first line that overfilled the ring until it
+    drains to half; on the transmit side (``tx``) for as long as consecutive lines lose output."""
+    side: str
     start_line: int
     start_t: int
     text: str
-    peak: int = 0
+    peak: int = 0        # rx: most bytes the ring would hold; tx: output bytes dropped so far
 
     def finding(self, ring: int) -> Finding:
-        return Finding("overrun", self.start_line, self.start_t, self.text,
-                       f"the host's lines arrive faster than the HAT runs them: its {ring}-byte receive ring "
-                       f"would hold up to {self.peak} bytes (115200-baud wire, each line's cost), so a real "
-                       "HAT drops input; wait for replies (or stream with select + selrate) instead")
+        if self.side == "tx":
+            detail = (f"{self.peak} bytes of the HAT's output did not fit its {ring}-byte transmit ring and "
+                      "were dropped: the host asked for more than the wire carries; wait for each reply "
+                      "before the next request")
+        else:
+            detail = (f"the host's lines arrive faster than the HAT runs them: its {ring}-byte receive ring "
+                      f"would hold up to {self.peak} bytes (115200-baud wire, each line's cost), so a real "
+                      "HAT drops input; wait for replies (or stream with select + selrate) instead")
+        return Finding("overrun", self.start_line, self.start_t, self.text, detail)
 
 
 def _show(raw: bytes) -> str:
@@ -117,7 +124,7 @@ class HostLint:
     first: Optional[Finding] = None
     _pending: bytearray = field(default_factory=bytearray)
     _intake: IntakeModel = field(default_factory=IntakeModel)
-    _episode: Optional[_Episode] = None
+    _episodes: Dict[str, Optional[_Episode]] = field(default_factory=lambda: {"rx": None, "tx": None})
     _tx_dropped: int = 0
     _hat: Any = None
     _finished: bool = False
@@ -180,7 +187,7 @@ class HostLint:
                                 "moments after reset is discarded")
         if record.error:  # last, so the specific reason comes first in a strict-mode message
             add("error", "the HAT answered Error; the rest of the line was not run")
-        self._check_tx_drops(add)
+        self._check_tx_drops(now, text)
         for finding in found:
             self._add(finding)
         self._check_intake(now, text, list(record.commands or ()), raw, profile)
@@ -198,7 +205,8 @@ class HostLint:
             self._add(Finding("unterminated", self.lines + 1, -1, _show(bytes(self._pending)),
                               "bytes not ended by CR (LF-only line endings?); the HAT never ran them"))
             self._pending.clear()
-        self._close_episode()
+        self._close_episode("rx")
+        self._close_episode("tx")
 
     # -- checks -----------------------------------------------------------------------------------------
     def _check_profile(self, profile: Profile, raw: bytes, unknown: Iterable[str], ran: List[str],
@@ -227,31 +235,37 @@ class HostLint:
     def _check_intake(self, now: int, text: str, commands: List[str], raw: bytes,
                       profile: Optional[Profile]) -> None:
         fill = self._intake.line(now, len(raw) + 1, line_cost_ms(profile, raw, commands, self._hat))
-        episode = self._episode
         if fill > self._intake.ring:
-            if episode is None:
-                episode = self._episode = _Episode(self.lines, now, text)
-            episode.peak = max(episode.peak, fill)
-        elif episode is not None and fill <= self._intake.ring // 2:
-            self._close_episode()
+            self._grow("rx", now, text, fill)
+        elif fill <= self._intake.ring // 2:
+            self._close_episode("rx")
 
-    def _check_tx_drops(self, found: Callable[[str, str], None]) -> None:
+    def _check_tx_drops(self, now: int, text: str) -> None:
         """Output the paced UART model dropped since the last line (its TX ring was full). Reports are
         throttled before the ring fills (§6.2), so what is dropped is replies to this host's requests."""
-        uart = getattr(self._hat, "uart", None)
-        dropped = int(getattr(uart, "tx_dropped", 0) or 0)
+        dropped = int(getattr(getattr(self._hat, "uart", None), "tx_dropped", 0) or 0)
         if dropped > self._tx_dropped:
-            ring = getattr(uart, "tx_size", 8192)
-            lost = dropped - self._tx_dropped
-            found("overrun", f"{lost} bytes of the HAT's output did not fit its {ring}-byte "
-                             "transmit ring and were dropped: the host asked for more than the wire carries; "
-                             "wait for each reply before the next request")
+            episode = self._grow("tx", now, text, 0)
+            episode.peak += dropped - self._tx_dropped
+        else:
+            self._close_episode("tx")
         self._tx_dropped = dropped
 
-    def _close_episode(self) -> None:
-        episode, self._episode = self._episode, None
+    def _grow(self, side: str, now: int, text: str, level: int) -> _Episode:
+        episode = self._episodes[side]
+        if episode is None:
+            episode = self._episodes[side] = _Episode(side, self.lines, now, text)
+        episode.peak = max(episode.peak, level)
+        return episode
+
+    def _ring(self, side: str) -> int:
+        uart = getattr(self._hat, "uart", None)
+        return int(getattr(uart, "tx_size", self._intake.ring)) if side == "tx" else self._intake.ring
+
+    def _close_episode(self, side: str) -> None:
+        episode, self._episodes[side] = self._episodes[side], None
         if episode is not None:
-            self._add(episode.finding(self._intake.ring))
+            self._add(episode.finding(self._ring(side)))
 
     def _add(self, finding: Finding) -> None:
         self.counts[finding.kind] += 1
@@ -265,16 +279,17 @@ class HostLint:
     # -- results ----------------------------------------------------------------------------------------
     @property
     def clean(self) -> bool:
-        return not any(self.counts.values()) and self._episode is None
+        return not any(self.counts.values()) and not any(self._episodes.values())
 
     def summary(self) -> Dict[str, Any]:
         """JSON-ready: counts per kind, kept examples, the intake model. An open overrun episode is in
         both the counts and the findings, as it will be once it closes."""
         counts = dict(self.counts)
         findings = [f for kind in KINDS for f in self.examples[kind]]
-        if self._episode is not None:
-            counts["overrun"] += 1
-            findings.append(self._episode.finding(self._intake.ring))
+        for side, episode in self._episodes.items():
+            if episode is not None:
+                counts["overrun"] += 1
+                findings.append(episode.finding(self._ring(side)))
         profile = self.profile_of()
         return {
             "profile": f"{profile.name} {profile.number}" if profile is not None else None,
@@ -302,11 +317,16 @@ class HostLint:
         return "\n".join(out)
 
     def fatal_message(self) -> Optional[str]:
-        """Under ``--strict-host``: the message naming the first offending line, else None."""
+        """Under ``--strict-host``: the message naming the first offending line, else None. An overrun
+        still in progress counts (strict mode stops at once, not when the episode ends)."""
         first = self.first
+        open_now = [e.finding(self._ring(side)) for side, e in self._episodes.items() if e is not None]
         if first is None:
-            return None
+            if not open_now:
+                return None
+            first = open_now[0]
         same_line = [f for kind in KINDS for f in self.examples[kind] if f.line == first.line]
+        same_line += [f for f in open_now if f.line == first.line]
         reasons = "; ".join(f"{f.kind}: {f.detail}" for f in sorted(same_line, key=_specific_first))
         where = f"line {first.line} (t={first.t} ms) {first.text!r}"
         return f"buildhat-emulator: --strict-host: {where}: {reasons}"

@@ -124,6 +124,7 @@ def test_a_list_storm_overruns_the_receive_ring_and_lint_says_so_while_it_lasts(
     assert live["counts"]["overrun"] == 1 and not live["clean"]
     (finding,) = [f for f in live["findings"] if f["kind"] == "overrun"]
     assert "8192-byte receive ring" in finding["detail"]
+    assert "overrun" in (lint.fatal_message() or "")            # --strict-host stops at once, not at its end
     assert nonzero(lint) == {"overrun": 1}, lint.report()     # closing it reports the same one finding
 
 
@@ -160,3 +161,18 @@ def test_a_pid_behind_an_earlier_failure_is_reported_as_not_reached() -> None:
     assert nonzero(lint) == {"error": 1, "not_in_profile": 1, "pid_arity": 1}, lint.report()
     (arity,) = [f for f in lint.summary()["findings"] if f["kind"] == "pid_arity"]
     assert "11 numbers" in arity["detail"] and "not reached" in arity["detail"]
+
+
+def test_replies_that_overflow_the_transmit_ring_on_a_paced_wire_are_an_overrun() -> None:
+    # FIRMWARE-FACTS §1: output that does not fit the 8192-byte TX ring is dropped. Three `list` dumps of
+    # three motors (kilobytes each) asked back to back on a 115200-baud wire cannot all fit.
+    emu = Emulator(firmware="1737564117", devices={0: "0x30", 1: "0x30", 2: "0x30", 3: "none"}, baud=115200)
+    emu.boot()
+    emu.advance(2000)                     # the start-up's output has left the ring
+    emu.read()
+    lint = HostLint.for_hat(emu.hat)
+    emu.write(b"list\rlist\rlist\rlist\rvin\r")
+    emu.advance(50)
+    assert emu.uart.tx_dropped > 0                          # the emulator's ring model did drop output
+    (finding,) = [f for f in lint.summary()["findings"] if f["kind"] == "overrun"]
+    assert "transmit ring" in finding["detail"] and "dropped" in finding["detail"]
