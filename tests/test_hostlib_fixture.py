@@ -83,7 +83,7 @@ def run_case(python: str, case: str, tmp_path: pathlib.Path, env: dict, timeout:
 def test_a_strict_host_failure_names_the_offending_line_and_keeps_the_transcript(tmp_path) -> None:
     done = run_case(sys.executable, "strict_host.py", tmp_path, {})
     out = done.stdout + done.stderr
-    assert done.returncode == 1, out
+    assert done.returncode == 1 and "2 failed" in out, out
     # The host's second line is the R1-R5 word `bias` (FIRMWARE-FACTS §11): named, with its text and reason.
     assert "--strict-host: line 2" in out and "'port 0 ; bias 0.3'" in out and "not_in_profile" in out, out
     kept = re.search(r"transcript \(every byte both ways, lint findings as notes\): (\S+)", out)
@@ -92,6 +92,9 @@ def test_a_strict_host_failure_names_the_offending_line_and_keeps_the_transcript
     host = "".join(e.get("bytes", "") for e in events if e.get("dir") == "host")
     notes = [e["text"] for e in events if e.get("dir") == "note"]
     assert "bias 0.3" in host and any("not_in_profile" in n for n in notes), events[-5:]
+    # A test that fails on its own while the emulator runs: its section lists that test's findings.
+    assert "host lint: 2 finding(s) in this test" in out, out
+    assert "line 1 (t=" in out and "'port 0 ; plimit 1 ; bias 0.4': not_in_profile" in out, out
 
 
 def test_one_pytest_session_of_the_real_library_on_the_shared_emulator(tmp_path) -> None:
