@@ -30,7 +30,8 @@ class Deviation:
 
 @lru_cache(maxsize=1)
 def deviations() -> Dict[str, Deviation]:
-    text = resources.files(__package__).joinpath("deviations.json").read_text(encoding="utf-8")
+    data = resources.files(__name__.rpartition(".")[0]).joinpath("deviations.json")   # in this package
+    text = data.read_text(encoding="utf-8")
     raw = json.loads(text)["deviations"]
     return {key: Deviation(key, d["requirement"], d["facts"], frozenset(d["profiles"]), d["document"],
                            d["firmware"], d.get("explain", "")) for key, d in raw.items()}

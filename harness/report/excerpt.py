@@ -5,7 +5,7 @@ is its tail; a ``t`` (ms) given by the case centres it instead.
 """
 from __future__ import annotations
 
-from typing import List, Optional
+from typing import List, Optional, Union
 
 from ..transcript import field_bytes, iter_events
 
@@ -39,13 +39,13 @@ def _printable(text: str) -> str:
     return "".join(c if c.isprintable() or c == " " else f"\\x{ord(c):02X}" for c in text)
 
 
-def _compress(events: List[dict], keep: int = 2) -> List[object]:
+def _compress(events: List[dict], keep: int = 2) -> List[Union[str, dict]]:
     """Runs of more than ``keep`` + 1 asynchronous lines (data streams, debug 16, in any mix)
     become their first ``keep`` lines and a count per class, so the commands stay in view."""
     from ..compare import ASYNC_CLASSES, default_classifier
 
     classify = default_classifier()
-    out: List[object] = []
+    out: List[Union[str, dict]] = []   # events, and one summary line per compressed run
     run: List[dict] = []
     kinds: List[str] = []
 
