@@ -259,7 +259,8 @@ def test_report_command_line(sample, capsys):
     capsys.readouterr()
     assert cli_main(["report", str(broken), "-o", str(out)]) == 2      # a bad file: one line, no traceback
     err = capsys.readouterr().err
-    assert err.splitlines() == [f"report: {broken}: not well-formed XML: unclosed token: line 1, column 12"], err
+    want = f"report: {broken}: not well-formed XML: unclosed token: line 1, column 12"
+    assert err.splitlines() == [want], err
 
 
 def test_html_escapes_what_tests_print(sample):
