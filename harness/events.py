@@ -339,7 +339,9 @@ def classify(raw: Union[bytes, str], t: float = 0.0) -> Event:
     row = _row_of(text)
     if row >= 0:
         kind, rx, parse = _COMPILED[row]
-        return Event(kind, text, data, t, parse(rx.fullmatch(text)))
+        m = rx.fullmatch(text)
+        assert m is not None             # _row_of found this row matching
+        return Event(kind, text, data, t, parse(m))
     if text in _help_lines():
         return Event("help", text, data, t, {})
     return Event("unknown", text, data, t, {})

@@ -3,7 +3,6 @@ of everything received."""
 from __future__ import annotations
 
 import os
-import re
 import signal
 import subprocess
 import sys
@@ -14,7 +13,7 @@ import pytest
 
 from buildhat_conformance.harness.transcript import read_transcript
 
-from .mutants.suite_run import MUTANT, REPO, SUITE
+from .mutants.suite_run import MUTANT, REPO, SUITE, reported_case_count
 
 pytestmark = pytest.mark.timeout(300)
 
@@ -51,6 +50,5 @@ def test_killing_the_target_mid_run(tmp_path) -> None:
             if verdict == "pass":
                 assert t.hat_lines(), f"{path} holds no HAT output"
     # Every case pytest ran is in the file: its own summary line counts them.
-    counted = r"(\d+) (?:passed|failed|errors?|skipped|target-fault|not-run|known deviation|informational)"
-    ran = sum(int(n) for n in re.findall(counted, text.splitlines()[-1]))
+    ran = reported_case_count(text)
     assert len(cases) == ran > 0, f"{len(cases)} cases in the JUnit file, pytest ran {ran}\n{text[-1500:]}"

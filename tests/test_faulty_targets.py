@@ -13,7 +13,6 @@ each runs one or two files of the suite against the emulator at --speed 20, alre
 from __future__ import annotations
 
 import os
-import re
 import subprocess
 import sys
 import time
@@ -23,7 +22,7 @@ from typing import Dict, List
 
 import pytest
 
-from .mutants.suite_run import REPO, SUITE, CaseResult, read_junit
+from .mutants.suite_run import REPO, SUITE, CaseResult, read_junit, reported_case_count
 
 pytestmark = pytest.mark.timeout(240)
 
@@ -99,10 +98,8 @@ def runs(tmp_path_factory) -> Dict[str, Run]:
 
 
 def _reported(run: Run) -> int:
-    """How many cases pytest itself says it ran (its last line)."""
-    last = run.output.strip().splitlines()[-1]
-    return sum(int(n) for n in re.findall(r"(\d+) (?:passed|failed|errors?|skipped|target-fault|not-run|"
-                                          r"known deviation|informational)", last))
+    """How many cases pytest itself says it ran (its summary line)."""
+    return reported_case_count(run.output)
 
 
 @pytest.mark.parametrize("name", list(RUNS))
