@@ -10,7 +10,8 @@ import re
 from dataclasses import dataclass, field
 from typing import Any, Callable, List, Optional, Union
 
-from ..protocol.profiles import Profile
+from ..protocol.profiles import Profile, neighbours
+from .verdict import UnknownBuild
 
 __all__ = ["Hat", "Reply", "TargetGone"]
 
@@ -124,7 +125,33 @@ class Hat:
     def profile_exact(self) -> bool:
         return bool(getattr(self.session, "profile_exact", True))
 
+    @property
+    def between(self) -> Optional[tuple[Profile, Profile]]:
+        """For an unknown build between two known releases (the session detected it, it was not
+        forced with ``--firmware``): those two releases; else None."""
+        if self.profile_exact:
+            return None
+        head = str(getattr(self.session, "version_string", "") or "").split()[:1]
+        return neighbours(int(head[0])) if head and head[0].isdigit() else None
+
+    def undecided(self, key: str) -> Optional[str]:
+        """Why feature ``key`` is unknown for this build (its neighbouring releases differ on
+        it), or None when the profile's value holds."""
+        pair = self.between
+        if pair is None:
+            return None
+        a, b = pair
+        if a.features.get(key) == b.features.get(key):
+            return None
+        return (f"behaviour of {a.name} or {b.name}: unknown build {self.session.version_string.split()[0]} "
+                f"({key} is {a.features.get(key)!r} on {a.name}, {b.features.get(key)!r} on {b.name})")
+
     def feature(self, key: str) -> Any:
+        """The release's value of ``key``; for an unknown build whose neighbouring releases
+        differ on it, :class:`UnknownBuild` (the case is then informational, never failed)."""
+        why = self.undecided(key)
+        if why is not None:
+            raise UnknownBuild(why)
         return self.profile.features[key]
 
     def has(self, command: str) -> bool:
