@@ -180,8 +180,8 @@ class Run:
         verdict = item.stash.get(_verdict_key, None)
         if report.when == "call" and verdict is not None and isinstance(exc, UnknownBuild):
             # The check needed a behaviour the releases around this unknown build differ on.
+            verdict.inform(str(exc))
             report.outcome, report.longrepr, exc = "passed", None, None
-            verdict.inform(str(call.excinfo.value))
         if report.failed and is_target_fault(exc):
             assert exc is not None
             report.user_properties.append(("target_fault", fault_line(exc)))

@@ -25,7 +25,7 @@ import copy
 import math
 import threading
 import types
-from typing import Callable, Dict, List, Optional, Tuple
+from typing import Any, Callable, Dict, List, Optional, Tuple
 from urllib.parse import parse_qs
 
 from .base import Control, Target, TargetError
@@ -232,7 +232,7 @@ def from_url(url: str, **options) -> InProcessTarget:
         raise TargetError(f"inprocess: unknown option(s) {sorted(unknown)} "
                           "(known: device, seed, baud, scale, boot, version)")
     try:
-        kwargs = dict(
+        kwargs: Dict[str, Any] = dict(
             firmware=release or None,
             devices=_parse_devices(q.get("device", [])),
             seed=int(q["seed"][-1]) if "seed" in q else 0,
