@@ -19,6 +19,7 @@ from .verdict import UnknownBuild
 __all__ = ["Hat", "Reply", "TargetGone", "TargetFault", "ASYNC_BYTES", "ASYNC_LINE"]
 
 FENCE_ANSWER = b"Firmware version: "
+_TABLES = ("commands", "set_keywords", "help_lines")     # Profile fields, not features
 
 class TargetGone(RuntimeError):
     """The target stopped answering (closed, killed, unplugged)."""
@@ -68,27 +69,56 @@ class Hat:
         return neighbours(int(head[0])) if head and head[0].isdigit() else None
 
     def undecided(self, key: str) -> Optional[str]:
-        """Why feature ``key`` is unknown for this build (its neighbouring releases differ on
-        it), or None when the profile's value holds."""
+        """Why ``key`` is unknown for this build (its neighbouring releases differ on it), or None
+        when the profile's value holds. ``key``: a feature of profiles.json, or one of the
+        tables ``commands``, ``set_keywords``, ``help_lines``."""
         pair = self.between
         if pair is None:
             return None
         a, b = pair
-        if a.features.get(key) == b.features.get(key):
+        table = key in _TABLES
+        va, vb = (getattr(a, key), getattr(b, key)) if table else (a.features.get(key), b.features.get(key))
+        if va == vb:
             return None
-        return (f"behaviour of {a.name} or {b.name}: unknown build {self.session.version_string.split()[0]} "
-                f"({key} is {a.features.get(key)!r} on {a.name}, {b.features.get(key)!r} on {b.name})")
+        what = f"their {key} differ" if table else f"{key} is {va!r} on {a.name}, {vb!r} on {b.name}"
+        build = self.session.version_string.split()[0]
+        return f"behaviour of {a.name} or {b.name}: unknown build {build} ({what})"
+
+    def _decided(self, key: str) -> None:
+        why = self.undecided(key)
+        if why is not None:
+            raise UnknownBuild(why)
 
     def feature(self, key: str) -> Any:
         """The release's value of ``key``; for an unknown build whose neighbouring releases
         differ on it, :class:`UnknownBuild` (the case is then informational, never failed)."""
-        why = self.undecided(key)
-        if why is not None:
-            raise UnknownBuild(why)
+        self._decided(key)
         return self.profile.features[key]
 
     def has(self, command: str) -> bool:
+        """Whether the release has ``command`` (UnknownBuild when only one neighbour has it)."""
+        pair = self.between
+        if pair is not None and (command in pair[0].commands) != (command in pair[1].commands):
+            raise UnknownBuild(f"behaviour of {pair[0].name} or {pair[1].name}: unknown build "
+                               f"{self.session.version_string.split()[0]} (only one of them has `{command}`)")
         return command in self.profile.commands
+
+    # The release's tables, decided as features are: an unknown build between releases whose
+    # tables differ cannot be held to either.
+    @property
+    def commands(self) -> tuple:
+        self._decided("commands")
+        return self.profile.commands
+
+    @property
+    def set_keywords(self) -> tuple:
+        self._decided("set_keywords")
+        return self.profile.set_keywords
+
+    @property
+    def help_bytes(self) -> bytes:
+        self._decided("help_lines")
+        return self.profile.help_bytes
 
     @property
     def time_scale(self) -> float:
@@ -392,9 +422,9 @@ class Hat:
         parts = ["echo 0", "debug 0"]
         for p in range(4):
             parts += [f"port {p}", "select"] + ([] if p in powered else ["pwm", "off"])
-            if self.has("bias"):
+            if self.profile.has("bias"):      # the profile's table: a cleanup is never a verdict
                 parts.append("bias 0")
-        if self.has("pwmparams"):
+        if self.profile.has("pwmparams"):
             parts = parts + [f"port {p} ; pwmparams 0 0" for p in range(4)]
         # plimit is left alone: a powered light matrix needs it, and tests that depend on the
         # default limit set it themselves.
