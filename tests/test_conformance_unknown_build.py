@@ -51,7 +51,7 @@ def test_verdict_where_the_neighbours_differ_is_informational_and_where_they_agr
 #: A build between R5 and R6, whose command tables differ (R6 dropped bias, FACTS §2), behaving as R6.
 BUILD_R5_R6 = "1672000000%202022-12-25T20:26:40%2B00:00"
 TABLE_CASES = ("test_help_prints_the_synopsis_of_this_release or "
-               "test_shortest_resolving_prefix_runs_the_command")
+               "(test_shortest_resolving_prefix_runs_the_command and (bias or pwmparams))")
 
 
 def _run(target: str, keyword: str = CASES):
@@ -60,13 +60,13 @@ def _run(target: str, keyword: str = CASES):
 
 
 def test_unknown_builds_are_never_failed_for_what_a_neighbour_does():
-    with ThreadPoolExecutor(max_workers=4) as pool:      # child pytests, mostly start-up time
+    # (R1 itself gets these as known deviations: test_conformance_profiles.py checks that.)
+    with ThreadPoolExecutor(max_workers=3) as pool:      # child pytests, mostly start-up time
         runs = [pool.submit(_run, f"inprocess:R2?version={BUILD}"),
                 pool.submit(_run, f"inprocess:R1?version={BUILD}"),
-                pool.submit(_run, "inprocess:R1"),
                 pool.submit(_run, f"inprocess:R6?version={BUILD_R5_R6}", TABLE_CASES)]
-        r2_like, r1_like, r1, r6_like = (run.result() for run in runs)
-    assert len(r2_like) >= 7 and set(r2_like) == set(r1_like) == set(r1)
+        r2_like, r1_like, r6_like = (run.result() for run in runs)
+    assert len(r2_like) >= 7 and set(r2_like) == set(r1_like)
     for results in (r2_like, r1_like):
         failed = {n: r.message.splitlines()[0] for n, r in results.items() if r.verdict == "fail"}
         assert not failed, failed
@@ -78,8 +78,6 @@ def test_unknown_builds_are_never_failed_for_what_a_neighbour_does():
         got = r1_like[name]
         assert got.verdict == "informational", (name, got.verdict, got.message)
         assert "behaviour of R1 or R2" in got.properties.get("notes", ""), got.properties
-        # ... while R1 itself gets them as its known deviations or R1-specific checks, not informational
-        assert r1[name].verdict in ("pass", "known deviation"), (name, r1[name].verdict)
     # Checks that rest on a behaviour R1 and R2 differ on are informational for either build.
     for results in (r2_like, r1_like):
         assert results["test_button_events"].verdict == "informational"
@@ -88,7 +86,7 @@ def test_unknown_builds_are_never_failed_for_what_a_neighbour_does():
     assert r2_like["test_selonce_variable_reports_once"].verdict == "known deviation"
     # Between R5 and R6 the command tables differ: checks that rest on the table are informational
     # (driven with R5's table, an R6-like build would otherwise fail `help` and every bias prefix).
-    assert len(r6_like) > 20
+    assert len(r6_like) >= 4, sorted(r6_like)
     failed = {n: r.message.splitlines()[0] for n, r in r6_like.items() if r.verdict == "fail"}
     assert not failed, failed
     for name in ("test_help_prints_the_synopsis_of_this_release[help]",
