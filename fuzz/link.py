@@ -53,6 +53,8 @@ class Link:
         # H10 (baud-paced links): the incomplete last line of an answer, kept for the next
         # one. On a paced wire a line can be half-way across when the fence arrives.
         self._carry = b""
+        self.sent_bytes = 0       # what crossed the wire each way (fences and syncs included)
+        self.recv_bytes = 0
 
     @property
     def now(self) -> float:
@@ -62,11 +64,13 @@ class Link:
 
     def send(self, data: bytes) -> None:
         self.trace.entries.append(("send", self.now, bytes(data)))
+        self.sent_bytes += len(data)
         self.target.write(data)
 
     def _got(self, data: bytes) -> None:
         if data:
             self.trace.entries.append(("recv", self.now, data))
+            self.recv_bytes += len(data)
 
     def drain(self, quiet_s: float = 0.05, limit_s: float = 2.0) -> bytes:
         """Read until the target has been quiet for ``quiet_s`` (HAT seconds)."""
@@ -86,6 +90,7 @@ class Link:
         a script runner syncs on its own when it opens the target)."""
         for attempt in range(attempts):
             self.trace.entries.append(("sync", self.now, FENCE))
+            self.sent_bytes += len(FENCE)
             self.target.write(FENCE)
             start, buf = self.now, bytearray()
             while self.now - start < self.fence_s * 1000.0 * (attempt + 1):
@@ -126,19 +131,25 @@ class Link:
         after each input's last fence line (and the prompt that may follow it)."""
         blob = b"".join(bytes(d) + FENCE for d in inputs)
         self.send(blob)
-        want = sum(fences)
-        expected_out = sum(extra_bytes) if extra_bytes else 0
-        # Deadline in HAT time: the fence, plus the time the predicted output needs on the wire.
-        deadline_ms = (self.fence_s + (expected_out + len(blob)) / WIRE_BYTES_PER_S * 1.5) * 1000.0
+        answer = self.receive(fence_line, sum(fences), sum(extra_bytes), len(blob), prompt)
+        return _cut(answer, fence_line, fences)
+
+    def receive(self, fence_line: bytes, want: int, expected_out: int = 0, sent: int = 0,
+                prompt: Optional[bool] = None) -> bytes:
+        """Read until ``want`` copies of ``fence_line`` arrived (and the prompt that may follow
+        the last). The deadline is HAT time: the fence, plus the time the predicted output
+        (``expected_out`` bytes) and the ``sent`` bytes need on the wire."""
+        deadline_ms = (self.fence_s + (expected_out + sent) / WIRE_BYTES_PER_S * 1.5) * 1000.0
         start = self.now
         buf = bytearray(self._carry)
         self._carry = b""
+        slice_s = 0.05 if self._virtual else 0.05 / self._scale
         while buf.count(fence_line) < want:
             if self.now - start > deadline_ms:
                 raise LinkTimeout(f"no answer to the fence within {deadline_ms:.0f} ms (HAT time): "
                                   f"{buf.count(fence_line)} of {want} fence line(s) arrived", bytes(buf))
             try:
-                data = self.target.read(0.05 if self._virtual else 0.05 / self._scale)
+                data = self.target.read(slice_s)
             except TargetError as exc:
                 raise LinkTimeout(f"the target went away: {exc}", bytes(buf)) from None
             self._got(data)
@@ -155,15 +166,14 @@ class Link:
         # incomplete line after the answer is carried over to the next read, not judged half.
         end = buf.rfind(fence_line) + len(fence_line)
         while _PARTIAL_PROMPT.fullmatch(bytes(buf[end:])) and self.now - start <= deadline_ms:
-            data = self.target.read(0.05 if self._virtual else 0.05 / self._scale)
+            data = self.target.read(slice_s)
             self._got(data)
             buf += data
         keep = _incomplete_tail(bytes(buf), end)
         if keep:
             self._carry = bytes(buf[len(buf) - keep:])
             del buf[len(buf) - keep:]
-        return _cut(bytes(buf), fence_line, fences)
-
+        return bytes(buf)
 
 _PARTIAL_PROMPT = re.compile(rb"P[0-3]?")
 _PROMPT = re.compile(rb"P[0-3]>")

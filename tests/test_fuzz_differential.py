@@ -36,7 +36,7 @@ def _opener(release):
 
 
 def test_two_copies_of_one_release_agree(tmp_path):
-    args = _args(tmp_path, "--target", "inprocess:R7", "--against", "inprocess:R7", "--budget", "4",
+    args = _args(tmp_path, "--target", "inprocess:R7", "--against", "inprocess:R7", "--budget", "4x",
                  "--seed", "5", "--steps", "8")
     result, _files = cli.run(args, primary=_opener("R7"), secondary=_opener("R7"))
     assert not result.findings, [f.message for f in result.findings]
@@ -44,7 +44,7 @@ def test_two_copies_of_one_release_agree(tmp_path):
 
 def test_two_releases_differ_and_the_difference_replays(tmp_path):
     # R5 still has `bias` and a 10-number `pid`; R7 has pwmparams, pid_diff, a new help text ...
-    args = _args(tmp_path, "--target", "inprocess:R7", "--against", "inprocess:R5", "--budget", "40",
+    args = _args(tmp_path, "--target", "inprocess:R7", "--against", "inprocess:R5", "--budget", "40x",
                  "--seed", "5", "--steps", "8", "--families", "valid", "--shrink-time", "1.5")
     result, files = cli.run(args, primary=_opener("R7"), secondary=_opener("R5"))
     finding = result.finding("differential")
