@@ -38,7 +38,7 @@ from .runner import Runner, Stats, output_groups
 __all__ = ["Budget", "parse_budget", "CampaignConfig", "CampaignResult", "Confirmed", "run_campaign",
            "run_seed", "new_seed"]
 
-_GENERATOR_VERSION = 1      # part of the database key: a stored run seed means nothing to another generator
+_GENERATOR_VERSION = 2      # part of the database key: a stored run seed means nothing to another generator
 
 
 @dataclass(frozen=True)
@@ -198,6 +198,10 @@ class Campaign:
                                                                             c.out_limit)
                 for group in groups:
                     runner.exchange(group, guard=True)
+                if runner.tainted:
+                    # A line did what the facts leave open: the rest of this run could be judged
+                    # on liveness alone. A new run (fresh, or after the prelude) judges fully.
+                    break
                 if c.stats.on_progress is not None:
                     c.stats.on_progress(c.stats)
         finally:

@@ -5,7 +5,6 @@ replay of a finding's script (fuzz/replay.py), so a replay judges exactly as the
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from functools import lru_cache
 from typing import Callable, Dict, List, Optional, Sequence, Set, Tuple
 
 from ..harness.events import line_kind
@@ -77,10 +76,23 @@ class Side:
 
 
 # The response classes seen are coverage figures, not judgements: a line's kind is looked up once
-# per shape (digits as 0), as data lines differ only in their numbers (profile: classifying every
-# line was a tenth of an in-process campaign).
-_kind = lru_cache(maxsize=4096)(line_kind)
-_SHAPE = bytes.maketrans(b"123456789", b"000000000")
+# per shape (the line without digits, signs, points and spaces), as data lines differ only in
+# their numbers (profile: classifying every line was a tenth of an in-process campaign).
+_KINDS: Dict[bytes, str] = {}
+_NUMBERS = b"0123456789+-. "
+
+
+def _kinds_of(out: bytes) -> Set[str]:
+    kinds = set()
+    for line in set(out.split(b"\r\n")[:-1]):
+        shape = line.translate(None, _NUMBERS)
+        kind = _KINDS.get(shape)
+        if kind is None:
+            if len(_KINDS) >= 65536:          # noise lines: keep the table bounded
+                _KINDS.clear()
+            kind = _KINDS[shape] = line_kind(line)
+        kinds.add(kind)
+    return kinds
 
 
 def _count_fences(items: Sequence[Expect]) -> int:
@@ -207,6 +219,11 @@ class Runner:
             if not self.fresh:
                 for p in side.model.ports:
                     p.known = False
+
+    @property
+    def tainted(self) -> bool:
+        """A side's model lost track of the state (model.UNSPECIFIED): only liveness is judged."""
+        return any(side.model.tainted for side in self.sides)
 
     def close(self) -> None:
         link = self.sides[0].link if self.sides else None
@@ -344,7 +361,7 @@ class Runner:
 
     # -- checks --------------------------------------------------------------------------------
     def _note_kinds(self, out: bytes) -> None:
-        kinds = {_kind(line) for line in set(out.translate(_SHAPE).split(b"\r\n")[:-1])}
+        kinds = _kinds_of(out)
         self.kinds_seen |= kinds
         self.stats.responses |= kinds
 
