@@ -192,10 +192,15 @@ class Campaign:
                     runner.wait(rng.choice(c.waits))
                     continue
                 batch = [self.generator.input(rng) for _ in range(rng.randint(1, c.batch))]
-                self._count(batch)
                 datas = [inp.data for inp in batch]
-                groups = [datas] if c.out_limit is None else output_groups(runner.sides[0].model, datas,
-                                                                            c.out_limit)
+                if c.out_limit is None:
+                    groups = [datas]
+                else:
+                    groups, left_out = output_groups(runner.sides[0].model, datas, c.out_limit)
+                    if left_out:
+                        c.stats.left_out += len(left_out)
+                        batch = [inp for i, inp in enumerate(batch) if i not in left_out]
+                self._count(batch)
                 for group in groups:
                     runner.exchange(group, guard=True)
                 if runner.tainted:

@@ -247,7 +247,12 @@ def _summary(result: CampaignResult, stats: Stats, productions, files, junit: st
     print(f"  grammar productions covered: {len(set(productions) & stats.productions)}/{len(productions)}"
           + (f" (not reached: {', '.join(missing[:12])}{more})" if missing else ""))
     print(f"  response classes seen: {', '.join(sorted(stats.responses))}")
-    print("  checks: " + ", ".join(f"{k} {v}" for k, v in sorted(stats.checks.items())))
+    print("  checks: " + ", ".join(f"{k} {v}" for k, v in sorted(stats.checks.items()))
+          + (f"; {stats.liveness_only} step(s) judged on liveness only (debug bit 1's raw trace)"
+             if stats.liveness_only else ""))
+    if stats.left_out:
+        print(f"  {stats.left_out} input(s) not sent: the answer of each alone is over {OUT_LIMIT} bytes, "
+              f"more than the TX ring keeps on this wire")
     if not result.findings:
         print("  no findings")
     for f in result.findings:

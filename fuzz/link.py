@@ -57,6 +57,12 @@ class Link:
         self.recv_bytes = 0
 
     @property
+    def timed(self) -> bool:
+        """Input takes time to arrive (a real-time or baud-paced target): the HAT may print
+        between two bytes of one line."""
+        return not self._virtual or bool(getattr(self.target, "baud", None))
+
+    @property
     def now(self) -> float:
         if self._virtual:
             return float(self.target.now)  # type: ignore[attr-defined]
@@ -84,6 +90,11 @@ class Link:
             out += data
         return bytes(out)
 
+    def settle(self, quiet_s: float = 0.05) -> bytes:
+        """Drop what is still arriving (and the carried partial line) until the target is quiet."""
+        self._carry = b""
+        return self.drain(quiet_s)
+
     def sync(self, fence_line: bytes, attempts: int = 3) -> None:
         """Wait until the target answers a fence (it may still be starting: a process, a HAT
         after reset). These bytes are link bookkeeping, recorded as ``sync`` (scripts skip them:
@@ -105,20 +116,27 @@ class Link:
     def wait(self, ms: int) -> bytes:
         """Let ``ms`` HAT milliseconds pass; returns the output that arrived meanwhile."""
         self.trace.entries.append(("wait", self.now, ms))
-        out = bytearray()
+        out = bytearray(self._carry)
+        self._carry = b""
         if self._virtual:
             self.target.advance(ms)  # type: ignore[attr-defined]
             data = self.target.read(0)
             self._got(data)
-            return data
-        end = time.monotonic() + ms / 1000.0 / self._scale
-        while True:
-            left = end - time.monotonic()
-            if left <= 0:
-                break
-            data = self.target.read(min(left, 0.05))
-            self._got(data)
             out += data
+        else:
+            end = time.monotonic() + ms / 1000.0 / self._scale
+            while True:
+                left = end - time.monotonic()
+                if left <= 0:
+                    break
+                data = self.target.read(min(left, 0.05))
+                self._got(data)
+                out += data
+        # A line still arriving when the wait ends belongs to what comes next.
+        keep = _incomplete_tail(bytes(out), 0)
+        if keep:
+            self._carry = bytes(out[len(out) - keep:])
+            del out[len(out) - keep:]
         return bytes(out)
 
     def exchange(self, data: bytes, fence_line: bytes, fences: int, extra_bytes: int = 0) -> bytes:
@@ -156,9 +174,15 @@ class Link:
             buf += data
         # A prompt may follow the last fence line; on a real link give it a moment to arrive.
         tail = bytes(buf[buf.rfind(fence_line) + len(fence_line):])
-        # H10: ``prompt=False`` (the caller knows echo is off) skips the wait: it idled the link
-        # for 20 ms after every batch. Paced virtual targets wait too.
-        if not tail and prompt is not False and (not self._virtual or getattr(self.target, "baud", None)):
+        # ``prompt=True`` (the caller knows echo is on): wait for it within the deadline (a
+        # loaded machine can take longer than any fixed grace). H10: ``prompt=False`` skips the
+        # wait (it idled the link for 20 ms after every batch). Paced virtual targets wait too.
+        while prompt and self.timed and len(tail) < 3 and self.now - start <= deadline_ms:
+            data = self.target.read(slice_s)
+            self._got(data)
+            buf += data
+            tail = bytes(buf[buf.rfind(fence_line) + len(fence_line):])
+        if not tail and prompt is None and self.timed:
             data = self.target.read(0.02 / self._scale)
             self._got(data)
             buf += data
