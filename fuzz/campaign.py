@@ -137,6 +137,7 @@ class _Keeper:
         self.opener, self.keep = opener, keep
         self.target: Optional[Target] = None
         self.runs = 0             # runs since the last (re)open
+        self.clean = False        # the last run on it ended without a finding
 
     def __call__(self) -> Target:
         if not self.keep:
@@ -144,6 +145,7 @@ class _Keeper:
         if self.target is None:
             self.target = self.opener()
             self.runs = 0
+            self.clean = False
         self.runs += 1
         return self.target
 
@@ -182,7 +184,11 @@ class Campaign:
         step; the run ends early when it says so (the budget is spent)."""
         c = self.config
         rng = random.Random(seed)
+        settled = c.keep_open and all(k.clean for k in self.keepers)
+        for k in self.keepers:
+            k.clean = False
         runner = self._runner()
+        runner.settled = settled
         try:
             runner.start()
             for _step in range(c.steps):
@@ -209,6 +215,8 @@ class Campaign:
                     break
                 if c.stats.on_progress is not None:
                     c.stats.on_progress(c.stats)
+            for k in self.keepers:
+                k.clean = True
         finally:
             runner.close()
 

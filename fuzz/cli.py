@@ -66,9 +66,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--families", default=",".join(FAMILIES),
                         help=f"input families, comma-separated (default: {','.join(FAMILIES)})")
     parser.add_argument("--steps", type=int, default=100, help="steps per run (default 100)")
-    parser.add_argument("--batch", type=int, default=16,
+    parser.add_argument("--batch", type=int, default=32,
                         help="at most this many inputs sent back to back in one step, with one fence "
-                             "(default 16)")
+                             "(default 32)")
     parser.add_argument("--waits", default="10,60,300",
                         help="HAT milliseconds the wait rule may let pass, comma-separated; empty: no "
                              "wait rule (default 10,60,300)")
@@ -178,7 +178,7 @@ def _config(args: argparse.Namespace, target: str, primary: Optional[Callable[[]
         secondary_profile=secondary_profile, families=families, steps=args.steps, batch=args.batch,
         waits=waits, fence_s=args.fence_timeout,
         # In HAT time a wait costs only CPU; on a real-time wire it idles the link.
-        wait_share=0.1 if virtual else 0.02,
+        wait_share=0.1 if virtual else 0.01,
         fresh=is_fresh(target) and (not args.against or is_fresh(args.against)),
         # Targets that take seconds to boot stay open from run to run (the prelude resets them).
         keep_open=not virtual, out_limit=None if virtual else OUT_LIMIT, confirm=args.confirm,

@@ -198,6 +198,7 @@ class Runner:
         self.kinds_seen: Set[str] = set()
         self.fresh = fresh
         self.keep_open = keep_open
+        self.settled = False      # the targets come from a run that ended cleanly (see start)
         for label, opener, profile in openers:
             try:
                 target = opener()
@@ -216,11 +217,14 @@ class Runner:
                 self.fail("liveness", f"{label}: the target could not be opened: {exc}", {})
 
     def start(self, prelude: bytes = PRELUDE) -> None:
-        """Drain the start-up output and send the prelude (not judged: the state before it is unknown)."""
+        """Drain the start-up output and send the prelude (not judged: the state before it is unknown).
+        A target that a clean run just left (``settled``) answers at once: no drain, no sync; what
+        is still on its way ends up in the prelude's answer."""
         for side in self.sides:
-            side.link.drain()
             try:
-                side.link.sync(side.fence_line)
+                if not self.settled:
+                    side.link.drain()
+                    side.link.sync(side.fence_line)
                 side.link.exchange(prelude, side.fence_line, 1)
             except LinkTimeout as exc:
                 self.fail("liveness", f"{side.label}: no answer after the prelude: {exc}",
