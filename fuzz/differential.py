@@ -22,19 +22,31 @@ VALUE_TOLERANCE = 0.05      # relative, for positions/speeds in data lines
 
 def synchronous_part(data: bytes) -> Tuple[List[bytes], List[Event]]:
     """(pieces that answer commands, asynchronous events). Pieces are complete lines, or the
-    unterminated rest (a prompt)."""
+    unterminated rest (a prompt). Listing lines answer `list`, unless they end in an
+    ``established`` line: then they are the device dump printed on connecting (§5), whose time
+    depends on each target's clock."""
     parts = data.split(b"\r\n")
     sync: List[bytes] = []
     async_events: List[Event] = []
+    dump: List[Tuple[bytes, Event]] = []      # listing lines not yet known to be a dump
     for i, raw in enumerate(parts):
         last = i == len(parts) - 1
         if last and not raw:
             continue
         ev = classify(raw)
-        if not last and ev.kind in ASYNC_KINDS and ev.kind != "list_port" and ev.kind != "list_line":
+        if not last and ev.kind == "list_line":
+            dump.append((raw + b"\r\n", ev))
+            continue
+        if ev.kind == "established":
+            async_events.extend(e for _p, e in dump)
+        else:
+            sync.extend(p for p, _e in dump)
+        dump = []
+        if not last and ev.kind in ASYNC_KINDS and ev.kind != "list_port":
             async_events.append(ev)
             continue
         sync.append(raw + (b"" if last else b"\r\n"))
+    sync.extend(p for p, _e in dump)
     return sync, async_events
 
 

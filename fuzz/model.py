@@ -298,6 +298,7 @@ class HatModel:
         self.port = 0
         self.echo = 0
         self.debug = 0
+        self.debug_seen = 0                    # every debug bit set since the caller cleared it
         self.ledmode = -1
         self.plimit = 6554                     # R1-R5 global limit (Q16)
         self.ports = [PortModel() for _ in range(4)]
@@ -453,6 +454,7 @@ class HatModel:
 
     def _cmd_debug(self, cur: _Cursor, out: List[Expect]) -> None:
         self.debug = cur.need(cur.signed())
+        self.debug_seen |= self.debug
 
     def _here(self) -> PortModel:
         return self.ports[self.port]

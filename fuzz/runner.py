@@ -135,7 +135,7 @@ def plan_step(model: HatModel, datas: Sequence[bytes], guard: bool = False) -> S
     """Feed ``datas`` and the fence to ``model`` (it moves on). With ``guard``, :data:`DEBUG_OFF`
     is appended to each input that leaves debug bit 1 set (and fed)."""
     states = [[p.copy() for p in model.ports]]
-    debug = model.debug
+    model.debug_seen = model.debug
     expected: List[Expect] = []
     fates: List[LineFate] = []
     sent: List[bytes] = []
@@ -146,7 +146,6 @@ def plan_step(model: HatModel, datas: Sequence[bytes], guard: bool = False) -> S
             more, off_fates = model.feed(DEBUG_OFF)
             items = joined(items, more)          # what feeding ``data + DEBUG_OFF`` at once predicts
             more_fates += off_fates
-        debug |= model.debug
         if expected and items and expected[-1].what == "echo" and items[0].what == "echo":
             expected = joined(expected, items)
         else:
@@ -155,7 +154,8 @@ def plan_step(model: HatModel, datas: Sequence[bytes], guard: bool = False) -> S
         sent.append(data)
         states.append([p.copy() for p in model.ports])
     fence_items, fence_fates = model.feed(FENCE)
-    return StepPlan(sent, joined(expected, fence_items), states, debug, fates + fence_fates)
+    # Every bit any line of the step set, however briefly (a guard's `debug 0` included).
+    return StepPlan(sent, joined(expected, fence_items), states, model.debug_seen, fates + fence_fates)
 
 
 def output_groups(model: HatModel, datas: Sequence[bytes], limit: int) -> Tuple[List[List[bytes]], Set[int]]:
