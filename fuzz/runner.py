@@ -11,8 +11,9 @@ from ..harness.events import line_kind
 from ..harness.targets.base import Target, TargetError
 from ..protocol.profiles import Profile
 from .differential import compare_answers
+from .expect import Expect, LineFate, joined
 from .link import FENCE, Link, LinkTimeout
-from .model import Expect, HatModel, LineFate, PortModel, established, expected_duty, joined
+from .model import HatModel, PortModel, established, expected_duty
 from .oracles import raise_finding
 from .stream import MatchResult, Problem, allowed_kinds, match_stream
 

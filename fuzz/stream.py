@@ -15,7 +15,7 @@ from typing import List, Optional, Tuple
 
 from ..harness.events import Event, classify, line_kind
 from ..protocol.profiles import Profile
-from .model import Expect
+from .expect import Expect
 
 __all__ = ["Problem", "MatchResult", "match_stream", "ASYNC_KINDS", "allowed_kinds", "split_lines"]
 
