@@ -90,11 +90,6 @@ class Link:
             out += data
         return bytes(out)
 
-    def settle(self, quiet_s: float = 0.05) -> bytes:
-        """Drop what is still arriving (and the carried partial line) until the target is quiet."""
-        self._carry = b""
-        return self.drain(quiet_s)
-
     def sync(self, fence_line: bytes, attempts: int = 3) -> None:
         """Wait until the target answers a fence (it may still be starting: a process, a HAT
         after reset). These bytes are link bookkeeping, recorded as ``sync`` (scripts skip them:
