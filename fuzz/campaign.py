@@ -321,6 +321,7 @@ def run_campaign(config: CampaignConfig, budget: Budget, seed: int, database: Op
             seed_i = stored.pop(0) if stored else run_seed(seed, index)
             index += 0 if from_store else 1
             result.runs += 1
+            config.stats.examples = result.runs
             try:
                 campaign.run(seed_i, spent)
                 if from_store:
@@ -341,6 +342,7 @@ def run_campaign(config: CampaignConfig, budget: Budget, seed: int, database: Op
                     result.findings.append(confirmed)
                     _store_run(folder, seed_i, finding.oracle)
             result.checking += time.monotonic() - t0
+            config.stats.checking_s = result.checking
     finally:
         campaign.discard_targets()
     result.elapsed = time.monotonic() - start - result.checking

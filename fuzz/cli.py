@@ -125,9 +125,12 @@ class Progress:
         self.every = 0.5 if self.tty else every
 
     def line(self, stats: Stats) -> str:
-        el = max(time.monotonic() - self.start, 1e-9)
+        # The budget counts fuzzing time; confirming and reducing findings come on top.
+        el = max(time.monotonic() - self.start - stats.checking_s, 1e-9)
         spent = f"{el:.0f}/{self.budget.seconds:g} s" if self.budget.seconds is not None else \
             f"{stats.examples}/{self.budget.examples} runs, {el:.0f} s"
+        if stats.checking_s >= 1:
+            spent += f" (+{stats.checking_s:.0f} s confirming findings)"
         return (f"[fuzz] {spent}: {stats.executions} inputs, {stats.lines / el:.0f} lines/s, "
                 f"productions {len(stats.productions & self.productions)}/{self.grammar_size}, "
                 f"response classes {len(stats.responses)}")

@@ -33,6 +33,7 @@ from .lineparse import Cursor, LineFailed, clamp, f32, prefix_table, q16
 __all__ = ["HatModel", "PortModel", "UNSPECIFIED", "CR", "LINE_MAX", "expected_duty", "established"]
 
 CR, LF, BS, DEL, NUL = 0x0D, 0x0A, 0x08, 0x7F, 0x00
+_RUBOUTS = re.compile(rb"([\x08\x7f])")
 LINE_MAX = 256            # CMDBUFLEN (§1)
 
 # Situations FIRMWARE-FACTS does not settle; a line that hits one is not judged on them.
@@ -170,16 +171,18 @@ class HatModel:
             self.buffer += stored
             return stored
         echo = bytearray()
-        for b in run:                        # rubouts: byte by byte
-            if b in (BS, DEL):
-                if len(self.buffer) >= LINE_MAX:
+        buffer = self.buffer
+        for piece in _RUBOUTS.split(run):    # the bytes between rubouts, and each rubout
+            if piece == b"\x08" or piece == b"\x7f":
+                if len(buffer) >= LINE_MAX:
                     self.overflowed_then_bs = True
-                if self.buffer:
-                    self.buffer.pop()
+                if buffer:
+                    buffer.pop()
                     echo += b"\x08 \x08"
-            elif len(self.buffer) < LINE_MAX:
-                self.buffer.append(b)
-                echo.append(b)
+            elif piece:
+                stored = piece[:max(0, LINE_MAX - len(buffer))]
+                buffer += stored
+                echo += stored
         return bytes(echo)
 
     def _end_line(self, out: List[Expect]) -> LineFate:

@@ -44,6 +44,7 @@ class Stats:
     sent_bytes: int = 0           # over the first target's wire, fences included
     recv_bytes: int = 0
     left_out: int = 0             # inputs not sent: their answer alone would overflow the TX ring
+    checking_s: float = 0.0       # time spent confirming and reducing findings (not fuzzing)
     liveness_only: int = 0        # steps judged on liveness alone (a raw serial trace on a timed link)
     on_progress: Optional[Callable[[Stats], None]] = None
 
@@ -88,6 +89,9 @@ _NUMBERS = b"0123456789+-. "
 def _kinds_of(out: bytes) -> Set[str]:
     kinds = set()
     for line in set(out.split(b"\r\n")[:-1]):
+        if line[2:3] == b">" and line[:1] == b"P":
+            kinds.add("unknown")      # a prompt, then echo: never a response class
+            continue
         shape = line.translate(None, _NUMBERS)
         kind = _KINDS.get(shape)
         if kind is None:
