@@ -231,12 +231,19 @@ class Campaign:
         for k in self.keepers:
             k.discard()
 
+    def after_failure(self, finding: Finding) -> None:
+        """A target that stopped answering is restarted; after any other failure it answered,
+        and the next run's prelude (with a drain and a sync) brings it back to a known state:
+        a restart would cost a kept-open target seconds per finding."""
+        if finding.oracle == "liveness" or not self.config.keep_open:
+            self.discard_targets()
+
     # -- findings -------------------------------------------------------------------------------
     def replay(self, script: Script) -> Optional[Finding]:
         c = self.config
         fresh = c.fresh and not c.keep_open
         return replay_script(script, self.keepers[0], c.profile, c.fence_s, fresh=fresh, against=self.against,
-                             keep_open=c.keep_open, on_fail=self.discard_targets)
+                             keep_open=c.keep_open, on_fail=self.after_failure)
 
     def confirm(self, script: Script, oracle: str) -> int:
         """How many of ``confirm`` replays fail ``oracle`` again."""
@@ -249,7 +256,7 @@ class Campaign:
     def check(self, finding: Finding, seed: int) -> Optional[Confirmed]:
         """Confirm, reduce, confirm again; None when no replay failed the same way."""
         c = self.config
-        self.discard_targets()          # whatever failed may have left the target broken
+        self.after_failure(finding)
         script = script_from_trace(finding, c.devices if c.fresh else None)
         hits = self.confirm(script, finding.oracle)
         if not hits:
@@ -333,7 +340,7 @@ def run_campaign(config: CampaignConfig, budget: Budget, seed: int, database: Op
             known = result.finding(finding.oracle)
             if known is not None:
                 known.also_seen += 1
-                campaign.discard_targets()
+                campaign.after_failure(finding)
             else:
                 confirmed = campaign.check(finding, seed_i)
                 if confirmed is None:

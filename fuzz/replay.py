@@ -21,11 +21,11 @@ __all__ = ["replay_script"]
 def replay_script(script: Union[str, Script], open_target: Callable[[], Target], profile: Profile,
                   fence_s: float = 2.0, fresh: bool = True,
                   against: Optional[Tuple[Callable[[], Target], Profile]] = None, keep_open: bool = False,
-                  on_fail: Optional[Callable[[], None]] = None) -> Optional[Finding]:
+                  on_fail: Optional[Callable[[Finding], None]] = None) -> Optional[Finding]:
     """The finding the replay produces (None if every check passed). With ``against`` (an opener
     and its release) the script goes to both targets and the differential oracle runs too.
     ``keep_open``: the openers hand out targets that stay open after the replay (``on_fail`` is
-    called after a failed replay, which may have left them broken)."""
+    called with the finding of a failed replay, which may have left them broken)."""
     if not isinstance(script, Script):
         script = load_script(script)
     runner: Optional[Runner] = None
@@ -60,7 +60,7 @@ def replay_script(script: Union[str, Script], open_target: Callable[[], Target],
                     control.action(action.text)
     except Finding as finding:
         if on_fail is not None:
-            on_fail()
+            on_fail(finding)
         return finding
     finally:
         if runner is not None:

@@ -58,9 +58,13 @@ def test_two_releases_differ_and_the_difference_replays(tmp_path):
 
 
 def test_a_device_dump_on_connecting_is_asynchronous_but_a_listing_is_not():
-    dump = (b"P1: connecting to active device\r\ntype 40\r\n  M0 COL O SI = PCT\r\n"
+    dump = (b"P1: connected to active ID 40\r\ntype 40\r\n  M0 COL O SI = PCT\r\n"
             b"P1: established serial communication with active ID 40\r\n")
     assert compare_answers(b"\r\n" + dump + b"P0>", b"\r\nP0>") is None
+    # a `list` answer (four headers) just before a connect is still compared
+    listed = b"P0: no device detected\r\nP1: connected to active ID 40\r\ntype 40\r\n"
+    assert compare_answers(listed + dump, listed) is None
+    assert compare_answers(listed + dump, dump) is not None
     listing = b"P0: no device detected\r\nP1: connected to active ID 40\r\ntype 40\r\n"
     shorter = b"P0: no device detected\r\nP1: connected to active ID 40\r\n"
     assert compare_answers(listing, shorter) is not None
