@@ -121,7 +121,7 @@ class Confirmed:
 class CampaignResult:
     findings: List[Confirmed] = field(default_factory=list)
     unconfirmed: List[Tuple[Finding, int]] = field(default_factory=list)   # (finding, replays tried)
-    elapsed: float = 0.0          # fuzzing time (confirming and reducing not included)
+    elapsed: float = 0.0          # fuzzing time (confirming, reducing, starting targets not included)
     checking: float = 0.0         # time spent confirming and reducing
     runs: int = 0
     seed: int = 0
@@ -187,7 +187,12 @@ class Campaign:
         settled = c.keep_open and all(k.clean for k in self.keepers)
         for k in self.keepers:
             k.clean = False
+        t0 = time.monotonic()
         runner = self._runner()
+        if c.keep_open and any(k.runs == 1 for k in self.keepers):
+            # A target that takes seconds to start (a process booting, a HAT) was (re)started:
+            # that is not fuzzing time; the summary reports it apart.
+            c.stats.startup_s += time.monotonic() - t0
         runner.settled = settled
         try:
             runner.start()
@@ -245,6 +250,10 @@ class Campaign:
         return replay_script(script, self.keepers[0], c.profile, c.fence_s, fresh=fresh, against=self.against,
                              keep_open=c.keep_open, on_fail=self.after_failure)
 
+    def _note(self, text: str) -> None:
+        if self.config.stats.on_note is not None:
+            self.config.stats.on_note(text)
+
     def confirm(self, script: Script, oracle: str) -> int:
         """How many of ``confirm`` replays fail ``oracle`` again."""
         hits = 0
@@ -258,9 +267,13 @@ class Campaign:
         c = self.config
         self.after_failure(finding)
         script = script_from_trace(finding, c.devices if c.fresh else None)
+        self._note(f"a [{finding.oracle}] failure: replaying it {max(1, c.confirm)} time(s) to confirm it")
         hits = self.confirm(script, finding.oracle)
         if not hits:
+            self._note(f"the [{finding.oracle}] failure did not happen again: not reported")
             return None
+        self._note(f"[{finding.oracle}] reproduced {hits}/{max(1, c.confirm)}; reducing it by replaying "
+                   f"smaller scripts (at most {c.reduce_seconds:g} s)")
         reduced, smaller = reduce_finding(script, finding, self.replay, c.reduce_seconds)
         if smaller is not finding:
             again = self.confirm(reduced, finding.oracle)
@@ -316,7 +329,8 @@ def run_campaign(config: CampaignConfig, budget: Budget, seed: int, database: Op
     index = 0
 
     def spent() -> bool:
-        return budget.seconds is not None and time.monotonic() - start - result.checking >= budget.seconds
+        return budget.seconds is not None and time.monotonic() - start - result.checking \
+            - config.stats.startup_s >= budget.seconds
 
     try:
         while True:
@@ -352,5 +366,5 @@ def run_campaign(config: CampaignConfig, budget: Budget, seed: int, database: Op
             config.stats.checking_s = result.checking
     finally:
         campaign.discard_targets()
-    result.elapsed = time.monotonic() - start - result.checking
+    result.elapsed = time.monotonic() - start - result.checking - config.stats.startup_s
     return result

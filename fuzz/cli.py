@@ -127,7 +127,7 @@ class Progress:
 
     def line(self, stats: Stats) -> str:
         # The budget counts fuzzing time; confirming and reducing findings come on top.
-        el = max(time.monotonic() - self.start - stats.checking_s, 1e-9)
+        el = max(time.monotonic() - self.start - stats.checking_s - stats.startup_s, 1e-9)
         spent = f"{el:.0f}/{self.budget.seconds:g} s" if self.budget.seconds is not None else \
             f"{stats.examples}/{self.budget.examples} runs, {el:.0f} s"
         if stats.checking_s >= 1:
@@ -144,6 +144,12 @@ class Progress:
                 self.stream.write("\r" + self.line(stats) + " " * 4)
             else:
                 self.stream.write(self.line(stats) + "\n")
+            self.stream.flush()
+
+    def note(self, text: str) -> None:
+        """A plain line (on a terminal, below the progress line)."""
+        if self.enabled:
+            self.stream.write(("\n" if self.tty else "") + f"[fuzz] {text}\n")
             self.stream.flush()
 
     def end(self, stats: Stats) -> None:
@@ -199,6 +205,7 @@ def run(args: argparse.Namespace, primary: Optional[Callable[[], Target]] = None
     grammar = grammar_for(config.profile)
     progress = Progress(budget, len(grammar.productions), set(grammar.productions), not args.quiet)
     config.stats.on_progress = progress
+    config.stats.on_note = progress.note
     database = None if args.no_database else (args.database or os.path.join(args.out, ".examples"))
     if not args.quiet:
         print(f"fuzz: seed {seed}" + (" (chosen at random)" if chosen else "") + f", budget {budget}",
@@ -238,7 +245,9 @@ def run(args: argparse.Namespace, primary: Optional[Callable[[], Target]] = None
 def _summary(result: CampaignResult, stats: Stats, productions, files, junit: str, target: str,  # type: ignore[no-untyped-def]
              seed: int, chosen: bool) -> None:
     el = max(result.elapsed, 1e-9)
-    checking = f" (and {result.checking:.1f} s confirming findings)" if result.checking >= 0.05 else ""
+    apart = ([f"{result.checking:.1f} s confirming findings"] if result.checking >= 0.05 else []) + \
+        ([f"{stats.startup_s:.1f} s starting targets"] if stats.startup_s >= 0.05 else [])
+    checking = f" (and {', '.join(apart)})" if apart else ""
     print(f"fuzz: {result.runs} runs, {stats.executions} inputs ({stats.lines} lines, "
           f"{stats.lines / el:.0f} lines/s) in {result.elapsed:.1f} s{checking}")
     if _scheme(target) != "inprocess":

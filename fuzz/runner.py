@@ -44,9 +44,11 @@ class Stats:
     sent_bytes: int = 0           # over the first target's wire, fences included
     recv_bytes: int = 0
     left_out: int = 0             # inputs not sent: their answer alone would overflow the TX ring
+    startup_s: float = 0.0        # time spent starting kept-open targets (not fuzzing)
     checking_s: float = 0.0       # time spent confirming and reducing findings (not fuzzing)
     liveness_only: int = 0        # steps judged on liveness alone (a raw serial trace on a timed link)
     on_progress: Optional[Callable[[Stats], None]] = None
+    on_note: Optional[Callable[[str], None]] = None     # what the campaign is doing besides fuzzing
 
     def count(self, oracle: str, n: int = 1) -> None:
         self.checks[oracle] = self.checks.get(oracle, 0) + n
