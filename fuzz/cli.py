@@ -103,6 +103,8 @@ def detect_profile(open_target: Callable[[], Target], timeout: float = 2.0) -> P
         session.open(timeout=timeout)
         if session.in_bootloader:
             raise TargetError("the target is in its bootloader; the fuzzer needs the firmware running")
+        if session.profile is None:
+            raise TargetError("the target did not say which firmware it runs (no answer to `version`)")
         return session.profile
     finally:
         session.close()

@@ -82,6 +82,7 @@ class Cursor:
         """Past the separators, (the token, the command it names or None); the token is empty
         at the end of the line. A command is consumed like :meth:`word` consumes a name."""
         m = _COMMAND.match(self.s, self.pos)
+        assert m is not None          # the pattern matches the empty string
         tok = m.group(1)
         name = prefixes.get(tok) if tok else None
         if name is not None:
@@ -92,6 +93,7 @@ class Cursor:
     # starts here, and skips the spaces (not ';') after a number it read.
     def unsigned(self) -> Optional[int]:
         m = _UNSIGNED.match(self.s, self.pos)
+        assert m is not None          # the pattern matches the empty string
         digits = m.group(1)
         if not digits:
             return None
@@ -100,6 +102,7 @@ class Cursor:
 
     def signed(self) -> Optional[int]:
         m = _SIGNED.match(self.s, self.pos)
+        assert m is not None          # the pattern matches the empty string
         sign, digits = m.groups()
         if not digits:
             return None
@@ -111,6 +114,7 @@ class Cursor:
 
     def float(self) -> Optional[float]:
         m = _FLOAT.match(self.s, self.pos)
+        assert m is not None          # the pattern matches the empty string
         sign, whole, fraction = m.groups()
         if not whole and not fraction:
             return None
@@ -120,6 +124,7 @@ class Cursor:
 
     def hex32(self) -> Optional[int]:
         m = _HEX.match(self.s, self.pos)
+        assert m is not None          # the pattern matches the empty string
         digits = m.group(1)
         if not digits:
             return None
@@ -137,6 +142,7 @@ class Cursor:
         """The matcher (§2): first name the token is a non-empty prefix of (``prefixes`` from
         :func:`_prefixes`)."""
         m = _WORD.match(self.s, self.pos)
+        assert m is not None          # the pattern matches the empty string
         tok = m.group(1)
         name = prefixes.get(tok) if tok else None
         if name is not None:
