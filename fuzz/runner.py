@@ -15,7 +15,7 @@ from .expect import Expect, LineFate, joined
 from .link import FENCE, Link, LinkTimeout
 from .model import HatModel, PortModel, established, expected_duty
 from .oracles import raise_finding
-from .stream import MatchResult, Problem, allowed_kinds, match_stream
+from .stream import MatchResult, Problem, allowed_kinds, match_stream, without_torn
 
 __all__ = ["Runner", "Side", "Stats", "PRELUDE", "DEBUG_OFF", "StepPlan", "plan_step", "output_groups"]
 
@@ -273,6 +273,7 @@ class Runner:
                 self.fail("liveness", f"{side.label}: the target went away: {exc}",
                           {"step": plan.blob, "received": b""})
         answers: List[bytes] = []
+        compared: List[bytes] = []       # what the differential oracle compares (echo made whole)
         for side, plan, before in zip(self.sides, plans, records):
             self.stats.count("liveness")
             try:
@@ -281,6 +282,7 @@ class Runner:
             except LinkTimeout as exc:
                 self.fail("liveness", f"{side.label}: {exc}", {"step": plan.blob, "received": exc.received})
             answers.append(got)
+            compared.append(got)
             self._note_kinds(got)
             if side.model.tainted:
                 continue   # the facts do not say what this line does: liveness only
@@ -291,13 +293,14 @@ class Runner:
                 self.stats.liveness_only += 1
                 continue      # (the trace ends before the guard's `debug 0`, so before the fence line)
             res = match_stream(plan.expected, got, self._allowed(side, plan.debug))
+            compared[-1] = without_torn(got, res)
             self._observe(side, res, plan.states)
             side.model.ports[:] = plan.states[-1]   # reports seen (once-selections) move the model on
             self._judge(side, res.problems, {"step": b"".join(plan.datas), "expected": plan.expected,
                                              "received": got})
             self._check_records(side, before, plan.fates)
         if len(self.sides) == 2:
-            self._differential(first.datas, answers)
+            self._differential(first.datas, compared)
         return answers
 
     def _check_records(self, side: Side, start: int, fates: List[LineFate]) -> None:

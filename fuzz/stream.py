@@ -17,7 +17,8 @@ from ..harness.events import Event, classify, line_kind
 from ..protocol.profiles import Profile
 from .expect import Expect
 
-__all__ = ["Problem", "MatchResult", "match_stream", "ASYNC_KINDS", "allowed_kinds", "split_lines"]
+__all__ = ["Problem", "MatchResult", "match_stream", "ASYNC_KINDS", "allowed_kinds", "split_lines",
+           "without_torn"]
 
 # Lines the firmware prints on its own (§5, §6, §7.4); anything else must be predicted.
 ASYNC_KINDS = frozenset({
@@ -43,6 +44,18 @@ class MatchResult:
     asynchronous: List[Tuple[int, Event]] = field(default_factory=list)  # (expected index, event)
     problems: List[Problem] = field(default_factory=list)
     consumed: int = 0
+    torn: List[Tuple[int, int]] = field(default_factory=list)   # asynchronous lines found inside an echo
+
+
+def without_torn(actual: bytes, res: MatchResult) -> bytes:
+    """``actual`` without the asynchronous lines that cut into an echo (the echo made whole)."""
+    if not res.torn:
+        return actual
+    out, last = bytearray(), 0
+    for start, end in res.torn:
+        out += actual[last:start]
+        last = end
+    return bytes(out + actual[last:])
 
 
 def allowed_kinds(profile: Profile, debug: Optional[int]) -> frozenset:
@@ -136,10 +149,11 @@ def _torn_echo(echo: bytes, actual: bytes, pos: int, idx: int, allowed: frozense
         ev = classify(line)
         if ev.kind not in ASYNC_KINDS:
             return None
-        torn.append((ev, line))
+        torn.append((ev, line, pos))
         pos += len(line) + 2
-    for ev, line in torn:
+    for ev, line, start in torn:
         _asynchronous(res, idx, ev, line, allowed)
+        res.torn.append((start, start + len(line) + 2))
     return pos
 
 

@@ -36,3 +36,12 @@ def test_what_cuts_into_the_echo_must_be_an_asynchronous_line():
     assert [p.oracle for p in res.problems] == ["hygiene"], res.problems
     res = match_stream(items, b"por" + b"P0M1: 5\r\n" + b"t 3\r\nP3>", allowed_kinds(R7, 0))
     assert res.problems                     # the rest of the echo still has to match
+
+
+def test_the_echo_is_made_whole_for_comparison():
+    from buildhat_conformance.fuzz.stream import without_torn
+
+    items = _expected(b"port 2\r")
+    torn = b"por" + b"P3: D5 signature=0CC0 id=0\r\n" + b"t 2\r\nP2>"
+    res = match_stream(items, torn, allowed_kinds(R7, 4))
+    assert not res.problems and without_torn(torn, res) == b"port 2\r\nP2>"
