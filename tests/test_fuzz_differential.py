@@ -45,7 +45,7 @@ def test_two_copies_of_one_release_agree(tmp_path):
 def test_two_releases_differ_and_the_difference_replays(tmp_path):
     # R5 still has `bias` and a 10-number `pid`; R7 has pwmparams, pid_diff, a new help text ...
     args = _args(tmp_path, "--target", "inprocess:R7", "--against", "inprocess:R5", "--budget", "40x",
-                 "--seed", "5", "--steps", "8", "--families", "valid", "--shrink-time", "1.5")
+                 "--seed", "5", "--steps", "8", "--families", "valid", "--shrink-time", "60")
     result, files = cli.run(args, primary=_opener("R7"), secondary=_opener("R5"))
     finding = result.finding("differential")
     assert finding is not None, [f.message for f in result.findings]
