@@ -141,3 +141,19 @@ def test_differential_campaign_between_two_paced_real_time_emulators_runs_its_wh
     assert m is not None, res.stdout
     assert float(m.group(5)) >= 3.0             # ran the whole budget
     assert "wire: sent" in res.stdout           # the share of the wire it used
+
+
+def test_a_finding_on_a_link_target_is_shrunk_by_replaying_smaller_scripts(tmp_path):
+    """The planted `wrong` fault as a `cmd:` byte proxy (a process, kept open from run to run)."""
+    from buildhat_conformance.fuzz.reduce import steps_of
+    from buildhat_conformance.harness.script import load_script
+
+    res = _fuzz("--target", _proxy_url("wrong"), "--budget", "10x", "--seed", "4", "--steps", "4",
+                "--batch", "4", "--families", "valid", "--confirm", "1", "--shrink-time", "120",
+                "--waits", "", "--out", str(tmp_path), "--quiet", timeout=300)
+    assert res.returncode == 1, res.stdout + res.stderr
+    script = load_script(str(next(tmp_path.glob("*.script"))))
+    steps = steps_of(script)
+    assert len(steps) <= 3, [a.text for a in script.actions]         # the prelude, set-up, the step
+    assert any(a.data.lstrip(b" ;").lower().startswith(b"co") for a in steps[-1] if a.kind == "send"), \
+        [a.text for a in steps[-1]]
