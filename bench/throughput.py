@@ -24,6 +24,7 @@ PTY_URL = "emulator:latest?speed=1"
 PACED_URL = "emulator:latest?speed=1&baud=115200"
 
 _RATE = re.compile(r"^fuzz: (\d+) runs, (\d+) inputs \((\d+) lines, (\d+) lines/s\) in ([\d.]+) s", re.M)
+_CPU = re.compile(r"this process: ([\d.]+) s of CPU, (\d+) lines per CPU second", re.M)
 _WIRE = re.compile(r"wire: sent (\d+) B/s, received (\d+) B/s; the busier direction carries (\d+) %", re.M)
 _FINDING = re.compile(r"^  FINDING \[(\w+)\]", re.M)
 
@@ -43,6 +44,9 @@ def parse_summary(text: str) -> Dict:
     res: Dict = {"runs": int(m.group(1)), "inputs": int(m.group(2)), "lines": int(m.group(3)),
                  "lines_per_s": float(m.group(4)), "seconds": float(m.group(5)),
                  "findings": _FINDING.findall(text)}
+    c = _CPU.search(text)
+    if c is not None:
+        res.update(cpu_s=float(c.group(1)), lines_per_cpu_s=float(c.group(2)))
     w = _WIRE.search(text)
     if w is not None:
         res.update(sent_bytes_per_s=float(w.group(1)), recv_bytes_per_s=float(w.group(2)),

@@ -123,6 +123,7 @@ class CampaignResult:
     unconfirmed: List[Tuple[Finding, int]] = field(default_factory=list)   # (finding, replays tried)
     elapsed: float = 0.0          # fuzzing time (confirming, reducing, starting targets not included)
     checking: float = 0.0         # time spent confirming and reducing
+    cpu: float = 0.0              # this process's CPU time while fuzzing (a loaded machine shows here)
     runs: int = 0
     seed: int = 0
 
@@ -326,6 +327,7 @@ def run_campaign(config: CampaignConfig, budget: Budget, seed: int, database: Op
     folder = os.path.join(database, _database_key(config, database_scheme)) if database else None
     stored = _stored_runs(folder)
     start = time.monotonic()
+    cpu_start, checking_cpu = time.process_time(), 0.0
     index = 0
 
     def spent() -> bool:
@@ -350,7 +352,7 @@ def run_campaign(config: CampaignConfig, budget: Budget, seed: int, database: Op
                 continue
             except Finding as exc:
                 finding = exc
-            t0 = time.monotonic()
+            t0, c0 = time.monotonic(), time.process_time()
             known = result.finding(finding.oracle)
             if known is not None:
                 known.also_seen += 1
@@ -363,8 +365,10 @@ def run_campaign(config: CampaignConfig, budget: Budget, seed: int, database: Op
                     result.findings.append(confirmed)
                     _store_run(folder, seed_i, finding.oracle)
             result.checking += time.monotonic() - t0
+            checking_cpu += time.process_time() - c0
             config.stats.checking_s = result.checking
     finally:
         campaign.discard_targets()
     result.elapsed = time.monotonic() - start - result.checking - config.stats.startup_s
+    result.cpu = time.process_time() - cpu_start - checking_cpu
     return result

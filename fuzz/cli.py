@@ -252,6 +252,10 @@ def _summary(result: CampaignResult, stats: Stats, productions, files, junit: st
     checking = f" (and {', '.join(apart)})" if apart else ""
     print(f"fuzz: {result.runs} runs, {stats.executions} inputs ({stats.lines} lines, "
           f"{stats.lines / el:.0f} lines/s) in {result.elapsed:.1f} s{checking}")
+    if result.cpu > 0:
+        # On a shared machine the wall-clock rate is what others leave over; this is the fuzzer's own.
+        print(f"  this process: {result.cpu:.1f} s of CPU, "
+              f"{stats.lines / result.cpu:.0f} lines per CPU second")
     if _scheme(target) != "inprocess":
         sent, recv = stats.sent_bytes / el, stats.recv_bytes / el
         print(f"  wire: sent {sent:.0f} B/s, received {recv:.0f} B/s; the busier direction carries "
@@ -331,4 +335,8 @@ def main(args: argparse.Namespace) -> int:
     except TargetError as exc:
         print(f"buildhat-conformance fuzz: {exc.args[0] if exc.args else exc}", file=sys.stderr)
         return 3
+    except BrokenPipeError:
+        # The summary's reader went away (`| head`): the findings are in their files already.
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 1
     return 1 if result.findings else 0
