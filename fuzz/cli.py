@@ -287,6 +287,7 @@ def _summary(result: CampaignResult, stats: Stats, productions, files, junit: st
 
 
 _HEADER = re.compile(r"^;; (target|against|release): (.*)$", re.M)
+_ORACLE_OF = re.compile(r"^fuzz finding \((\w+)\)")
 
 
 def reproduce(args: argparse.Namespace, primary: Optional[Callable[[], Target]] = None,
@@ -309,19 +310,28 @@ def reproduce(args: argparse.Namespace, primary: Optional[Callable[[], Target]] 
     if secondary is not None or against:
         open_secondary = secondary or opener_for(against or "")
         other = (open_secondary, detect_profile(open_secondary, fence_s))
+    # A finding's script names its oracle; only that failure reproduces it (any, for other scripts).
+    named = _ORACLE_OF.search(script.name or "")
+    oracle = named.group(1) if named else None
     attempts = max(1, args.confirm)
-    hits, first = 0, None
+    hits, first, others = 0, None, []
     for _ in range(attempts):
         finding = replay_script(script, open_primary, profile, fence_s, fresh=is_fresh(target), against=other)
-        if finding is not None:
+        if finding is None:
+            continue
+        if oracle is None or finding.oracle == oracle:
             hits += 1
             first = first or finding
+        else:
+            others.append(finding)
     where = f"{target}" + (f" against {against}" if against else "")
     if first is not None:
         print(f"reproduced ({hits}/{attempts} replays) on {where}: [{first.oracle}] {first.message[:400]}")
-        return 1
-    print(f"not reproduced (0/{attempts} replays) on {where}")
-    return 0
+    else:
+        print(f"not reproduced (0/{attempts} replays) on {where}")
+    for f in others[:1]:
+        print(f"  {len(others)} replay(s) failed otherwise, first: [{f.oracle}] {f.message[:300]}")
+    return 1 if first is not None else 0
 
 
 def main(args: argparse.Namespace) -> int:

@@ -424,8 +424,11 @@ class Runner:
                 continue
             self.stats.count("state")
             form = form_of(ev.fields)
+            # A device that got raw messages (write1/write2, tampered) may send data in another
+            # form (a combi it was told of directly): the form is not the model's to know then.
             ok = any(not s[port].known or (s[port].reporting(model.selrate_engine)
-                                           and s[port].report_form() == form) for s in states)
+                                           and (s[port].tampered or s[port].report_form() == form))
+                     for s in states)
             if not ok:
                 s = states[-1][port]
                 res.problems.append(Problem(

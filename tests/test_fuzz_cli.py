@@ -78,6 +78,13 @@ def test_reproduce_says_reproduced_with_exit_1_and_not_reproduced_with_exit_0(tm
     good = _fuzz("--reproduce", str(script), "--target", "inprocess:R7", "--confirm", "1")
     assert good.returncode == 0, good.stdout + good.stderr
     assert good.stdout.startswith("not reproduced (0/1 replays)")
+    # a finding's script names its oracle: another failure does not reproduce it
+    named = tmp_path / "hygiene.script"
+    named.write_text("@name fuzz finding (hygiene): something else\n" + script.read_text(encoding="utf-8"),
+                     encoding="utf-8")
+    other = _fuzz("--reproduce", str(named), "--target", _proxy_url("wrong"), "--confirm", "1")
+    assert other.returncode == 0, other.stdout + other.stderr
+    assert other.stdout.startswith("not reproduced (0/1 replays)") and "failed otherwise" in other.stdout
     missing = _fuzz("--reproduce", str(tmp_path / "nothing.script"))
     assert missing.returncode == 2 and "Traceback" not in missing.stderr
 
