@@ -126,6 +126,7 @@ class CampaignResult:
     cpu: float = 0.0              # this process's CPU time while fuzzing (a loaded machine shows here)
     runs: int = 0
     seed: int = 0
+    interrupted: bool = False     # stopped by Ctrl-C before the budget was spent
 
     def finding(self, oracle: str) -> Optional[Confirmed]:
         return next((f for f in self.findings if f.oracle == oracle), None)
@@ -367,6 +368,8 @@ def run_campaign(config: CampaignConfig, budget: Budget, seed: int, database: Op
             result.checking += time.monotonic() - t0
             checking_cpu += time.process_time() - c0
             config.stats.checking_s = result.checking
+    except KeyboardInterrupt:
+        result.interrupted = True    # what ran so far is still summarised and written
     finally:
         campaign.discard_targets()
     result.elapsed = time.monotonic() - start - result.checking - config.stats.startup_s

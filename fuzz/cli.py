@@ -284,6 +284,8 @@ def _summary(result: CampaignResult, stats: Stats, productions, files, junit: st
         print(f"  unconfirmed [{finding.oracle}] (0/{tries} replays failed again; not reported): "
               f"{finding.message[:200]}")
     print(f"  junit: {junit}")
+    if result.interrupted:
+        print("  interrupted (Ctrl-C): the figures and findings above cover what ran")
 
 
 _HEADER = re.compile(r"^;; (target|against|release): (.*)$", re.M)
@@ -349,4 +351,6 @@ def main(args: argparse.Namespace) -> int:
         # The summary's reader went away (`| head`): the findings are in their files already.
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 1
+    if result.interrupted:
+        return 130
     return 1 if result.findings else 0
