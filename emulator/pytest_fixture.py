@@ -77,7 +77,9 @@ class EmulatorProcess:
                             + (f":\n{err}" if err else ""))
 
     def _first_line(self) -> str:
-        line = self.process.stdout.readline().decode("utf-8", "replace").strip()
+        stdout = self.process.stdout
+        assert stdout is not None          # Popen(stdout=PIPE)
+        line = stdout.readline().decode("utf-8", "replace").strip()
         if not line:
             self.process.wait(5)
             raise self._failure(f"exited with status {self.process.returncode} before printing the pty path")

@@ -1,5 +1,5 @@
 """One checked run: open the target(s), bring them to a known state, then exchange input and
-check every oracle after each step. Used by the state machine (fuzz/machine.py) and by the
+check every oracle after each step. Used by the campaign (fuzz/campaign.py) and by the
 replay of a finding's script (fuzz/replay.py), so a replay judges exactly as the fuzzer did.
 """
 from __future__ import annotations
@@ -415,9 +415,10 @@ class Runner:
                     s[port].combi.clear()
                     s[port].known = False
                     s[port].device_modes = 0
-                if ev.kind == "established" and isinstance(ev.fields.get("id"), int):
+                ident = ev.fields.get("id")
+                if ev.kind == "established" and isinstance(ident, int):
                     for p in [model.ports[port]] + [s[port] for s in states]:
-                        established(p, int(ev.fields["id"]))
+                        established(p, ident)
                 continue
             form_of = _REPORT_FORMS.get(ev.kind)
             if form_of is None:

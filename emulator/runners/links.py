@@ -181,12 +181,13 @@ class StdioLink(_Buffered):
 
     def __init__(self) -> None:
         super().__init__()
-        self.in_fd, self.out_fd = sys.stdin.fileno(), sys.stdout.fileno()
+        out_fd = sys.stdout.fileno()
+        self.in_fd, self.out_fd = sys.stdin.fileno(), out_fd
         self._saved = None
         if os.isatty(self.in_fd):
             self._saved = termios.tcgetattr(self.in_fd)
             tty.setraw(self.in_fd, termios.TCSANOW)
-        os.set_blocking(self.out_fd, False)
+        os.set_blocking(out_fd, False)
 
     def readables(self, data: bool = True) -> List[Any]:
         return [self.in_fd] if data else []
@@ -201,10 +202,12 @@ class StdioLink(_Buffered):
         return data
 
     def close(self) -> None:
+        out_fd = self.out_fd
         try:
-            os.set_blocking(self.out_fd, True)
-            while self._out:
-                n = os.write(self.out_fd, self._out)
+            if out_fd is not None:
+                os.set_blocking(out_fd, True)
+            while self._out and out_fd is not None:
+                n = os.write(out_fd, self._out)
                 del self._out[:n]
         except OSError:
             pass
