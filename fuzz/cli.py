@@ -26,7 +26,7 @@ from ..protocol.devices import DEFAULT_LAYOUT
 from ..protocol.profiles import Profile, get_profile
 from .campaign import Budget, CampaignConfig, CampaignResult, new_seed, parse_budget, run_campaign
 from .findings import write_finding, write_junit
-from .generate import FAMILIES
+from .generate import FAMILIES, check_families
 from .grammar import grammar_for
 from .link import WIRE_BYTES_PER_S
 from .replay import replay_script
@@ -167,6 +167,7 @@ def _config(args: argparse.Namespace, target: str, primary: Optional[Callable[[]
     if args.fence_timeout is None:
         args.fence_timeout = 0.3 if virtual else 2.0
     families = tuple(f.strip() for f in args.families.split(",") if f.strip())
+    check_families(families)
     try:
         waits = tuple(int(w) for w in args.waits.split(",") if w.strip())
     except ValueError:
