@@ -1,7 +1,9 @@
-"""``buildhat-conformance``: one command, one sub-command per job.
+"""buildhat-conformance: one command, one sub-command per job.
 
 Each sub-command lives in the package that owns it and provides two functions,
 ``add_arguments(parser)`` and ``main(args) -> int``; only the chosen one is imported.
+A user's mistake (a bad option, file or target) is one line on stderr and the exit status of
+harness/cli_options.py, the same in every sub-command; a traceback means a bug of ours.
 """
 from __future__ import annotations
 
@@ -11,6 +13,15 @@ import sys
 from typing import Optional, Sequence
 
 from . import __version__
+from .harness.cli_options import (
+    EXIT_STATUS_HELP,
+    EXIT_TARGET,
+    EXIT_USAGE,
+    TARGET_HELP,
+    OneLineParser,
+    UsageError,
+)
+from .harness.targets.base import TargetError
 
 SUBCOMMANDS = {
     "run": ("buildhat_conformance.conformance.runner", "run the conformance suite against a target"),
@@ -24,9 +35,12 @@ SUBCOMMANDS = {
     "bench": ("buildhat_conformance.bench.cli", "benchmarks: timing, throughput, fidelity"),
 }
 
+_EPILOG = f"{TARGET_HELP[0].upper()}{TARGET_HELP[1:]}.\n{EXIT_STATUS_HELP[0].upper()}{EXIT_STATUS_HELP[1:]}."
+
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="buildhat-conformance", description=__doc__.splitlines()[0])
+    parser = OneLineParser(prog="buildhat-conformance", description=__doc__.splitlines()[0],
+                           epilog="Every COMMAND takes --help. " + _EPILOG)
     parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for name, (_module, help_text) in SUBCOMMANDS.items():
@@ -34,29 +48,47 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _say(name: str, message: str) -> None:
+    text = " ".join(str(message).split()) if "\n" not in str(message).strip() else str(message).strip()
+    print(f"buildhat-conformance {name}: {text}", file=sys.stderr)
+
+
 def main(argv: Optional[Sequence[str]] = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
-    if not argv or argv[0] not in SUBCOMMANDS:
-        build_parser().parse_args(argv or ["--help"])
-        return 2
+    if not argv or argv[0] in ("-h", "--help"):
+        build_parser().print_help()
+        return 0 if argv else EXIT_USAGE
+    if argv[0] not in SUBCOMMANDS:
+        build_parser().parse_args(argv)    # --version, or one line naming the unknown command
+        return EXIT_USAGE
     name = argv[0]
     module_name, help_text = SUBCOMMANDS[name]
     try:
         module = importlib.import_module(module_name)
     except ModuleNotFoundError as exc:
         if exc.name and module_name.startswith(exc.name):
-            print(f"buildhat-conformance: '{name}' is not available in this build ({exc.name})",
-                  file=sys.stderr)
-            return 2
+            _say(name, f"not available in this build ({exc.name})")
+            return EXIT_USAGE
         raise
-    parser = argparse.ArgumentParser(prog=f"buildhat-conformance {name}", description=help_text)
+    parser = OneLineParser(prog=f"buildhat-conformance {name}", description=help_text,
+                           epilog=EXIT_STATUS_HELP[0].upper() + EXIT_STATUS_HELP[1:] + ".")
     module.add_arguments(parser)
     if getattr(module, "PASS_UNKNOWN_ARGS", False):
         args, extra = parser.parse_known_args(argv[1:])
         args.extra = extra
     else:
         args = parser.parse_args(argv[1:])
-    return int(module.main(args) or 0)
+    try:
+        return int(module.main(args) or 0)
+    except UsageError as exc:
+        _say(name, str(exc))
+        return EXIT_USAGE
+    except TargetError as exc:
+        _say(name, str(exc))
+        return EXIT_TARGET
+    except KeyboardInterrupt:
+        _say(name, "interrupted")
+        return 130
 
 
 if __name__ == "__main__":

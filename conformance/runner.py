@@ -1,26 +1,59 @@
-"""``buildhat-conformance run``: the conformance suite against one target.
+"""buildhat-conformance run: the conformance suite against one target.
 
-Runs pytest on the installed ``conformance`` package in a child process (so a target that
-hangs or dies cannot take the caller with it), writes the JUnit file, builds the HTML
-report when ``buildhat_conformance.harness.report`` is available, and exits non-zero on
-any failure. Options it does not know are passed to pytest unchanged.
+Before any case runs the target is checked (harness/preflight.py: it exists, is a serial
+device, something listens, the release is known, --firmware is valid, something answers);
+a problem is one line and exit status 2 (usage) or 3 (unreachable), and no report is
+touched. Then pytest runs the installed ``conformance`` package in a child process (so a
+target that hangs or dies cannot take the caller with it), writes the JUnit file, and the
+HTML report is built. Options it does not know are passed to pytest unchanged.
+
+The child and everything it starts end with this process: it has its own process group, a
+parent-death signal (harness/parent_death.py), and on Ctrl-C or SIGTERM it is told to stop,
+which closes the target and writes the JUnit file marked partial (conformance/interrupt.py);
+the HTML report is still built.
 """
 from __future__ import annotations
 
 import argparse
 import os
+import signal
 import subprocess
 import sys
-from typing import List
+import time
+from typing import List, Optional, Tuple
+
+from ..harness.cli_options import (
+    DEFAULT_SPEED,
+    DEFAULT_TARGET,
+    EXIT_FAILED,
+    EXIT_OK,
+    EXIT_STATUS_HELP,
+    EXIT_TARGET,
+    add_target_option,
+    expand_target,
+)
+from ..harness.parent_death import die_with_parent
 
 PASS_UNKNOWN_ARGS = True
+EXIT_INTERRUPTED = 130
+_STOP_GRACE_S = 15.0       # the child closes the target and writes its files in this time
+# pytest's exit statuses: 0 all passed, 1 some failed, 2 interrupted, 3 internal error,
+# 4 usage error, 5 no tests collected.
+_PYTEST_TO_EXIT = {0: EXIT_OK, 1: EXIT_FAILED, 2: EXIT_INTERRUPTED, 3: EXIT_TARGET, 4: 2, 5: 2}
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--target", action="append", default=None,
-                        help="target URL (default: emulator); several: one xdist worker each, one merged "
-                             "report (docs/LAB.md; or --inventory FILE)")
-    parser.add_argument("--firmware", default=None, help="judge against this release instead of detecting it")
+    parser.description = (parser.description or "") + ". " + EXIT_STATUS_HELP[0].upper() + \
+        EXIT_STATUS_HELP[1:] + "."
+    add_target_option(parser, multiple=True,
+                      extra_help="several: one xdist worker each, one merged report (docs/LAB.md; "
+                                 "or --inventory FILE)")
+    parser.add_argument("--speed", type=float, default=DEFAULT_SPEED, metavar="N",
+                        help=f"time scale of emulator URLs that give none (default {DEFAULT_SPEED:g})")
+    parser.add_argument("--firmware", default=None, metavar="RELEASE",
+                        help="judge as this release (R1..R7, a version number or latest) instead of the "
+                             "one the target reports; to run an emulator of a release, name it in the "
+                             "URL (emulator:R2)")
     parser.add_argument("--junit", default=os.path.join("reports", "junit.xml"), help="JUnit XML output")
     parser.add_argument("--transcripts", default=None,
                         help="folder for per-case transcripts (default: beside the JUnit file)")
@@ -32,17 +65,26 @@ def suite_dir() -> str:
     return os.path.dirname(os.path.abspath(__file__))
 
 
+def _targets(args: argparse.Namespace) -> List[str]:
+    if isinstance(args.target, list):
+        return args.target
+    return [args.target or DEFAULT_TARGET]
+
+
 def pytest_argv(args: argparse.Namespace) -> List[str]:
     junit = os.path.abspath(args.junit)
     transcripts = args.transcripts or os.path.join(os.path.dirname(junit), "transcripts")
     # H10: --target may be given several times (conformance/multitarget.py runs one worker each).
-    targets = args.target if isinstance(args.target, list) else [args.target or "emulator"]
+    targets = _targets(args)
     argv = [sys.executable, "-m", "pytest", suite_dir(), "-p", "no:cacheprovider", "--rootdir", suite_dir(),
             *[a for t in targets for a in ("--target", t)], "--conformance-junit", junit,
             "--transcripts", transcripts, "--import-mode=importlib", "-q",
             # The suite uses no Hypothesis; its pytest plugin imports the library in the terminal
             # summary, two seconds of every run (H10 profile).
-            "-p", "no:hypothesispytest"]
+            "-p", "no:hypothesispytest",
+            "-p", "buildhat_conformance.conformance.interrupt"]
+    if getattr(args, "speed", None):
+        argv += ["--speed", f"{args.speed:g}"]
     if args.firmware:
         argv += ["--firmware", args.firmware]
     if args.keyword:
@@ -50,6 +92,27 @@ def pytest_argv(args: argparse.Namespace) -> List[str]:
     if args.operator:
         argv += ["--operator", "-s"]
     return argv + list(getattr(args, "extra", []) or [])
+
+
+def preflight(args: argparse.Namespace) -> None:
+    """Check every target before the run (raises UsageError or TargetError, one line each)."""
+    from ..harness.preflight import check_answers, check_release, checked_target
+
+    judged = check_release(args.firmware, "--firmware") if args.firmware else None
+    if args.target is None and "--inventory" in (getattr(args, "extra", None) or []):
+        return    # the inventory's targets are checked by conformance/multitarget.py
+    for url in _targets(args):
+        url = expand_target(url, getattr(args, "speed", DEFAULT_SPEED))
+        target = checked_target(url)
+        answer = check_answers(target)
+        if answer.in_bootloader and not getattr(args, "image", None):
+            from ..harness.targets.base import TargetError
+
+            raise TargetError(f"{url} answers from its bootloader ({answer.version_string}): no firmware "
+                              "is running; load a release first (buildhat-conformance load)")
+        if judged is not None:
+            print(f"buildhat-conformance run: {url} runs firmware {answer.version_string or 'unknown'}; "
+                  f"judged as {judged.name} ({judged.number}) because of --firmware", file=sys.stderr)
 
 
 def build_html_report(junit: str) -> None:
@@ -64,8 +127,54 @@ def build_html_report(junit: str) -> None:
         print(f"buildhat-conformance: HTML report not built: {exc}", file=sys.stderr)
 
 
+def _kill_group(pgid: int, sig: int) -> None:
+    try:
+        os.killpg(pgid, sig)
+    except (ProcessLookupError, PermissionError):
+        pass
+
+
+def run_child(argv: List[str]) -> Tuple[int, Optional[int]]:
+    """Run the pytest child in its own process group, ending it (and what it started) when
+    this process gets SIGINT or SIGTERM. Returns (its exit status, the signal that stopped us
+    or None)."""
+    proc = subprocess.Popen(argv, start_new_session=True, preexec_fn=die_with_parent(signal.SIGTERM))
+    got: List[int] = []
+    stop_at: List[float] = []
+
+    def on_signal(sig: int, _frame: object) -> None:
+        if not got:
+            got.append(sig)
+            stop_at.append(time.monotonic() + _STOP_GRACE_S)
+            _kill_group(proc.pid, signal.SIGTERM)   # the child's handler turns it into a clean stop
+
+    old = {s: signal.signal(s, on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        while True:
+            try:
+                code = proc.wait(timeout=0.2)
+                break
+            except subprocess.TimeoutExpired:
+                pass
+            if stop_at and time.monotonic() > stop_at[0]:
+                _kill_group(proc.pid, signal.SIGKILL)
+    finally:
+        for s, handler in old.items():
+            signal.signal(s, handler)
+        _kill_group(proc.pid, signal.SIGKILL)   # anything of its group still there
+    return code, (got[0] if got else None)
+
+
 def main(args: argparse.Namespace) -> int:
+    preflight(args)
     # The suite's own folder is the rootdir; pytest.ini options of the caller's project are not ours.
-    code = subprocess.call(pytest_argv(args))
-    build_html_report(os.path.abspath(args.junit))
-    return 0 if code == 0 else (code or 1)
+    code, stopped_by = run_child(pytest_argv(args))
+    junit = os.path.abspath(args.junit)
+    if stopped_by is not None:
+        print(f"buildhat-conformance run: interrupted ({signal.Signals(stopped_by).name}); the cases that "
+              f"ran are in {args.junit} (marked partial)", file=sys.stderr)
+    if os.path.isfile(junit):
+        build_html_report(junit)
+    if stopped_by is not None:
+        return EXIT_INTERRUPTED
+    return _PYTEST_TO_EXIT.get(code, EXIT_FAILED if code else EXIT_OK)

@@ -1,9 +1,9 @@
 """``buildhat-conformance script FILE --target URL [-o TRANSCRIPT]``: run one scenario script
 against a target and write its transcript.
 
-Exit status: 0 the script ran to the end; 1 the target failed (cannot open, went away);
-2 the script or the command line is wrong; 3 the target cannot do what the script needs
-(a world action or the start-up layout): the run was skipped before anything was sent.
+Exit status (harness/cli_options.py): 0 the script ran to the end; 2 the script or the command
+line is wrong; 3 the target is unreachable, went away mid-run, or cannot do what the script
+needs (a world action or the start-up layout: then nothing was sent).
 """
 from __future__ import annotations
 
@@ -12,19 +12,18 @@ import os
 import re
 import sys
 
+from .cli_options import EXIT_OK, EXIT_TARGET, EXIT_USAGE, add_target_option, expand_target
 from .errors import NeedsCapability, TargetError
 from .script import ScriptError, load_script
 from .script_runner import run_script
 from .targets import make_target
 
-EXIT_OK, EXIT_FAILED, EXIT_USAGE, EXIT_NEEDS = 0, 1, 2, 3
 _LAYOUT_SCHEMES = ("emulator", "inprocess")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("script", metavar="FILE", help="the scenario script (.script)")
-    parser.add_argument("--target", "-t", default="emulator",
-                        help="where to run it (default: emulator); see 'buildhat-conformance targets'")
+    add_target_option(parser)
     parser.add_argument("-o", "--output", metavar="TRANSCRIPT",
                         help="transcript file (default: reports/<script>.<target>.jsonl if ./reports "
                              "exists, else beside the script)")
@@ -56,6 +55,7 @@ def main(args: argparse.Namespace) -> int:
     except ScriptError as exc:
         err(str(exc))
         return EXIT_USAGE
+    args.target = expand_target(args.target or "emulator")
     options = {}
     if script.explicit_devices and args.target.split(":", 1)[0].split("?", 1)[0] in _LAYOUT_SCHEMES:
         options["devices"] = dict(script.explicit_devices)  # start the emulator with the script's layout
@@ -66,14 +66,14 @@ def main(args: argparse.Namespace) -> int:
                             layout_on_rig=args.layout_on_rig)
     except NeedsCapability as exc:
         err(f"skipped {args.script}: {exc}")
-        return EXIT_NEEDS
+        return EXIT_TARGET
     except TargetError as exc:
         err(str(exc))
-        return EXIT_FAILED
+        return EXIT_TARGET
     if not result.ok:
         err(f"{args.script} on {args.target}: {result.reason}")
         err(f"transcript (every byte received until then): {output}")
-        return EXIT_FAILED
+        return EXIT_TARGET
     if not args.quiet:
         lines = sum(1 for e in result.events if e.kind not in ("prompt", "bootloader_prompt"))
         print(f"{script.name or args.script}: ran on {args.target} (firmware {result.firmware}); "

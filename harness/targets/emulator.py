@@ -27,6 +27,7 @@ import pexpect
 import serial
 
 from ...protocol.devices import DEFAULT_LAYOUT, parse_device_spec
+from ..parent_death import die_with_parent
 from ..script import WORLD_ACTIONS
 from .base import Control, TargetError
 from .pyserial_base import PyserialTarget
@@ -230,7 +231,9 @@ class EmulatorTarget(PyserialTarget):
 
         try:
             self.child = pexpect.spawn(argv[0], argv[1:], encoding=None, echo=False,
-                                       timeout=self.startup_timeout, preexec_fn=send_stderr_to_file)
+                                       timeout=self.startup_timeout,
+                                       # the emulator ends with this process, even if it is SIGKILLed
+                                       preexec_fn=die_with_parent(then=send_stderr_to_file))
         except pexpect.ExceptionPexpect as exc:
             raise TargetError(f"cannot start the emulator ({shlex.join(argv)}): {exc}") from None
         deadline = time.monotonic() + self.startup_timeout
