@@ -79,8 +79,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--quick", action="store_true", help="one run each, shorter measurements")
     parser.add_argument("-k", dest="only", default="", help="only groups whose name contains this text")
     parser.add_argument("-o", "--output", default="reports/bench.json", help="where to write the figures")
-    parser.add_argument("--profile", metavar="DIR", default=None,
-                        help="also profile each group (cProfile) and write its hottest functions to DIR")
+    parser.add_argument("--cprofile", metavar="DIR", default=None,
+                        help="also run each group under cProfile and write its hottest functions to DIR")
 
 
 def _loadavg() -> str:
@@ -112,7 +112,7 @@ def _run(fn: Callable[[], dict], profile_to: Optional[str]) -> dict:
 
 def main(args: argparse.Namespace) -> int:
     runs = 1 if args.quick else max(1, args.runs)
-    profile_dir = getattr(args, "profile", None)
+    profile_dir = getattr(args, "cprofile", None)
     figures: List[Figure] = []
     loads: List[str] = [_loadavg()]
     began = time.monotonic()

@@ -49,8 +49,9 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _say(name: str, message: str) -> None:
-    text = " ".join(str(message).split()) if "\n" not in str(message).strip() else str(message).strip()
-    print(f"buildhat-conformance {name}: {text}", file=sys.stderr)
+    from .harness.preflight import one_line
+
+    print(f"buildhat-conformance {name}: {one_line(message)}", file=sys.stderr)
 
 
 def main(argv: Optional[Sequence[str]] = None) -> int:

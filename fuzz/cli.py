@@ -15,6 +15,7 @@ import sys
 import time
 from typing import Callable, Dict, List, Optional, Tuple
 
+from ..harness.cli_options import add_target_option
 from ..harness.script import load_script
 from ..harness.targets import make_target
 from ..harness.targets.base import Target, TargetError
@@ -35,8 +36,8 @@ _FRESH_SCHEMES = ("inprocess", "emulator", "cmd")   # every open starts a new, f
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--target", default="inprocess", help="target URL (default: inprocess, the emulator "
-                        "in this process in virtual time)")
+    add_target_option(parser, extra_help="inprocess runs the emulator in this process in virtual time, "
+                      "the fastest")
     parser.add_argument("--against", default=None, metavar="URL",
                         help="differential mode: send the same input to this second target and compare")
     parser.add_argument("--budget", default="30s",
@@ -47,7 +48,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--no-database", action="store_true", help="do not read or save examples")
     parser.add_argument("--out", default=DEFAULT_OUT, help=f"where findings go (default {DEFAULT_OUT})")
     parser.add_argument("--junit", default=None, help="JUnit file (default: <out>/junit.xml)")
-    parser.add_argument("--profile", default=None, help="release to assume (R1..R7); default: ask `version`")
+    parser.add_argument("--firmware", "--profile", dest="profile", default=None, metavar="RELEASE",
+                        help="judge as this release (R1..R7); default: the one `version` reports")
     parser.add_argument("--families", default=",".join(FAMILIES),
                         help=f"input families, comma-separated (default: {','.join(FAMILIES)})")
     parser.add_argument("--steps", type=int, default=40, help="steps per example (default 40)")
@@ -208,9 +210,19 @@ def _summary(result: CampaignResult, stats: Stats, productions, files, junit: st
 
 
 def main(args: argparse.Namespace) -> int:
+    from ..harness.preflight import check_release, checked_target
+
+    # The checks every sub-command makes (exit 2 for a bad URL or release, 3 unreachable).
+    for url in [args.target] + ([args.against] if args.against else []):
+        checked_target(url)
+    if args.profile:
+        check_release(args.profile, "--firmware")
     try:
         result, _files = run(args)
-    except (TargetError, ValueError, KeyError) as exc:
+    except TargetError as exc:
+        print(f"buildhat-conformance fuzz: {exc.args[0] if exc.args else exc}", file=sys.stderr)
+        return 3
+    except (ValueError, KeyError) as exc:
         print(f"buildhat-conformance fuzz: {exc.args[0] if exc.args else exc}", file=sys.stderr)
         return 2
     return 1 if result.findings else 0

@@ -46,10 +46,15 @@ def expand_target(url: str, speed: Optional[float] = DEFAULT_SPEED) -> str:
 
 
 def add_target_option(parser: argparse.ArgumentParser, multiple: bool = False, extra_help: str = "") -> None:
-    """``-t/--target URL`` with the one default (None is stored when not given, so a
-    sub-command can tell "the default" from an explicit URL)."""
-    parser.add_argument("-t", "--target", metavar="URL", action="append" if multiple else "store",
-                        default=None, help=TARGET_HELP + (f"; {extra_help}" if extra_help else ""))
+    """``-t/--target URL`` with the one default. One target: the URL, expanded (an
+    ``emulator`` URL without a speed gets the default speed). ``multiple``: a list, None when
+    not given (``run`` passes the URLs on, with its own --speed)."""
+    help_text = TARGET_HELP + (f"; {extra_help}" if extra_help else "")
+    if multiple:
+        parser.add_argument("-t", "--target", metavar="URL", action="append", default=None, help=help_text)
+    else:
+        parser.add_argument("-t", "--target", metavar="URL", type=expand_target, default=DEFAULT_TARGET,
+                            help=help_text)
 
 
 class OneLineParser(argparse.ArgumentParser):

@@ -12,11 +12,11 @@ import os
 import re
 import sys
 
-from .cli_options import EXIT_OK, EXIT_TARGET, EXIT_USAGE, add_target_option, expand_target
+from .cli_options import EXIT_OK, EXIT_TARGET, EXIT_USAGE, add_target_option
 from .errors import NeedsCapability, TargetError
+from .preflight import checked_target, one_line
 from .script import ScriptError, load_script
 from .script_runner import run_script
-from .targets import make_target
 
 _LAYOUT_SCHEMES = ("emulator", "inprocess")
 
@@ -55,24 +55,23 @@ def main(args: argparse.Namespace) -> int:
     except ScriptError as exc:
         err(str(exc))
         return EXIT_USAGE
-    args.target = expand_target(args.target or "emulator")
     options = {}
     if script.explicit_devices and args.target.split(":", 1)[0].split("?", 1)[0] in _LAYOUT_SCHEMES:
         options["devices"] = dict(script.explicit_devices)  # start the emulator with the script's layout
     output = args.output or default_transcript_path(args.script, args.target)
+    target = checked_target(args.target, **options)
     try:
-        target = make_target(args.target, **options)
         result = run_script(script, target, transcript=output, open_timeout=args.open_timeout,
                             layout_on_rig=args.layout_on_rig)
     except NeedsCapability as exc:
         err(f"skipped {args.script}: {exc}")
         return EXIT_TARGET
     except TargetError as exc:
-        err(str(exc))
+        err(one_line(exc))
         return EXIT_TARGET
     if not result.ok:
-        err(f"{args.script} on {args.target}: {result.reason}")
-        err(f"transcript (every byte received until then): {output}")
+        err(one_line(f"{args.script} on {args.target}: {result.reason}; transcript (every byte received "
+                     f"until then): {output}"))
         return EXIT_TARGET
     if not args.quiet:
         lines = sum(1 for e in result.events if e.kind not in ("prompt", "bootloader_prompt"))

@@ -24,8 +24,9 @@ from collections import deque
 from dataclasses import dataclass, field
 from typing import Callable, Deque, List, Optional, Tuple
 
+from .cli_options import UsageError
 from .pty import open_raw_pty
-from .transcript import CRLF, Transcript, field_bytes, read_transcript
+from .transcript import CRLF, Transcript, field_bytes
 
 __all__ = ["Exchange", "MockHat", "exchanges_of", "serve_pty", "serve_tcp", "add_arguments", "main"]
 
@@ -297,11 +298,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def main(args: argparse.Namespace) -> int:
-    try:
-        transcript = read_transcript(args.transcript)
-    except (OSError, ValueError) as exc:
-        print(f"mock: cannot read {args.transcript}: {exc}", file=sys.stderr)
-        return 2
+    from .transcript_check import load_transcript
+
+    transcript = load_transcript(args.transcript)
     stop = threading.Event()
 
     def on_signal(_sig, _frame) -> None:
@@ -314,7 +313,6 @@ def main(args: argparse.Namespace) -> int:
         try:
             port_no = int(port)
         except ValueError:
-            print(f"mock: --tcp wants [HOST:]PORT, got {args.tcp!r}", file=sys.stderr)
-            return 2
+            raise UsageError(f"--tcp wants [HOST:]PORT, got {args.tcp!r}") from None
         return serve_tcp(transcript, host or "127.0.0.1", port_no, args.speed, args.strict, args.once, stop)
     return serve_pty(transcript, args.link, args.speed, args.strict, stop)

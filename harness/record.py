@@ -26,9 +26,11 @@ import threading
 import time
 from typing import List, Optional, Sequence, Tuple
 
+from .cli_options import EXIT_TARGET, UsageError, add_target_option
 from .pty import open_raw_pty
 from .replay import Plan, missing_capabilities, run_plan, script_steps, write_chunks, write_transcript
 from .script import Script, ScriptError, load_script
+from .targets.base import NeedsCapability
 from .transcript import Transcript, TranscriptWriter, read_transcript
 
 __all__ = ["record_script", "record_proxy", "ready_lines", "add_arguments", "main", "PASS_UNKNOWN_ARGS"]
@@ -74,12 +76,12 @@ def _layout_text(layout: dict) -> dict:
 def _target_for(url: str, script: Script):  # type: ignore[no-untyped-def]
     """(target, layout applied): the target is told the script's start-up layout when it is an
     emulator that can take one."""
-    from .targets import make_target
+    from .preflight import checked_target
 
     kind = url.split(":", 1)[0].split("?", 1)[0]
     if script.explicit_devices and kind in ("emulator", "inprocess") and "device=" not in url:
-        return make_target(url, devices=dict(script.devices)), True
-    return make_target(url), False
+        return checked_target(url, devices=dict(script.devices)), True
+    return checked_target(url), False
 
 
 def record_script(script: Script, target, out: str,  # type: ignore[no-untyped-def]
@@ -92,8 +94,6 @@ def record_script(script: Script, target, out: str,  # type: ignore[no-untyped-d
     (``inprocess``) must be stepped millisecond by millisecond, and on a sped-up real-time
     target the runner's 20 HAT-ms tail is over before the last answers arrive, while the replay
     driver schedules every step from one clock and waits for the output to go quiet."""
-    from .targets.base import NeedsCapability
-
     rel_script = os.path.relpath(os.path.abspath(script.source), os.path.dirname(os.path.abspath(out))) \
         if os.path.isfile(script.source) else script.source
     meta = {"target": getattr(target, "url", ""), "script": rel_script, "name": script.name,
@@ -219,8 +219,7 @@ def _wait_for_start_up(chunks: list, lock: threading.Lock, ready: Sequence[str],
 # -- command line --------------------------------------------------------------------------------
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("script", nargs="?", metavar="SCRIPT", help="scenario script (.script) to run")
-    parser.add_argument("--target", required=True, metavar="URL",
-                        help="emulator[:N][?speed=N], inprocess[:N], /dev/..., socket://HOST:PORT ...")
+    add_target_option(parser)
     parser.add_argument("-o", "--output", required=True, metavar="FILE", help="transcript to write (.jsonl)")
     parser.add_argument("--boot-timeout", type=float, metavar="S",
                         help="--proxy: a target that talks when opened is booting: wait up to S seconds "
@@ -232,18 +231,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def main(args: argparse.Namespace) -> int:
-    from .targets import make_target
-    from .targets.base import NeedsCapability, TargetError
+    from .preflight import checked_target
 
     extra = [a for a in getattr(args, "extra", []) if a != "--"]
     if args.proxy:
         if args.script:
             extra = [args.script] + extra
-        try:
-            target = make_target(args.target)
-        except TargetError as exc:
-            print(f"record: {exc}", file=sys.stderr)
-            return 2
+        target = checked_target(args.target)
         from ..protocol.devices import DEFAULT_LAYOUT
 
         timeout = 30.0 if args.boot_timeout is None else args.boot_timeout
@@ -255,26 +249,25 @@ def main(args: argparse.Namespace) -> int:
         print(f"record: wrote {args.output}{exited}")
         return status
     if extra:
-        print(f"record: unexpected arguments {' '.join(extra)} (a command goes with --proxy)",
-              file=sys.stderr)
-        return 2
+        raise UsageError(f"unexpected arguments {' '.join(extra)} (a command goes with --proxy)")
     if not args.script:
-        print("record: give a SCRIPT, or --proxy to record a host program", file=sys.stderr)
-        return 2
+        raise UsageError("give a SCRIPT, or --proxy to record a host program")
     try:
         script = load_script(args.script)
-        target, applied = _target_for(args.target, script)
-        _transcript, remarks = record_script(script, target, args.output, args.boot_timeout, applied)
+    except FileNotFoundError:
+        raise UsageError(f"{args.script}: no such script") from None
     except (OSError, ScriptError) as exc:
-        print(f"record: {exc}", file=sys.stderr)
-        return 2
+        raise UsageError(str(exc)) from None
+    target, applied = _target_for(args.target, script)
+    try:
+        _transcript, remarks = record_script(script, target, args.output, args.boot_timeout, applied)
     except NeedsCapability as exc:
-        print(f"record: cannot run {args.script} on {args.target}: it {exc}. Nothing was sent; use a target "
-              "with a control channel (emulator, inprocess) or a rig.", file=sys.stderr)
-        return 3
-    except TargetError as exc:
-        print(f"record: {exc}", file=sys.stderr)
-        return 2
+        print(f"buildhat-conformance record: cannot run {args.script} on {args.target}: it {exc}. "
+              "Nothing was "
+              "sent; use a target with a control channel (emulator, inprocess) or a rig.", file=sys.stderr)
+        return EXIT_TARGET
+    except OSError as exc:
+        raise UsageError(f"{args.output}: {exc.strerror or exc}") from None
     for r in remarks:
         print(f"record: note: {r}")
     print(f"record: wrote {args.output}")

@@ -25,6 +25,7 @@ import time
 from dataclasses import dataclass, field
 from typing import Dict, List, Optional, Sequence, Tuple
 
+from .cli_options import UsageError, add_target_option
 from .compare import Comparison, RuleSet, Unit, compare_units, output_units
 from .script import Script, load_script, parse_script, parse_world_action
 from .transcript import Transcript, TranscriptWriter, field_bytes, read_transcript
@@ -396,8 +397,7 @@ def compare_transcripts(expected: Transcript, actual: Transcript, rules: RuleSet
 # -- command line ----------------------------------------------------------------------------
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("transcript", metavar="FILE", help="the recorded transcript (.jsonl)")
-    parser.add_argument("--target", required=True, metavar="URL",
-                        help="where to replay: emulator[:N], inprocess[:N], /dev/..., socket://...")
+    add_target_option(parser)
     parser.add_argument("--rule", action="append", default=[], metavar="CLASS=RULE",
                         help="comparison rule per event class: exact | pattern:REGEX | tolerance:N[%%] | "
                              "ignore (repeatable; CLASS 'data' = all data lines, '*' = default)")
@@ -415,26 +415,30 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def main(args: argparse.Namespace) -> int:
-    from .targets import make_target
-    from .targets.base import TargetError
+    from .preflight import checked_target
+    from .script import ScriptError
+    from .transcript_check import load_transcript
 
+    recorded = load_transcript(args.transcript)
     try:
-        recorded = read_transcript(args.transcript)
         rules = RuleSet.from_options(args.rule, args.timing_tolerance)
+    except ValueError as exc:
+        raise UsageError(f"--rule: {exc}") from None
+    try:
         script = load_script(args.script) if args.script else None
+    except FileNotFoundError:
+        raise UsageError(f"{args.script}: no such script") from None
+    except ScriptError as exc:
+        raise UsageError(str(exc)) from None
+    try:
         plan = plan_replay(recorded, args.transcript, script)
     except (OSError, ValueError) as exc:
-        print(f"replay: {exc}", file=sys.stderr)
-        return 2
+        raise UsageError(f"{args.transcript}: {exc}") from None
     options = {}
     if plan.layout and args.target.split(":", 1)[0].split("?", 1)[0] in ("emulator", "inprocess") \
             and "device=" not in args.target:
         options["devices"] = plan.layout   # the recording's start-up layout, on a target that can take it
-    try:
-        target = make_target(args.target, **options)
-    except TargetError as exc:
-        print(f"replay: {exc}", file=sys.stderr)
-        return 2
+    target = checked_target(args.target, **options)
     missing = missing_capabilities(plan, target)
     if missing and not args.without_world:
         print(f"replay: cannot replay {args.transcript} faithfully on {args.target}: the recording's world "
@@ -445,11 +449,7 @@ def main(args: argparse.Namespace) -> int:
     if missing:
         plan.steps = [s for s in plan.steps if s.kind != "world"]
         plan.remarks.append(f"world actions left out (--without-world): {', '.join(missing)}")
-    try:
-        actual, slack, remarks = replay(recorded, target, plan, args.output, args.boot_timeout)
-    except TargetError as exc:
-        print(f"replay: {exc}", file=sys.stderr)
-        return 2
+    actual, slack, remarks = replay(recorded, target, plan, args.output, args.boot_timeout)
     result = compare_transcripts(recorded, actual, rules, include_startup=args.include_startup,
                                  trim_after=plan.end_t + slack if slack else None)
     hosts = [e for e in recorded.events if e.get("dir") == "host"]

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+import xml.etree.ElementTree as ET
 
 from . import build_report
 from .junit import check_junit
@@ -28,6 +29,11 @@ def main(args: argparse.Namespace) -> int:
         for problem in check_junit(path):
             bad += 1
             print(f"report: {path}: {problem}", file=sys.stderr)
-    out = build_report(args.junit, args.output)
+    try:
+        out = build_report(args.junit, args.output)
+    except (ET.ParseError, ValueError) as exc:
+        if not bad:   # check_junit has said what is wrong with the file, in one line
+            print(f"report: cannot read {', '.join(args.junit)}: {exc}", file=sys.stderr)
+        return 2
     print(f"report: wrote {out}")
     return 1 if (bad and args.check) else 0
