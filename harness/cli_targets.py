@@ -58,7 +58,7 @@ def emulator_lines() -> List[str]:
         where = f"buildhat-emulator: not available ({exc})"
     lines = [f"  {where}"]
     for number, p in load_profiles().items():
-        mark = "  (latest, the default)" if number == DEFAULT_FIRMWARE else ""
+        mark = "  (latest, default)" if number == DEFAULT_FIRMWARE else ""
         # the version string starts with the number: print it once, then the build date
         rest = p.version_string[len(str(number)):].strip() if p.version_string.startswith(str(number)) \
             else p.version_string
