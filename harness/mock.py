@@ -48,11 +48,26 @@ def _output_bytes(ev: dict) -> bytes:
     return b""
 
 
+def _starts_reply(line: bytes, host: bytes) -> bool:
+    """Whether an output line is the CRLF that ``host``'s CR produced (FIRMWARE-FACTS §1: the CR
+    always gives CRLF, so every reply starts with it): an empty line with echo off, the echoed
+    text (after any prompt still on the line) with echo on."""
+    sent = host.rstrip(b"\r")
+    return line == b"" or (bool(sent) and line.endswith(sent))
+
+
 def exchanges_of(transcript: Transcript) -> List[Exchange]:
-    """The start-up exchange, then one per CR-terminated host line. Output after a host event
-    belongs to the last line that event completed (a recording cannot say more)."""
+    """The start-up exchange, then one per CR-terminated host line.
+
+    Output is attributed by the protocol's own reply shape, not by when it came: each host
+    line's reply begins with the CRLF of its CR, so when several lines were sent before any
+    answer (a script without ``@wait``), the first output line of that shape starts the reply
+    to the first of them, the next one to the second, and so on. Everything else (the rest of
+    a reply, asynchronous lines) belongs to the reply begun last."""
     startup = Exchange(None, 0.0)
     ex: List[Exchange] = [startup]
+    current = startup
+    waiting: Deque[Exchange] = deque()      # sent, the CR's CRLF not seen yet
     first_t: Optional[float] = None
     pending = bytearray()
     for ev in transcript.events:
@@ -62,18 +77,21 @@ def exchanges_of(transcript: Transcript) -> List[Exchange]:
             data = _output_bytes(ev)
             if first_t is None:
                 first_t = t
-            cur = ex[-1]
-            dt = t - (cur.t if cur.host is not None else first_t)
+            if "line" in ev and waiting and _starts_reply(field_bytes(ev, "line"), waiting[0].host or b""):
+                current = waiting.popleft()
+            dt = t - (current.t if current.host is not None else first_t)
             if "partial" in ev:
                 # A partial is stamped when it was flushed (the next host send or the end), not
                 # when it arrived; a prompt comes with the output before it, so send it then.
-                dt = cur.output[-1][0] if cur.output else 0.0
-            cur.output.append((dt, data))
+                dt = current.output[-1][0] if current.output else 0.0
+            current.output.append((max(0.0, dt), data))
         elif kind == "host":
             pending += field_bytes(ev, "bytes")
             while b"\r" in pending:
                 i = pending.index(b"\r")
-                ex.append(Exchange(bytes(pending[:i + 1]), t))
+                exchange = Exchange(bytes(pending[:i + 1]), t)
+                ex.append(exchange)
+                waiting.append(exchange)
                 del pending[:i + 1]
     return ex
 
