@@ -18,8 +18,6 @@ from .preflight import checked_target, one_line
 from .script import ScriptError, load_script
 from .script_runner import run_script
 
-_LAYOUT_SCHEMES = ("emulator", "inprocess")
-
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("script", metavar="FILE", help="the scenario script (.script)")
@@ -55,11 +53,9 @@ def main(args: argparse.Namespace) -> int:
     except ScriptError as exc:
         err(str(exc))
         return EXIT_USAGE
-    options = {}
-    if script.explicit_devices and args.target.split(":", 1)[0].split("?", 1)[0] in _LAYOUT_SCHEMES:
-        options["devices"] = dict(script.explicit_devices)  # start the emulator with the script's layout
     output = args.output or default_transcript_path(args.script, args.target)
-    target = checked_target(args.target, **options)
+    # an emulator starts with the script's layout
+    target = checked_target(args.target, layout=script.devices if script.explicit_devices else None)
     try:
         result = run_script(script, target, transcript=output, open_timeout=args.open_timeout,
                             layout_on_rig=args.layout_on_rig)

@@ -63,7 +63,11 @@ def exchanges_of(transcript: Transcript) -> List[Exchange]:
     line's reply begins with the CRLF of its CR, so when several lines were sent before any
     answer (a script without ``@wait``), the first output line of that shape starts the reply
     to the first of them, the next one to the second, and so on. Everything else (the rest of
-    a reply, asynchronous lines) belongs to the reply begun last."""
+    a reply, asynchronous lines) belongs to the reply begun last.
+
+    Host lines before t = 0 are the recorder's own look at the target before the script (a
+    session's ``version``, the ``list`` that waits for the layout; TRANSCRIPT.md: t < 0 is
+    start-up): they and their answers are not served."""
     startup = Exchange(None, 0.0)
     ex: List[Exchange] = [startup]
     current = startup
@@ -85,6 +89,8 @@ def exchanges_of(transcript: Transcript) -> List[Exchange]:
                 # when it arrived; a prompt comes with the output before it, so send it then.
                 dt = current.output[-1][0] if current.output else 0.0
             current.output.append((max(0.0, dt), data))
+        elif kind == "host" and t < 0:
+            current = Exchange(b"", t)      # the recorder's own exchange: kept out of the mock
         elif kind == "host":
             pending += field_bytes(ev, "bytes")
             while b"\r" in pending:

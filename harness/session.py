@@ -505,6 +505,13 @@ class Session:
         self.fence(timeout)
         return drained
 
+    def poll(self) -> None:
+        """Take in what the target has already sent, letting no time pass (a virtual-time
+        target is read without being stepped; a real-time one has its reader thread)."""
+        self._check()
+        if self.virtual:
+            self._read_once(0)
+
     def wait_new(self, count: int, timeout: float) -> bool:
         """Block until there are more than ``count`` events, at most ``timeout`` seconds (wall
         clock; HAT seconds / time_scale for virtual-time targets). True if one came. Waiters
