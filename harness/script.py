@@ -1,4 +1,4 @@
-"""Scenario scripts (shared/formats/SCENARIO-SCRIPT.md): the parser.
+"""Scenario scripts (docs/formats/SCENARIO-SCRIPT.md): the parser.
 
 A script is a list of actions run in order from t = 0 ms. Host actions (``>``, ``>raw``)
 and ``@wait`` work on any target; world actions (``@plug``, ``@data``, faults, ...) need a

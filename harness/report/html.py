@@ -6,6 +6,7 @@ import datetime
 import html
 from typing import Dict, List, Sequence, Tuple
 
+from ..extras import install_hint
 from .coverage import Coverage
 from .junit import VERDICTS, Case, Run
 from .plots import Plot
@@ -187,9 +188,8 @@ def _plots_section(plots: List[Plot], have_png: bool) -> str:
                      "so there is nothing to plot.</p>")
         return "".join(parts)
     if not have_png:
-        parts.append("<p class=warn>matplotlib is not installed (install the <code>plots</code> extra: "
-                     "<code>pip install 'buildhat-conformance[plots]'</code>); "
-                     "the numbers follow as text.</p>")
+        parts.append("<p class=warn>matplotlib is not installed (the <code>plots</code> extra: "
+                     f"<code>{_e(install_hint('plots'))}</code>); the numbers follow as text.</p>")
     for p in plots:
         body = ""
         if p.png:

@@ -55,8 +55,9 @@ def emulator_command(command: Union[str, Sequence[str], None] = None) -> List[st
     found = shutil.which("buildhat-emulator")
     if found:
         return [found]
-    raise TargetError("buildhat-emulator not found: install this package ('pip install -e .' in the "
-                      "checkout) or set BUILDHAT_EMULATOR to the command that starts it")
+    raise TargetError("buildhat-emulator not found: install this package (pip install -e . in a "
+                      "checkout, or pip install the built wheel) or set BUILDHAT_EMULATOR to the command "
+                      "that starts it")
 
 
 def format_device_spec(spec: Optional[tuple]) -> str:
