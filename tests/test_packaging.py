@@ -13,8 +13,9 @@ FORMATS = ("SCENARIO-SCRIPT.md", "TRANSCRIPT.md")
 # Everything a user reads or runs: the package's folders, the docs, the examples, the top-level files.
 USER_TOPS = ("protocol", "harness", "emulator", "conformance", "fuzz", "bench", "buildhat_conformance",
              "docs", "examples", "transcripts")
+USER_SUFFIXES = (".py", ".md", ".yml", ".html", ".toml", ".json")
 USER_FILES = [p for top in USER_TOPS for p in (REPO / top).rglob("*")
-              if p.suffix in (".py", ".md", ".yml", ".html", ".toml", ".json") and "__pycache__" not in p.parts] \
+              if p.suffix in USER_SUFFIXES and "__pycache__" not in p.parts] \
     + [REPO / "README.md", REPO / "pyproject.toml", REPO / "Makefile"]
 
 
