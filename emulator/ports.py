@@ -42,7 +42,7 @@ from __future__ import annotations
 import math
 import random
 from collections import deque
-from typing import TYPE_CHECKING, Deque, Dict, List, Optional, Tuple
+from typing import Deque, Dict, List, Optional, Tuple
 
 from . import lpf2
 from .devices import ActiveDevice, MotorDevice, PassiveDevice, make_device
@@ -50,9 +50,7 @@ from .devices.info import DeviceInfo
 from .devices.passive import BUTTON_ID, BUTTON_RELEASED
 from .listing import active_dump, empty_line, passive_line
 from .reporting import Reporter
-
-if TYPE_CHECKING:
-    from .hat import Hat
+from .services import PortServices
 
 __all__ = ["Port", "DETECT_MATCHES", "RESCAN_PAUSE_MS", "ACTIVE_DETECT_MS", "SYNC_GAP_MS",
            "SETUP_TIMEOUT_MS", "DATA_TIMEOUT_MS", "NACK_PERIOD_MS", "QUEUE_SLOTS",
@@ -84,8 +82,8 @@ _MODE_BUFFER = 132          # per-mode payload store: offsets up to 127 plus a 4
 class Port:
     """The HAT side of one device port (see the module docstring)."""
 
-    def __init__(self, hat: Hat, index: int):
-        self.hat = hat
+    def __init__(self, hat: PortServices, index: int):
+        self.hat = hat          # the HAT as far as a port may use it
         self.index = index
         f = hat.profile.features
         self.scan_ms: int = f["passive_scan_ms"]
@@ -95,7 +93,7 @@ class Port:
         self.repeat_connect = bool(f["passive_connect_repeats"])
         self.button_events = bool(f["button_events"])
         self.matrix_autopower = bool(f["matrix_autopower"])
-        self.rng = random.Random((getattr(hat, "seed", 0) or 0) * 7919 + index)
+        self.rng = random.Random((hat.seed or 0) * 7919 + index)
         self.device = None                      # what is plugged in (the world)
         self.reporter = Reporter(self)
         self.info: Optional[DeviceInfo] = None  # the parsed setup of the active device
