@@ -61,7 +61,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--operator", action="store_true", help="ask a person for plug/unplug actions")
     parser.add_argument("--image", default=None, metavar="FILE",
                         help="load this firmware image through the HAT's bootloader before the suite "
-                             "(with --signature; as `buildhat-conformance load`)")
+                             "(with --signature; as 'buildhat-conformance load')")
     parser.add_argument("--signature", default=None, metavar="FILE", help="the image's 64-byte signature")
 
 
@@ -189,7 +189,7 @@ def load_image_first(args: argparse.Namespace) -> int:
             return EXIT_USAGE
         if disposable:
             print(f"{prog}: --image needs a HAT that outlives one connection, and {url} starts a new one for "
-                  "each; start one with `buildhat-emulator --pty --bootloader --link /tmp/hat` and use "
+                  "each; start one with 'buildhat-emulator --pty --bootloader --link /tmp/hat' and use "
                   "--target /tmp/hat", file=sys.stderr)
             return EXIT_USAGE
         transcript = os.path.join(os.path.dirname(os.path.abspath(args.junit)), "load.jsonl")

@@ -49,7 +49,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--out", default=DEFAULT_OUT, help=f"where findings go (default {DEFAULT_OUT})")
     parser.add_argument("--junit", default=None, help="JUnit file (default: <out>/junit.xml)")
     parser.add_argument("--firmware", "--profile", dest="profile", default=None, metavar="RELEASE",
-                        help="judge as this release (R1..R7); default: the one `version` reports")
+                        help="judge as this release (R1..R7); default: the one 'version' reports")
     parser.add_argument("--families", default=",".join(FAMILIES),
                         help=f"input families, comma-separated (default: {','.join(FAMILIES)})")
     parser.add_argument("--steps", type=int, default=40, help="steps per example (default 40)")

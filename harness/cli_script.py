@@ -26,9 +26,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="transcript file (default: reports/<script>.<target>.jsonl if ./reports "
                              "exists, else beside the script)")
     parser.add_argument("--layout-on-rig", action="store_true",
-                        help="the HAT is wired as the script's @device lines say; check it with `list`")
+                        help="the HAT is wired as the script's @device lines say; check it with 'list'")
     parser.add_argument("--open-timeout", type=float, default=2.0, metavar="S",
-                        help="seconds to wait for each `version` answer at open (default 2)")
+                        help="seconds to wait for each 'version' answer at open (default 2)")
     parser.add_argument("--quiet", "-q", action="store_true", help="print only errors")
 
 

@@ -48,6 +48,7 @@ TARGETED = {
     "fuzz": ["--budget", "1", "--out", "f"],
     "record": [SCRIPT, "-o", "out.jsonl"],
     "replay": [TRANSCRIPT],
+    "load": [SCRIPT, SCRIPT],       # files that exist; the target is refused before they are sent
 }
 # What a sub-command reads, given as a file that does not exist.
 MISSING_FILE = {
@@ -56,6 +57,7 @@ MISSING_FILE = {
     "replay": ["nope.jsonl", "-t", "inprocess"],
     "mock": ["nope.jsonl"],
     "report": ["nope.xml", "-o", "x.html"],
+    "load": ["nope.bin", "nope.sig", "-t", "inprocess"],
 }
 # An option value of the wrong type, for every sub-command.
 BAD_VALUE = {
@@ -124,7 +126,13 @@ def test_firmware_judges_as_and_says_so(tmp_path):
 
 
 def test_help_is_plain_text_and_names_the_default_target(tmp_path, monkeypatch, capsys):
+    from buildhat_conformance.cli import SUBCOMMANDS
+
     for args in (["--help"], ["run", "--help"], ["script", "--help"], ["fuzz", "--help"]):
         rc, out, _err = _main(args, tmp_path, monkeypatch, capsys)
-        assert rc == 0 and "``" not in out, out
         assert "emulator:latest?speed=10" in " ".join(out.split()), out
+    for name in SUBCOMMANDS:
+        rc, out, _err = _main([name, "--help"], tmp_path, monkeypatch, capsys)
+        assert rc == 0 and "`" not in out, f"{name} --help is not plain text:\n{out}"
+        if name in TARGETED:
+            assert "-t URL, --target URL" in out, f"{name} --help has no -t/--target:\n{out}"
