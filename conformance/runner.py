@@ -54,6 +54,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="judge as this release (R1..R7, a version number or latest) instead of the "
                              "one the target reports; to run an emulator of a release, name it in the "
                              "URL (emulator:R2)")
+    parser.add_argument("--inventory", default=None, metavar="FILE",
+                        help="run against every HAT listed in FILE (one 'NAME URL' or 'URL' a line; "
+                             "docs/LAB.md)")
     parser.add_argument("--junit", default=os.path.join("reports", "junit.xml"), help="JUnit XML output")
     parser.add_argument("--transcripts", default=None,
                         help="folder for per-case transcripts (default: beside the JUnit file)")
@@ -87,6 +90,8 @@ def pytest_argv(args: argparse.Namespace) -> List[str]:
             # summary, two seconds of every run (H10 profile).
             "-p", "no:hypothesispytest",
             "-p", "buildhat_conformance.conformance.interrupt"]
+    if getattr(args, "inventory", None):
+        argv += ["--inventory", os.path.abspath(args.inventory)]
     if getattr(args, "speed", None):
         argv += ["--speed", f"{args.speed:g}"]
     if args.firmware:
@@ -103,9 +108,8 @@ def preflight(args: argparse.Namespace) -> None:
     from ..harness.preflight import check_answers, check_release, checked_target
 
     judged = check_release(args.firmware, "--firmware") if args.firmware else None
-    if args.target is None and "--inventory" in (getattr(args, "extra", None) or []):
-        return    # the inventory's targets are checked by conformance/multitarget.py
-    for url in _targets(args):
+    urls = _inventory_urls(args.inventory) if getattr(args, "inventory", None) else _targets(args)
+    for url in urls:
         url = expand_target(url, getattr(args, "speed", DEFAULT_SPEED))
         target = checked_target(url)
         answer = check_answers(target)
@@ -117,6 +121,28 @@ def preflight(args: argparse.Namespace) -> None:
         if judged is not None:
             print(f"buildhat-conformance run: {url} runs firmware {answer.version_string or 'unknown'}; "
                   f"judged as {judged.name} ({judged.number}) because of --firmware", file=sys.stderr)
+
+
+def _inventory_urls(path: str) -> List[str]:
+    """The URLs of an inventory file; its mistakes are one line naming the file and line."""
+    import pytest
+
+    from ..harness.cli_options import UsageError
+    from .multitarget import read_inventory
+
+    try:
+        found = read_inventory(path)
+    except FileNotFoundError:
+        raise UsageError(f"--inventory {path}: no such file") from None
+    except OSError as exc:
+        raise UsageError(f"--inventory {path}: {exc.strerror or exc}") from None
+    except UnicodeDecodeError:
+        raise UsageError(f"--inventory {path}: not a text file") from None
+    except pytest.UsageError as exc:
+        raise UsageError(str(exc)) from None
+    if not found:
+        raise UsageError(f"--inventory {path}: lists no target")
+    return [url for _name, url in found]
 
 
 def build_html_report(junit: str) -> None:

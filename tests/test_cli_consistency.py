@@ -52,6 +52,7 @@ TARGETED = {
 }
 # What a sub-command reads, given as a file that does not exist.
 MISSING_FILE = {
+    "run": ["--inventory", "nope.txt", "--junit", "r/junit.xml"],
     "script": ["nope.script", "-t", "inprocess"],
     "record": ["nope.script", "-t", "inprocess", "-o", "x.jsonl"],
     "replay": ["nope.jsonl", "-t", "inprocess"],
