@@ -77,6 +77,9 @@ CASES = (
     [(f"{cmd} unknown target", [cmd, *rest, "-t", "nosuch:thing"], 2) for cmd, rest in TARGETED.items()]
     + [(f"{cmd} unknown release", [cmd, *rest, "-t", "emulator:R9"], 2) for cmd, rest in TARGETED.items()]
     + [(f"{cmd} no such device", [cmd, *rest, "-t", "/dev/ttyNOPE"], 3) for cmd, rest in TARGETED.items()]
+    + [(f"{cmd} not a serial device", [cmd, *rest, "-t", "/dev/null"], 3) for cmd, rest in TARGETED.items()]
+    + [(f"{cmd} nothing listening", [cmd, *rest, "-t", "socket://127.0.0.1:1"], 3)
+       for cmd, rest in TARGETED.items()]
     + [(f"{cmd} missing file", [cmd, *rest], 2) for cmd, rest in MISSING_FILE.items()]
     + [(f"{cmd} bad option value", [cmd, *rest], 2) for cmd, rest in BAD_VALUE.items()]
     + [("run bad --firmware", ["run", "--firmware", "banana", "--junit", "r/junit.xml"], 2)]
@@ -85,11 +88,15 @@ CASES = (
 
 @pytest.mark.parametrize("name,args,status", CASES, ids=[c[0] for c in CASES])
 def test_the_same_mistake_is_one_line_and_the_same_status(tmp_path, monkeypatch, capsys, name, args, status):
+    previous = tmp_path / "r" / "junit.xml"          # the report of an earlier run
+    previous.parent.mkdir()
+    previous.write_text("<testsuites/>", encoding="utf-8")
     rc, _out, err = _main(args, tmp_path, monkeypatch, capsys)
     assert "Traceback" not in err, err
     assert _one_line(err), f"{name}: {err!r}"
     assert rc == status, f"{name}: exit {rc}, stderr {err!r}"
-    assert not (tmp_path / "r").exists(), "a refused run must not write a report"
+    assert sorted(p.name for p in previous.parent.iterdir()) == ["junit.xml"], "a refused run wrote a report"
+    assert previous.read_text(encoding="utf-8") == "<testsuites/>", "a refused run touched the report"
 
 
 def test_a_bad_transcript_field_names_file_and_line(tmp_path, monkeypatch, capsys):
