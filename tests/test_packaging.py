@@ -64,35 +64,43 @@ def test_extra_hint_names_the_extras_packages():
     assert "pytest-xdist" in install_hint("parallel")
 
 
-def _repo_files() -> list:
-    """Every file of the checkout, relative, without hidden folders (.venv, .git)."""
-    import os
-
-    found = []
-    for here, dirs, files in os.walk(REPO):
-        dirs[:] = [d for d in dirs if not d.startswith(".")]
-        found += [os.path.relpath(os.path.join(here, f), REPO) for f in files]
-    return found
+# Run in a child: setuptools' distutils shim must not meet a distutils another test imported.
+_MANIFEST_FILES = """
+import json, os, sys
+from setuptools.command.egg_info import FileList
+repo = sys.argv[1]
+found = []
+for here, dirs, files in os.walk(repo):
+    dirs[:] = [d for d in dirs if not d.startswith(".")]      # .venv, .git
+    found += [os.path.relpath(os.path.join(here, f), repo) for f in files]
+manifest = FileList()
+manifest.allfiles = found
+with open(os.path.join(repo, "MANIFEST.in"), encoding="utf-8") as fh:
+    for line in fh:
+        if line.strip() and not line.startswith("#"):
+            manifest.process_template_line(line)
+print(json.dumps(manifest.files))
+"""
 
 
 def test_sdist_manifest_carries_docs_examples_and_golden_transcripts():
-    """What `python -m build --sdist` takes besides the package (MANIFEST.in), checked against the
-    files that exist, so a new document or golden file cannot be left out."""
-    pytest.importorskip("setuptools")
-    from setuptools.command.egg_info import FileList
+    """What `python -m build --sdist` takes besides the package (MANIFEST.in, as setuptools
+    reads it), checked against the files that exist, so a new document or golden file cannot
+    be left out."""
+    import json
+    import subprocess
 
-    manifest = FileList()
-    manifest.allfiles = _repo_files()
-    for line in (REPO / "MANIFEST.in").read_text(encoding="utf-8").splitlines():
-        if line.strip() and not line.startswith("#"):
-            manifest.process_template_line(line)
-    carried = {(REPO / f).resolve() for f in manifest.files}
+    proc = subprocess.run([sys.executable, "-c", _MANIFEST_FILES, str(REPO)], capture_output=True,
+                          text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    files = json.loads(proc.stdout)
+    carried = {(REPO / f).resolve() for f in files}
     wanted = [REPO / "LICENSE", REPO / "README.md", REPO / "Makefile",
               REPO / "examples" / "github-actions-host-library.yml",
               *(REPO / "docs").rglob("*.md"), *(REPO / "transcripts").iterdir()]
     missing = [str(p.relative_to(REPO)) for p in wanted if p.resolve() not in carried]
     assert not missing, missing
-    assert not any("reports" in pathlib.Path(f).parts for f in manifest.files)
+    assert not any("reports" in pathlib.Path(f).parts for f in files)
 
 
 if __name__ == "__main__":
