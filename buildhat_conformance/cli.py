@@ -88,6 +88,11 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     except TargetError as exc:
         _say(name, str(exc))
         return EXIT_TARGET
+    except OSError as exc:
+        if not exc.filename:
+            raise                   # not a file the user named: a bug of ours, with its traceback
+        _say(name, f"{exc.filename}: {exc.strerror or exc}")
+        return EXIT_USAGE
     except KeyboardInterrupt:
         _say(name, "interrupted")
         return 130

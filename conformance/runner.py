@@ -105,9 +105,13 @@ def pytest_argv(args: argparse.Namespace) -> List[str]:
 
 def preflight(args: argparse.Namespace) -> None:
     """Check every target before the run (raises UsageError or TargetError, one line each)."""
+    from ..harness.cli_options import check_writable
     from ..harness.preflight import check_answers, check_release, checked_target
 
     judged = check_release(args.firmware, "--firmware") if args.firmware else None
+    check_writable(args.junit, "--junit")
+    if args.transcripts:
+        check_writable(args.transcripts, "--transcripts", folder=True)
     urls = _inventory_urls(args.inventory) if getattr(args, "inventory", None) else _targets(args)
     for url in urls:
         url = expand_target(url, getattr(args, "speed", DEFAULT_SPEED))

@@ -210,8 +210,13 @@ def _summary(result: CampaignResult, stats: Stats, productions, files, junit: st
 
 
 def main(args: argparse.Namespace) -> int:
+    from ..harness.cli_options import check_writable
     from ..harness.preflight import check_release, checked_target
 
+    # Where the findings go, before the campaign: a run is never lost at its end.
+    check_writable(args.out, "--out", folder=True)
+    if args.junit:
+        check_writable(args.junit, "--junit")
     # The checks every sub-command makes (exit 2 for a bad URL or release, 3 unreachable).
     for url in [args.target] + ([args.against] if args.against else []):
         checked_target(url)

@@ -9,12 +9,13 @@ was asked.
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from typing import NoReturn, Optional
 
 __all__ = ["EXIT_OK", "EXIT_FAILED", "EXIT_USAGE", "EXIT_TARGET", "EXIT_STATUS_HELP", "DEFAULT_TARGET",
            "DEFAULT_SPEED", "TARGET_HELP", "UsageError", "add_target_option", "expand_target",
-           "OneLineParser"]
+           "OneLineParser", "check_writable"]
 
 EXIT_OK, EXIT_FAILED, EXIT_USAGE, EXIT_TARGET = 0, 1, 2, 3
 EXIT_STATUS_HELP = ("exit status: 0 success (conforms), 1 conformance failures or a finding, 2 usage "
@@ -55,6 +56,38 @@ def add_target_option(parser: argparse.ArgumentParser, multiple: bool = False, e
     else:
         parser.add_argument("-t", "--target", metavar="URL", type=expand_target, default=DEFAULT_TARGET,
                             help=help_text)
+
+
+def check_writable(path: str, what: str, folder: bool = False) -> None:
+    """UsageError unless ``path`` (a file to write, or with ``folder`` a folder to write in;
+    missing folders may be made) can be written. Tried for real (root passes every permission
+    check) and undone: a refused run leaves the disk as it was."""
+    import tempfile
+
+    here = os.path.abspath(path)
+    if not folder and os.path.isdir(here):
+        raise UsageError(f"{what} {path}: is a folder, not a file")
+    where = here if folder else os.path.dirname(here)
+    made = []
+    try:
+        probe = where
+        while not os.path.exists(probe):
+            made.append(probe)
+            probe = os.path.dirname(probe)
+        for missing in reversed(made):
+            os.mkdir(missing)
+        with tempfile.TemporaryFile(dir=where):
+            pass
+        if not folder and os.path.exists(here) and not os.access(here, os.W_OK):
+            raise PermissionError(13, "permission denied", here)
+    except OSError as exc:
+        raise UsageError(f"{what} {path}: {exc.strerror or exc}") from None
+    finally:
+        for created in made:
+            try:
+                os.rmdir(created)
+            except OSError:
+                pass
 
 
 class OneLineParser(argparse.ArgumentParser):

@@ -12,7 +12,7 @@ import os
 import re
 import sys
 
-from .cli_options import EXIT_OK, EXIT_TARGET, EXIT_USAGE, add_target_option
+from .cli_options import EXIT_OK, EXIT_TARGET, EXIT_USAGE, add_target_option, check_writable
 from .errors import NeedsCapability, TargetError
 from .preflight import checked_target, one_line
 from .script import ScriptError, load_script
@@ -54,6 +54,7 @@ def main(args: argparse.Namespace) -> int:
         err(str(exc))
         return EXIT_USAGE
     output = args.output or default_transcript_path(args.script, args.target)
+    check_writable(output, "-o")
     # an emulator starts with the script's layout
     target = checked_target(args.target, layout=script.devices if script.explicit_devices else None)
     try:

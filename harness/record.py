@@ -27,7 +27,7 @@ import threading
 import time
 from typing import List, Optional, Sequence, Tuple
 
-from .cli_options import EXIT_TARGET, UsageError, add_target_option
+from .cli_options import EXIT_TARGET, UsageError, add_target_option, check_writable
 from .pty import open_raw_pty
 from .replay import write_transcript
 from .script import Script, ScriptError, load_script
@@ -220,6 +220,7 @@ def main(args: argparse.Namespace) -> int:
     from .preflight import checked_target
 
     extra = [a for a in getattr(args, "extra", []) if a != "--"]
+    check_writable(args.output, "-o")
     if args.proxy:
         if args.script:
             extra = [args.script] + extra

@@ -24,7 +24,7 @@ import sys
 from dataclasses import dataclass, field
 from typing import Dict, List, Optional, Tuple
 
-from .cli_options import UsageError, add_target_option
+from .cli_options import UsageError, add_target_option, check_writable
 from .compare import Comparison, RuleSet, Unit, compare_units, output_units
 from .errors import TargetError
 from .script import Action, Script, escape_raw, load_script, parse_script, parse_world_action
@@ -244,6 +244,8 @@ def main(args: argparse.Namespace) -> int:
     from .transcript_check import load_transcript
 
     recorded = load_transcript(args.transcript)
+    if args.output:
+        check_writable(args.output, "-o")   # before the run: its result is not lost at the end
     try:
         rules = RuleSet.from_options(args.rule, args.timing_tolerance)
     except ValueError as exc:

@@ -83,6 +83,13 @@ CASES = (
     + [(f"{cmd} missing file", [cmd, *rest], 2) for cmd, rest in MISSING_FILE.items()]
     + [(f"{cmd} bad option value", [cmd, *rest], 2) for cmd, rest in BAD_VALUE.items()]
     + [("run bad --firmware", ["run", "--firmware", "banana", "--junit", "r/junit.xml"], 2)]
+    # an output that cannot be written (a file stands where a folder must be)
+    + [("run unwritable --junit", ["run", "--junit", "r/junit.xml/j.xml"], 2),
+       ("run unwritable --transcripts", ["run", "--transcripts", "r/junit.xml/t", "--junit", "r/x.xml"], 2),
+       ("script unwritable -o", ["script", SCRIPT, "-t", "inprocess", "-o", "r/junit.xml/o.jsonl"], 2),
+       ("record unwritable -o", ["record", SCRIPT, "-t", "inprocess", "-o", "r/junit.xml/o.jsonl"], 2),
+       ("replay unwritable -o", ["replay", TRANSCRIPT, "-t", "inprocess", "-o", "r/junit.xml/o.jsonl"], 2),
+       ("fuzz unwritable --out", ["fuzz", "-t", "inprocess", "--budget", "1", "--out", "r/junit.xml/f"], 2)]
 )
 
 
