@@ -111,8 +111,16 @@ def _run(fn: Callable[[], dict], profile_to: Optional[str]) -> dict:
 
 
 def main(args: argparse.Namespace) -> int:
+    from ..harness.cli_options import UsageError, check_writable
+
     runs = 1 if args.quick else max(1, args.runs)
     profile_dir = getattr(args, "cprofile", None)
+    names = [group[0] for group in _groups(args.quick)]
+    if args.only and not any(args.only in name for name in names):
+        raise UsageError(f"-k {args.only}: no benchmark group has it in its name ({'; '.join(names)})")
+    check_writable(args.output, "-o")        # before the minutes of measuring, not after
+    if profile_dir:
+        check_writable(profile_dir, "--cprofile", folder=True)
     figures: List[Figure] = []
     loads: List[str] = [_loadavg()]
     began = time.monotonic()

@@ -89,7 +89,9 @@ CASES = (
        ("script unwritable -o", ["script", SCRIPT, "-t", "inprocess", "-o", "r/junit.xml/o.jsonl"], 2),
        ("record unwritable -o", ["record", SCRIPT, "-t", "inprocess", "-o", "r/junit.xml/o.jsonl"], 2),
        ("replay unwritable -o", ["replay", TRANSCRIPT, "-t", "inprocess", "-o", "r/junit.xml/o.jsonl"], 2),
-       ("fuzz unwritable --out", ["fuzz", "-t", "inprocess", "--budget", "1", "--out", "r/junit.xml/f"], 2)]
+       ("fuzz unwritable --out", ["fuzz", "-t", "inprocess", "--budget", "1", "--out", "r/junit.xml/f"], 2),
+       ("bench unwritable -o", ["bench", "--quick", "-o", "r/junit.xml/b.json"], 2)]
+    + [("bench unknown group", ["bench", "--quick", "-k", "nosuchgroup"], 2)]
 )
 
 
