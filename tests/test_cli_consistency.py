@@ -117,6 +117,15 @@ def test_a_bad_transcript_field_names_file_and_line(tmp_path, monkeypatch, capsy
         assert f"{bad}:2: 't' must be a number" in err, err
 
 
+def test_a_script_that_is_not_text_names_file_and_line(tmp_path, monkeypatch, capsys):
+    bad = tmp_path / "bad.script"
+    bad.write_bytes(b"> vin\n> \xff\xfe\n")
+    for cmd in (["script", bad, "-t", "inprocess"], ["record", bad, "-t", "inprocess", "-o", "o.jsonl"]):
+        rc, _out, err = _main(cmd, tmp_path, monkeypatch, capsys)
+        assert rc == 2 and _one_line(err) and "Traceback" not in err, err
+        assert f"{bad}:2: not UTF-8 text" in err, err
+
+
 def test_report_of_a_broken_junit_file_is_one_line(tmp_path, monkeypatch, capsys):
     (tmp_path / "bad.xml").write_text("<testsuites><testsuite", encoding="utf-8")
     rc, _out, err = _main(["report", "bad.xml", "-o", "x.html"], tmp_path, monkeypatch, capsys)
