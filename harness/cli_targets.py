@@ -77,6 +77,8 @@ URL_OPTIONS = [
     ("inprocess: device=, seed=, baud=", "as for emulator"),
     ("inprocess: scale=S, boot=0", "virtual-time scale; boot=0 starts before the start-up"),
     ("serial: baud=N", "serial:///dev/ttyAMA0?baud=N (default 115200)"),
+    ("serial: reset=gpio", "reset the HAT through a Raspberry Pi's GPIO (gpio extra; docs/LAB.md)"),
+    ("  chip=, reset_line=, boot0_line=", "with reset=gpio (default /dev/gpiochip0, 4, 22)"),
 ]
 
 

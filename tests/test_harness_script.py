@@ -156,7 +156,7 @@ def test_cli_targets_lists_ports_releases_and_urls(capsys, tmp_path, monkeypatch
     assert "cmd:<command line>" in out and "socket://HOST:PORT" in out
     r1 = next(line for line in out.splitlines() if "emulator:R1" in line)
     assert r1.count("1630165527") == 1, r1          # the version number once, then the build date
-    assert "booted=1" in out and "baud=N" in out and "emulator:latest?speed=10" in out
+    assert "booted=1" in out and "baud=N" in out and "emulator:latest?speed=10" in out and "reset=gpio" in out
 
 
 def test_run_script_on_a_virtual_time_target_keeps_exact_times(tmp_path):
