@@ -152,7 +152,7 @@ def test_firmware_judges_as_and_says_so(tmp_path):
 
 
 def test_help_is_plain_text_and_names_the_default_target(tmp_path, monkeypatch, capsys):
-    from buildhat_conformance.cli import SUBCOMMANDS
+    from buildhat_conformance.harness.cli_dispatch import SUBCOMMANDS
 
     for args in (["--help"], ["run", "--help"], ["script", "--help"], ["fuzz", "--help"]):
         rc, out, _err = _main(args, tmp_path, monkeypatch, capsys)
