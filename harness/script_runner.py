@@ -121,7 +121,7 @@ def _live_layout(session: Session, want: Dict[int, Optional[tuple]],
         for e in session.command("list"):
             if e.is_port_status and e.port is not None:
                 state = e.fields.get("state")
-                layout[e.port] = None if state == "none" else (str(state), int(e.fields["id"]))
+                layout[e.port] = None if state == "none" else (str(state), int(str(e.fields["id"])))
         polls_left -= 1
         if all(layout.get(p) == s for p, s in want.items()) or time.monotonic() >= deadline \
                 or polls_left <= 0:
