@@ -57,7 +57,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--inventory", default=None, metavar="FILE",
                         help="run against every HAT listed in FILE (one 'NAME URL' or 'URL' a line; "
                              "docs/LAB.md)")
-    parser.add_argument("--junit", default=os.path.join("reports", "junit.xml"), help="JUnit XML output")
+    parser.add_argument("--junit", default=None,
+                        help="JUnit XML output (default: a new run folder reports/runs/<time>-<target>/, "
+                             "with reports/latest, reports/junit.xml and reports/index.html updated when "
+                             "cases ran)")
     parser.add_argument("--transcripts", default=None,
                         help="folder for per-case transcripts (default: beside the JUnit file)")
     parser.add_argument("-k", dest="keyword", default=None, help="only tests matching this pytest expression")
@@ -90,6 +93,7 @@ def pytest_argv(args: argparse.Namespace) -> List[str]:
             # summary, two seconds of every run (H10 profile).
             "-p", "no:hypothesispytest",
             "-p", "buildhat_conformance.conformance.interrupt"]
+    argv += ["--conformance-html", os.path.join(os.path.dirname(junit), "index.html")]
     if getattr(args, "inventory", None):
         argv += ["--inventory", os.path.abspath(args.inventory)]
     if getattr(args, "speed", None):
@@ -109,7 +113,12 @@ def preflight(args: argparse.Namespace) -> None:
     from ..harness.preflight import check_answers, check_release, checked_target
 
     judged = check_release(args.firmware, "--firmware") if args.firmware else None
-    check_writable(args.junit, "--junit")
+    if args.junit:
+        check_writable(args.junit, "--junit")
+    else:   # a new run folder under reports/runs/ (harness/report/runs.py)
+        from ..harness.report import runs
+
+        check_writable(os.path.join(runs.DEFAULT_ROOT, runs.RUNS), "the run folder", folder=True)
     if args.transcripts:
         check_writable(args.transcripts, "--transcripts", folder=True)
     urls = _inventory_urls(args.inventory) if getattr(args, "inventory", None) else _targets(args)
@@ -150,13 +159,11 @@ def _inventory_urls(path: str) -> List[str]:
 
 
 def build_html_report(junit: str) -> None:
-    """Write ``index.html`` beside the JUnit file (reports/ for `make conformance`)."""
+    """Write ``index.html`` beside the JUnit file; the suite's closing line has named it."""
     from ..harness.report import build_report
 
     try:
-        out = build_report([junit], os.path.join(os.path.dirname(junit), "index.html"))
-        if out:
-            print(f"HTML report: {out}")
+        build_report([junit], os.path.join(os.path.dirname(junit), "index.html"))
     except Exception as exc:  # noqa: BLE001 - the report is extra; the verdict is the exit status
         print(f"buildhat-conformance: HTML report not built: {exc}", file=sys.stderr)
 
@@ -233,10 +240,15 @@ def load_image_first(args: argparse.Namespace) -> int:
 
 
 def main(args: argparse.Namespace) -> int:
-    preflight(args)   # before the load too: a bad option or an unreachable target is one line
+    from ..harness.report import runs
+
+    preflight(args)   # before the run folder and the load: a mistake is one line, reports/ untouched
+    folder = runs.start_for(args)        # None when --junit names the file explicitly
     if args.image or args.signature:
         status = load_image_first(args)
         if status:
+            if folder is not None:
+                print(runs.finish(folder))   # no case ran: reports/ stays as it was
             return status
     # The suite's own folder is the rootdir; pytest.ini options of the caller's project are not ours.
     code, stopped_by = run_child(pytest_argv(args))
@@ -244,8 +256,10 @@ def main(args: argparse.Namespace) -> int:
     if stopped_by is not None:
         print(f"buildhat-conformance run: interrupted ({signal.Signals(stopped_by).name}); the cases that "
               f"ran are in {args.junit} (marked partial)", file=sys.stderr)
-    if os.path.isfile(junit):
+    if os.path.isfile(junit) and (folder is None or runs.cases_ran(folder.junit)):
         build_html_report(junit)
+    if folder is not None:
+        print(runs.finish(folder))
     if stopped_by is not None:
         return EXIT_INTERRUPTED
     return _PYTEST_TO_EXIT.get(code, EXIT_FAILED if code else EXIT_OK)
