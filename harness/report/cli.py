@@ -58,9 +58,10 @@ def main(args: argparse.Namespace) -> int:
             print(f"report: {path}: {problem}", file=sys.stderr)
     try:
         out = build_report(args.junit, args.output)
-    except (ET.ParseError, ValueError) as exc:
-        if not bad:   # check_junit has said what is wrong with the file, in one line
-            print(f"report: cannot read {', '.join(args.junit)}: {exc}", file=sys.stderr)
+    except ET.ParseError:
+        return 2          # check_junit has said which file and where it stops being XML
+    except (OSError, ValueError) as exc:
+        print(f"report: {exc}", file=sys.stderr)
         return 2
     print(f"report: wrote {out}")
     return 1 if (bad and args.check) else 0
