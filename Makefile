@@ -5,7 +5,7 @@ PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed-stamp
 TARGET ?= emulator
 
-.PHONY: conformance test bench lint clean
+.PHONY: conformance test bench lint clean wheel-check
 
 $(STAMP): pyproject.toml setup.py
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
@@ -30,6 +30,11 @@ bench: $(STAMP)
 lint: $(STAMP)
 	$(VENV)/bin/ruff check .
 	$(VENV)/bin/basedpyright
+
+## The package as a user gets it: build sdist + wheel, twine check, install the wheel in a fresh venv
+## and run `make conformance`'s command from an empty directory (about two minutes).
+wheel-check: $(STAMP)
+	$(PY) tests/wheel_check.py
 
 clean:
 	rm -rf $(VENV) reports/*.xml reports/*.html reports/fuzz build *.egg-info

@@ -99,8 +99,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--quick", action="store_true", help="one run each, shorter measurements")
     parser.add_argument("-k", dest="only", default="", help="only groups whose name contains this text")
     parser.add_argument("-o", "--output", default="reports/bench.json", help="where to write the figures")
-    parser.add_argument("--profile", metavar="DIR", default=None,
-                        help="also profile each group (cProfile) and write its hottest functions to DIR")
+    parser.add_argument("--cprofile", metavar="DIR", default=None,
+                        help="also run each group under cProfile and write its hottest functions to DIR")
 
 
 def _loadavg() -> str:
@@ -131,8 +131,16 @@ def _run(fn: Callable[[], dict], profile_to: Optional[str]) -> dict:
 
 
 def main(args: argparse.Namespace) -> int:
+    from ..harness.cli_options import UsageError, check_writable
+
     runs = 1 if args.quick else max(1, args.runs)
-    profile_dir = getattr(args, "profile", None)
+    profile_dir = getattr(args, "cprofile", None)
+    names = [group[0] for group in _groups(args.quick)]
+    if args.only and not any(args.only in name for name in names):
+        raise UsageError(f"-k {args.only}: no benchmark group has it in its name ({'; '.join(names)})")
+    check_writable(args.output, "-o")        # before the minutes of measuring, not after
+    if profile_dir:
+        check_writable(profile_dir, "--cprofile", folder=True)
     figures: List[Figure] = []
     loads: List[str] = [_loadavg()]
     began = time.monotonic()

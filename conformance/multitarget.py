@@ -109,8 +109,9 @@ def pytest_cmdline_main(config: Any) -> None:
     if len(targets) < 2 or hasattr(config, "workerinput"):
         return
     if not config.pluginmanager.hasplugin("xdist"):
-        raise pytest.UsageError("several targets need pytest-xdist: "
-                                "pip install 'buildhat-conformance[parallel]'")
+        from ..harness.extras import install_hint
+
+        raise pytest.UsageError(f"several targets need pytest-xdist: {install_hint('parallel')}")
     if config.option.numprocesses in (None, 0):
         config.option.numprocesses = len(targets)
     config.option.dist = "each"

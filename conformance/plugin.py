@@ -72,13 +72,10 @@ def pytest_configure(config: Any) -> None:
 
 
 def target_url(config: Any) -> str:
-    url = config.getoption("target")
+    from ..harness.cli_options import expand_target
+
     speed = config.getoption("speed")
-    if url.startswith("emulator") and "speed=" not in url and speed:
-        if url == "emulator":
-            url = "emulator:latest"      # the registry wants the release before a query
-        url += ("&" if "?" in url else "?") + f"speed={speed}"
-    return url
+    return expand_target(config.getoption("target"), float(speed) if speed else None)
 
 
 def requirement_ids(item: Any) -> List[str]:
@@ -155,7 +152,10 @@ class Run:
             raise TargetFault("unreachable", self.open_error) from exc
         self.hat = Hat(session, self.tee, self.url)
         p = self.hat.profile
-        self.junit.set_property("firmware", p.version_string)
+        # --firmware judges as a release; the firmware property stays what the target runs.
+        self.junit.set_property("firmware", session.version_string or p.version_string)
+        if forced:
+            self.junit.set_property("judged_as", f"{p.name} ({p.number}, --firmware)")
         self.junit.set_property("profile", p.name + ("" if self.hat.profile_exact else " (nearest earlier)"))
         return self.hat
 
@@ -349,11 +349,19 @@ class Run:
             p = hat.profile
             exact = "" if hat.profile_exact else \
                 " - unknown version, judged as the nearest earlier release"
-            tr.write_line(f"target {self.url}: firmware {p.version_string} profile {p.name}{exact}")
+            judged = " (--firmware)" if self.config.getoption("firmware") else ""
+            tr.write_line(f"target {self.url}: firmware {_firmware_of(self.hat)} judged as profile "
+                          f"{p.name}{judged}{exact}")
         tr.write_line(f"JUnit: {self.junit.path}   transcripts: {self.transcripts}")
 
 
 _run_key = pytest.StashKey[Run]()
+
+
+def _firmware_of(hat: Hat) -> str:
+    """What the target runs (its `version` answer); the profile it is judged as may differ."""
+    return getattr(hat.session, "version_string", "") or hat.profile.version_string
+
 
 
 def _failure_line(report: Any) -> str:
@@ -402,14 +410,14 @@ def _conformance_case(request: Any, _run: Run) -> Any:
     path = os.path.join(_run.transcripts, transcript_name(item.nodeid) + ".jsonl")
     p = hat.profile
     item.user_properties.extend([
-        ("firmware", p.version_string),
+        ("firmware", _firmware_of(hat)),
         ("profile", p.name if hat.profile_exact else f"{p.name} (nearest earlier)"), ("transcript", path)])
     if between:
         verdict.note(f"unknown build between {between[0].name} and {between[1].name}: judged by the "
                      "document; where they differ, informational")
     elif not hat.profile_exact:
         verdict.note(f"unknown firmware version; judged as {p.name}, the nearest earlier release")
-    writer = TranscriptWriter(path, {"firmware": p.version_string, "target": _run.url, "case": item.nodeid,
+    writer = TranscriptWriter(path, {"firmware": _firmware_of(hat), "target": _run.url, "case": item.nodeid,
                                      "requirements": ids, "profile": p.name})
     _run.tee.switch(writer)
     waited = getattr(hat.session, "waited_hat_ms", 0.0)   # H10: see Session.note_wait

@@ -1,26 +1,62 @@
-"""``buildhat-conformance run``: the conformance suite against one target.
+"""buildhat-conformance run: the conformance suite against one target.
 
-Runs pytest on the installed ``conformance`` package in a child process (so a target that
-hangs or dies cannot take the caller with it), writes the JUnit file, builds the HTML
-report when ``buildhat_conformance.harness.report`` is available, and exits non-zero on
-any failure. Options it does not know are passed to pytest unchanged.
+Before any case runs the target is checked (harness/preflight.py: it exists, is a serial
+device, something listens, the release is known, --firmware is valid, something answers);
+a problem is one line and exit status 2 (usage) or 3 (unreachable), and no report is
+touched. Then pytest runs the installed ``conformance`` package in a child process (so a
+target that hangs or dies cannot take the caller with it), writes the JUnit file, and the
+HTML report is built. Options it does not know are passed to pytest unchanged.
+
+The child and everything it starts end with this process: it has its own process group, a
+parent-death signal (harness/parent_death.py), and on Ctrl-C or SIGTERM it is told to stop,
+which closes the target and writes the JUnit file marked partial (conformance/interrupt.py);
+the HTML report is still built.
 """
 from __future__ import annotations
 
 import argparse
 import os
+import signal
 import subprocess
 import sys
-from typing import List
+import time
+from typing import List, Optional, Tuple
+
+from ..harness.cli_options import (
+    DEFAULT_SPEED,
+    DEFAULT_TARGET,
+    EXIT_FAILED,
+    EXIT_OK,
+    EXIT_STATUS_HELP,
+    EXIT_TARGET,
+    add_target_option,
+    expand_target,
+)
+from ..harness.parent_death import die_with_parent
 
 PASS_UNKNOWN_ARGS = True
+EXIT_INTERRUPTED = 130
+_STOP_GRACE_S = 15.0       # the child closes the target and writes its files in this time
+# pytest's exit statuses: 0 all passed, 1 some failed, 2 interrupted, 3 internal error,
+# 4 usage error, 5 no tests collected.
+_PYTEST_TO_EXIT = {0: EXIT_OK, 1: EXIT_FAILED, 2: EXIT_INTERRUPTED, 3: EXIT_TARGET, 4: 2, 5: 2}
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--target", action="append", default=None,
-                        help="target URL (default: emulator); several: one xdist worker each, one merged "
-                             "report (docs/LAB.md; or --inventory FILE)")
-    parser.add_argument("--firmware", default=None, help="judge against this release instead of detecting it")
+    parser.description = (parser.description or "") + ". " + EXIT_STATUS_HELP[0].upper() + \
+        EXIT_STATUS_HELP[1:] + "."
+    add_target_option(parser, multiple=True,
+                      extra_help="several: one xdist worker each, one merged report (docs/LAB.md; "
+                                 "or --inventory FILE)")
+    parser.add_argument("--speed", type=float, default=DEFAULT_SPEED, metavar="N",
+                        help=f"time scale of emulator URLs that give none (default {DEFAULT_SPEED:g})")
+    parser.add_argument("--firmware", default=None, metavar="RELEASE",
+                        help="judge as this release (R1..R7, a version number or latest) instead of the "
+                             "one the target reports; to run an emulator of a release, name it in the "
+                             "URL (emulator:R2)")
+    parser.add_argument("--inventory", default=None, metavar="FILE",
+                        help="run against every HAT listed in FILE (one 'NAME URL' or 'URL' a line; "
+                             "docs/LAB.md)")
     parser.add_argument("--junit", default=None,
                         help="JUnit XML output (default: a new run folder reports/runs/<time>-<target>/, "
                              "with reports/latest, reports/junit.xml and reports/index.html updated when "
@@ -31,7 +67,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--operator", action="store_true", help="ask a person for plug/unplug actions")
     parser.add_argument("--image", default=None, metavar="FILE",
                         help="load this firmware image through the HAT's bootloader before the suite "
-                             "(with --signature; as `buildhat-conformance load`)")
+                             "(with --signature; as 'buildhat-conformance load')")
     parser.add_argument("--signature", default=None, metavar="FILE", help="the image's 64-byte signature")
 
 
@@ -39,18 +75,29 @@ def suite_dir() -> str:
     return os.path.dirname(os.path.abspath(__file__))
 
 
+def _targets(args: argparse.Namespace) -> List[str]:
+    if isinstance(args.target, list):
+        return args.target
+    return [args.target or DEFAULT_TARGET]
+
+
 def pytest_argv(args: argparse.Namespace) -> List[str]:
     junit = os.path.abspath(args.junit)
     transcripts = args.transcripts or os.path.join(os.path.dirname(junit), "transcripts")
     # H10: --target may be given several times (conformance/multitarget.py runs one worker each).
-    targets = args.target if isinstance(args.target, list) else [args.target or "emulator"]
+    targets = _targets(args)
     argv = [sys.executable, "-m", "pytest", suite_dir(), "-p", "no:cacheprovider", "--rootdir", suite_dir(),
             *[a for t in targets for a in ("--target", t)], "--conformance-junit", junit,
             "--transcripts", transcripts, "--import-mode=importlib", "-q",
             # The suite uses no Hypothesis; its pytest plugin imports the library in the terminal
             # summary, two seconds of every run (H10 profile).
-            "-p", "no:hypothesispytest"]
+            "-p", "no:hypothesispytest",
+            "-p", "buildhat_conformance.conformance.interrupt"]
     argv += ["--conformance-html", os.path.join(os.path.dirname(junit), "index.html")]
+    if getattr(args, "inventory", None):
+        argv += ["--inventory", os.path.abspath(args.inventory)]
+    if getattr(args, "speed", None):
+        argv += ["--speed", f"{args.speed:g}"]
     if args.firmware:
         argv += ["--firmware", args.firmware]
     if args.keyword:
@@ -58,6 +105,57 @@ def pytest_argv(args: argparse.Namespace) -> List[str]:
     if args.operator:
         argv += ["--operator", "-s"]
     return argv + list(getattr(args, "extra", []) or [])
+
+
+def preflight(args: argparse.Namespace) -> None:
+    """Check every target before the run (raises UsageError or TargetError, one line each)."""
+    from ..harness.cli_options import check_writable
+    from ..harness.preflight import check_answers, check_release, checked_target
+
+    judged = check_release(args.firmware, "--firmware") if args.firmware else None
+    if args.junit:
+        check_writable(args.junit, "--junit")
+    else:   # a new run folder under reports/runs/ (harness/report/runs.py)
+        from ..harness.report import runs
+
+        check_writable(os.path.join(runs.DEFAULT_ROOT, runs.RUNS), "the run folder", folder=True)
+    if args.transcripts:
+        check_writable(args.transcripts, "--transcripts", folder=True)
+    urls = _inventory_urls(args.inventory) if getattr(args, "inventory", None) else _targets(args)
+    for url in urls:
+        url = expand_target(url, getattr(args, "speed", DEFAULT_SPEED))
+        target = checked_target(url)
+        answer = check_answers(target)
+        if answer.in_bootloader and not getattr(args, "image", None):
+            from ..harness.targets.base import TargetError
+
+            raise TargetError(f"{url} answers from its bootloader ({answer.version_string}): no firmware "
+                              "is running; load a release first (buildhat-conformance load)")
+        if judged is not None:
+            print(f"buildhat-conformance run: {url} runs firmware {answer.version_string or 'unknown'}; "
+                  f"judged as {judged.name} ({judged.number}) because of --firmware", file=sys.stderr)
+
+
+def _inventory_urls(path: str) -> List[str]:
+    """The URLs of an inventory file; its mistakes are one line naming the file and line."""
+    import pytest
+
+    from ..harness.cli_options import UsageError
+    from .multitarget import read_inventory
+
+    try:
+        found = read_inventory(path)
+    except FileNotFoundError:
+        raise UsageError(f"--inventory {path}: no such file") from None
+    except OSError as exc:
+        raise UsageError(f"--inventory {path}: {exc.strerror or exc}") from None
+    except UnicodeDecodeError:
+        raise UsageError(f"--inventory {path}: not a text file") from None
+    except pytest.UsageError as exc:
+        raise UsageError(str(exc)) from None
+    if not found:
+        raise UsageError(f"--inventory {path}: lists no target")
+    return [url for _name, url in found]
 
 
 def build_html_report(junit: str) -> None:
@@ -68,6 +166,44 @@ def build_html_report(junit: str) -> None:
         build_report([junit], os.path.join(os.path.dirname(junit), "index.html"))
     except Exception as exc:  # noqa: BLE001 - the report is extra; the verdict is the exit status
         print(f"buildhat-conformance: HTML report not built: {exc}", file=sys.stderr)
+
+
+def _kill_group(pgid: int, sig: int) -> None:
+    try:
+        os.killpg(pgid, sig)
+    except (ProcessLookupError, PermissionError):
+        pass
+
+
+def run_child(argv: List[str]) -> Tuple[int, Optional[int]]:
+    """Run the pytest child in its own process group, ending it (and what it started) when
+    this process gets SIGINT or SIGTERM. Returns (its exit status, the signal that stopped us
+    or None)."""
+    proc = subprocess.Popen(argv, start_new_session=True, preexec_fn=die_with_parent(signal.SIGTERM))
+    got: List[int] = []
+    stop_at: List[float] = []
+
+    def on_signal(sig: int, _frame: object) -> None:
+        if not got:
+            got.append(sig)
+            stop_at.append(time.monotonic() + _STOP_GRACE_S)
+            _kill_group(proc.pid, signal.SIGTERM)   # the child's handler turns it into a clean stop
+
+    old = {s: signal.signal(s, on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        while True:
+            try:
+                code = proc.wait(timeout=0.2)
+                break
+            except subprocess.TimeoutExpired:
+                pass
+            if stop_at and time.monotonic() > stop_at[0]:
+                _kill_group(proc.pid, signal.SIGKILL)
+    finally:
+        for s, handler in old.items():
+            signal.signal(s, handler)
+        _kill_group(proc.pid, signal.SIGKILL)   # anything of its group still there
+    return code, (got[0] if got else None)
 
 
 def load_image_first(args: argparse.Namespace) -> int:
@@ -90,7 +226,7 @@ def load_image_first(args: argparse.Namespace) -> int:
             return EXIT_USAGE
         if disposable:
             print(f"{prog}: --image needs a HAT that outlives one connection, and {url} starts a new one for "
-                  "each; start one with `buildhat-emulator --pty --bootloader --link /tmp/hat` and use "
+                  "each; start one with 'buildhat-emulator --pty --bootloader --link /tmp/hat' and use "
                   "--target /tmp/hat", file=sys.stderr)
             return EXIT_USAGE
         transcript = os.path.join(os.path.dirname(os.path.abspath(args.junit)), "load.jsonl")
@@ -106,6 +242,7 @@ def load_image_first(args: argparse.Namespace) -> int:
 def main(args: argparse.Namespace) -> int:
     from ..harness.report import runs
 
+    preflight(args)   # before the run folder and the load: a mistake is one line, reports/ untouched
     folder = runs.start_for(args)        # None when --junit names the file explicitly
     if args.image or args.signature:
         status = load_image_first(args)
@@ -114,9 +251,15 @@ def main(args: argparse.Namespace) -> int:
                 print(runs.finish(folder))   # no case ran: reports/ stays as it was
             return status
     # The suite's own folder is the rootdir; pytest.ini options of the caller's project are not ours.
-    code = subprocess.call(pytest_argv(args))
-    if folder is None or runs.cases_ran(folder.junit):
-        build_html_report(os.path.abspath(args.junit))
+    code, stopped_by = run_child(pytest_argv(args))
+    junit = os.path.abspath(args.junit)
+    if stopped_by is not None:
+        print(f"buildhat-conformance run: interrupted ({signal.Signals(stopped_by).name}); the cases that "
+              f"ran are in {args.junit} (marked partial)", file=sys.stderr)
+    if os.path.isfile(junit) and (folder is None or runs.cases_ran(folder.junit)):
+        build_html_report(junit)
     if folder is not None:
         print(runs.finish(folder))
-    return 0 if code == 0 else (code or 1)
+    if stopped_by is not None:
+        return EXIT_INTERRUPTED
+    return _PYTEST_TO_EXIT.get(code, EXIT_FAILED if code else EXIT_OK)

@@ -43,7 +43,7 @@ OUT_LIMIT = 6000
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("-t", "--target", default=None,
+    parser.add_argument("-t", "--target", default=None, metavar="URL",
                         help=f"target URL (default: {DEFAULT_TARGET}; with --reproduce, the finding's own)")
     parser.add_argument("--against", default=None, metavar="URL",
                         help="differential mode: send the same input to this second target and compare")
@@ -63,7 +63,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--out", default=DEFAULT_OUT, help=f"where findings go (default {DEFAULT_OUT})")
     parser.add_argument("--junit", default=None, help="JUnit file (default: <out>/junit.xml)")
     parser.add_argument("--firmware", "--profile", dest="profile", default=None, metavar="RELEASE",
-                        help="judge as this release (R1..R7); default: the one `version` reports")
+                        help="judge as this release (R1..R7); default: the one 'version' reports")
     parser.add_argument("--families", default=",".join(FAMILIES),
                         help=f"input families, comma-separated (default: {','.join(FAMILIES)})")
     parser.add_argument("--steps", type=int, default=100, help="steps per run (default 100)")
@@ -338,6 +338,20 @@ def reproduce(args: argparse.Namespace, primary: Optional[Callable[[], Target]] 
 
 
 def main(args: argparse.Namespace) -> int:
+    from ..harness.cli_options import check_writable
+    from ..harness.preflight import check_release, checked_target
+
+    # The checks every sub-command makes before it starts (2 a bad URL, release or output
+    # folder; 3 unreachable), so a campaign is never lost at its end.
+    for url in (args.target, args.against):
+        if url:
+            checked_target(url)
+    if args.profile:
+        check_release(args.profile, "--firmware")
+    if not args.reproduce:
+        check_writable(args.out, "--out", folder=True)
+        if args.junit:
+            check_writable(args.junit, "--junit")
     try:
         if args.reproduce:
             return reproduce(args)

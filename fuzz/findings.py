@@ -1,5 +1,5 @@
-"""Writing findings: a scenario script (shared/formats/SCENARIO-SCRIPT.md) that replays the shrunk
-failing run, one transcript per target (shared/formats/TRANSCRIPT.md), and the JUnit file with one
+"""Writing findings: a scenario script (docs/formats/SCENARIO-SCRIPT.md) that replays the shrunk
+failing run, one transcript per target (docs/formats/TRANSCRIPT.md), and the JUnit file with one
 test case per oracle.
 
 The script holds exactly the bytes the fuzzer sent, one line per CR-terminated line (``>`` for

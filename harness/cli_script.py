@@ -1,9 +1,9 @@
 """``buildhat-conformance script FILE --target URL [-o TRANSCRIPT]``: run one scenario script
 against a target and write its transcript.
 
-Exit status: 0 the script ran to the end; 1 the target failed (cannot open, went away);
-2 the script or the command line is wrong; 3 the target cannot do what the script needs
-(a world action or the start-up layout): the run was skipped before anything was sent.
+Exit status (harness/cli_options.py): 0 the script ran to the end; 2 the script or the command
+line is wrong; 3 the target is unreachable, went away mid-run, or cannot do what the script
+needs (a world action or the start-up layout: then nothing was sent).
 """
 from __future__ import annotations
 
@@ -12,26 +12,23 @@ import os
 import re
 import sys
 
+from .cli_options import EXIT_OK, EXIT_TARGET, EXIT_USAGE, add_target_option, check_writable
 from .errors import NeedsCapability, TargetError
+from .preflight import checked_target, one_line
 from .script import ScriptError, load_script
 from .script_runner import run_script
-from .targets import make_target
-
-EXIT_OK, EXIT_FAILED, EXIT_USAGE, EXIT_NEEDS = 0, 1, 2, 3
-_LAYOUT_SCHEMES = ("emulator", "inprocess")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("script", metavar="FILE", help="the scenario script (.script)")
-    parser.add_argument("--target", "-t", default="emulator",
-                        help="where to run it (default: emulator); see 'buildhat-conformance targets'")
+    add_target_option(parser)
     parser.add_argument("-o", "--output", metavar="TRANSCRIPT",
                         help="transcript file (default: reports/<script>.<target>.jsonl if ./reports "
                              "exists, else beside the script)")
     parser.add_argument("--layout-on-rig", action="store_true",
-                        help="the HAT is wired as the script's @device lines say; check it with `list`")
+                        help="the HAT is wired as the script's @device lines say; check it with 'list'")
     parser.add_argument("--open-timeout", type=float, default=2.0, metavar="S",
-                        help="seconds to wait for each `version` answer at open (default 2)")
+                        help="seconds to wait for each 'version' answer at open (default 2)")
     parser.add_argument("--quiet", "-q", action="store_true", help="print only errors")
 
 
@@ -56,24 +53,23 @@ def main(args: argparse.Namespace) -> int:
     except ScriptError as exc:
         err(str(exc))
         return EXIT_USAGE
-    options = {}
-    if script.explicit_devices and args.target.split(":", 1)[0].split("?", 1)[0] in _LAYOUT_SCHEMES:
-        options["devices"] = dict(script.explicit_devices)  # start the emulator with the script's layout
     output = args.output or default_transcript_path(args.script, args.target)
+    check_writable(output, "-o")
+    # an emulator starts with the script's layout
+    target = checked_target(args.target, layout=script.devices if script.explicit_devices else None)
     try:
-        target = make_target(args.target, **options)
         result = run_script(script, target, transcript=output, open_timeout=args.open_timeout,
                             layout_on_rig=args.layout_on_rig)
     except NeedsCapability as exc:
         err(f"skipped {args.script}: {exc}")
-        return EXIT_NEEDS
+        return EXIT_TARGET
     except TargetError as exc:
-        err(str(exc))
-        return EXIT_FAILED
+        err(one_line(exc))
+        return EXIT_TARGET
     if not result.ok:
-        err(f"{args.script} on {args.target}: {result.reason}")
-        err(f"transcript (every byte received until then): {output}")
-        return EXIT_FAILED
+        err(one_line(f"{args.script} on {args.target}: {result.reason}; transcript (every byte received "
+                     f"until then): {output}"))
+        return EXIT_TARGET
     if not args.quiet:
         lines = sum(1 for e in result.events if e.kind not in ("prompt", "bootloader_prompt"))
         print(f"{script.name or args.script}: ran on {args.target} (firmware {result.firmware}); "

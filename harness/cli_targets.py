@@ -14,6 +14,7 @@ from typing import List
 from serial.tools import list_ports
 
 from ..protocol.profiles import DEFAULT_FIRMWARE, load_profiles
+from .cli_options import DEFAULT_SPEED
 from .targets import TargetError, url_forms
 from .targets.emulator import emulator_command
 from .targets.serial import pi5_debug_uart_remark
@@ -58,8 +59,27 @@ def emulator_lines() -> List[str]:
     lines = [f"  {where}"]
     for number, p in load_profiles().items():
         mark = "  (latest, default)" if number == DEFAULT_FIRMWARE else ""
-        lines.append(f"  emulator:{p.name:<4} {number}  {p.version_string}{mark}")
+        # the version string starts with the number: print it once, then the build date
+        rest = p.version_string[len(str(number)):].strip() if p.version_string.startswith(str(number)) \
+            else p.version_string
+        lines.append(f"  emulator:{p.name:<4} {number}  {rest}{mark}".rstrip())
     return lines
+
+
+# Options of the URLs (harness/targets/emulator.py, inprocess.py, serial.py from_url).
+URL_OPTIONS = [
+    ("emulator: speed=N", "N times real time (default 10 for a bare 'emulator'; speed=1: real time)"),
+    ("emulator: device=P=SPEC", "start-up layout, e.g. device=1=0x30 or device=2=passive+8 (repeatable)"),
+    ("emulator: booted=1", "start powered up, devices established (start-up in virtual time)"),
+    ("emulator: bootloader=1", "start in the bootloader (BHBL>), as a HAT after power-on"),
+    ("emulator: baud=N", "pace the output as a UART at N baud"),
+    ("emulator: seed=N", "seed of the emulated sensors' noise"),
+    ("inprocess: device=, seed=, baud=", "as for emulator"),
+    ("inprocess: scale=S, boot=0", "virtual-time scale; boot=0 starts before the start-up"),
+    ("serial: baud=N", "serial:///dev/ttyAMA0?baud=N (default 115200)"),
+    ("serial: reset=gpio", "reset the HAT through a Raspberry Pi's GPIO (gpio extra; docs/LAB.md)"),
+    ("  chip=, reset_line=, boot0_line=", "with reset=gpio (default /dev/gpiochip0, 4, 22)"),
+]
 
 
 def main(args: argparse.Namespace) -> int:
@@ -70,4 +90,8 @@ def main(args: argparse.Namespace) -> int:
     print("\nTarget URLs:")
     for form, meaning in url_forms():
         print(f"  {form:<52} {meaning}")
+    print("\nURL options (?name=value&...):")
+    for form, meaning in URL_OPTIONS:
+        print(f"  {form:<34} {meaning}")
+    print(f"\nDefault target: emulator = emulator:latest?speed={DEFAULT_SPEED:g}")
     return 0

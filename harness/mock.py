@@ -24,8 +24,9 @@ from collections import deque
 from dataclasses import dataclass, field
 from typing import Callable, Deque, List, Optional, Tuple
 
+from .cli_options import UsageError
 from .pty import open_raw_pty
-from .transcript import CRLF, Transcript, field_bytes, read_transcript
+from .transcript import CRLF, Transcript, field_bytes
 
 __all__ = ["Exchange", "MockHat", "exchanges_of", "serve_pty", "serve_tcp", "add_arguments", "main"]
 
@@ -47,11 +48,30 @@ def _output_bytes(ev: dict) -> bytes:
     return b""
 
 
+def _starts_reply(line: bytes, host: bytes) -> bool:
+    """Whether an output line is the CRLF that ``host``'s CR produced (FIRMWARE-FACTS §1: the CR
+    always gives CRLF, so every reply starts with it): an empty line with echo off, the echoed
+    text (after any prompt still on the line) with echo on."""
+    sent = host.rstrip(b"\r")
+    return line == b"" or (bool(sent) and line.endswith(sent))
+
+
 def exchanges_of(transcript: Transcript) -> List[Exchange]:
-    """The start-up exchange, then one per CR-terminated host line. Output after a host event
-    belongs to the last line that event completed (a recording cannot say more)."""
+    """The start-up exchange, then one per CR-terminated host line.
+
+    Output is attributed by the protocol's own reply shape, not by when it came: each host
+    line's reply begins with the CRLF of its CR, so when several lines were sent before any
+    answer (a script without ``@wait``), the first output line of that shape starts the reply
+    to the first of them, the next one to the second, and so on. Everything else (the rest of
+    a reply, asynchronous lines) belongs to the reply begun last.
+
+    Host lines before t = 0 are the recorder's own look at the target before the script (a
+    session's ``version``, the ``list`` that waits for the layout; TRANSCRIPT.md: t < 0 is
+    start-up): they and their answers are not served."""
     startup = Exchange(None, 0.0)
     ex: List[Exchange] = [startup]
+    current = startup
+    waiting: Deque[Exchange] = deque()      # sent, the CR's CRLF not seen yet
     first_t: Optional[float] = None
     pending = bytearray()
     for ev in transcript.events:
@@ -61,18 +81,23 @@ def exchanges_of(transcript: Transcript) -> List[Exchange]:
             data = _output_bytes(ev)
             if first_t is None:
                 first_t = t
-            cur = ex[-1]
-            dt = t - (cur.t if cur.host is not None else first_t)
+            if "line" in ev and waiting and _starts_reply(field_bytes(ev, "line"), waiting[0].host or b""):
+                current = waiting.popleft()
+            dt = t - (current.t if current.host is not None else first_t)
             if "partial" in ev:
                 # A partial is stamped when it was flushed (the next host send or the end), not
                 # when it arrived; a prompt comes with the output before it, so send it then.
-                dt = cur.output[-1][0] if cur.output else 0.0
-            cur.output.append((dt, data))
+                dt = current.output[-1][0] if current.output else 0.0
+            current.output.append((max(0.0, dt), data))
+        elif kind == "host" and t < 0:
+            current = Exchange(b"", t)      # the recorder's own exchange: kept out of the mock
         elif kind == "host":
             pending += field_bytes(ev, "bytes")
             while b"\r" in pending:
                 i = pending.index(b"\r")
-                ex.append(Exchange(bytes(pending[:i + 1]), t))
+                exchange = Exchange(bytes(pending[:i + 1]), t)
+                ex.append(exchange)
+                waiting.append(exchange)
                 del pending[:i + 1]
     return ex
 
@@ -297,11 +322,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def main(args: argparse.Namespace) -> int:
-    try:
-        transcript = read_transcript(args.transcript)
-    except (OSError, ValueError) as exc:
-        print(f"mock: cannot read {args.transcript}: {exc}", file=sys.stderr)
-        return 2
+    from .transcript_check import load_transcript
+
+    transcript = load_transcript(args.transcript)
     stop = threading.Event()
 
     def on_signal(_sig, _frame) -> None:
@@ -314,7 +337,6 @@ def main(args: argparse.Namespace) -> int:
         try:
             port_no = int(port)
         except ValueError:
-            print(f"mock: --tcp wants [HOST:]PORT, got {args.tcp!r}", file=sys.stderr)
-            return 2
+            raise UsageError(f"--tcp wants [HOST:]PORT, got {args.tcp!r}") from None
         return serve_tcp(transcript, host or "127.0.0.1", port_no, args.speed, args.strict, args.once, stop)
     return serve_pty(transcript, args.link, args.speed, args.strict, stop)

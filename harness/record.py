@@ -1,9 +1,10 @@
 """``buildhat-conformance record``: keep a transcript of a scenario, or of a host program's session.
 
 ``record SCRIPT --target URL -o FILE`` runs a scenario script on any target (sends, waits and,
-where the target has the control, world actions) with the replay drivers of
-:mod:`.replay`: in-process targets in virtual time, the rest in real time. A script whose world
-actions the target cannot perform is refused with what is missing; it is never run halfway.
+where the target has the control, world actions) through the one script runner
+(harness/script_runner.py, as ``script`` and ``replay`` do): in-process targets in virtual time,
+the rest in real time. A script whose world actions or start-up layout the target cannot
+perform is refused with what is missing; it is never run halfway.
 
 ``record --proxy --target URL -o FILE [-- COMMAND ...]`` puts a pseudo-terminal in front of the
 target and records everything a host program (e.g. the ``buildhat`` library) and the HAT say to
@@ -26,9 +27,12 @@ import threading
 import time
 from typing import List, Optional, Sequence, Tuple
 
+from .cli_options import EXIT_TARGET, UsageError, add_target_option, check_writable
 from .pty import open_raw_pty
-from .replay import Plan, missing_capabilities, run_plan, script_steps, write_chunks, write_transcript
+from .replay import write_transcript
 from .script import Script, ScriptError, load_script
+from .script_runner import run_script
+from .targets.base import NeedsCapability, TargetError
 from .transcript import Transcript, TranscriptWriter, read_transcript
 
 __all__ = ["record_script", "record_proxy", "ready_lines", "add_arguments", "main", "PASS_UNKNOWN_ARGS"]
@@ -62,56 +66,22 @@ def ready_lines(layout: dict) -> List[str]:
     return out or ["Done initialising ports"]
 
 
-def _layout_text(layout: dict) -> dict:
-    def spec_text(spec: Optional[tuple]) -> str:
-        if spec is None:
-            return "none"
-        kind, ident = spec
-        return f"0x{ident:02X}" if kind == "active" else f"passive {ident}"
-    return {str(p): spec_text(s) for p, s in sorted(layout.items())}
-
-
-def _target_for(url: str, script: Script):  # type: ignore[no-untyped-def]
-    """(target, layout applied): the target is told the script's start-up layout when it is an
-    emulator that can take one."""
-    from .targets import make_target
-
-    kind = url.split(":", 1)[0].split("?", 1)[0]
-    if script.explicit_devices and kind in ("emulator", "inprocess") and "device=" not in url:
-        return make_target(url, devices=dict(script.devices)), True
-    return make_target(url), False
-
-
 def record_script(script: Script, target, out: str,  # type: ignore[no-untyped-def]
-                  boot_timeout: Optional[float] = None, layout_applied: bool = False
-                  ) -> Tuple[Transcript, List[str]]:
-    """Run ``script`` on ``target`` and write the transcript to ``out``; returns it and remarks.
-    Raises NeedsCapability (saying what is missing) before anything is sent.
-
-    This uses the replay drivers rather than harness/script_runner.py: targets in virtual time
-    (``inprocess``) must be stepped millisecond by millisecond, and on a sped-up real-time
-    target the runner's 20 HAT-ms tail is over before the last answers arrive, while the replay
-    driver schedules every step from one clock and waits for the output to go quiet."""
-    from .targets.base import NeedsCapability
-
+                  boot_timeout: Optional[float] = None) -> Tuple[Transcript, List[str]]:
+    """Run ``script`` on ``target`` through the one script runner (harness/script_runner.py)
+    and write the transcript to ``out`` as it runs; returns it and remarks. Raises
+    NeedsCapability (saying what is missing) before anything is sent, TargetError when the
+    target could not be opened or stopped mid-run (the transcript keeps what came until then).
+    ``boot_timeout``: HAT seconds a booting target has to bring up the script's layout."""
     rel_script = os.path.relpath(os.path.abspath(script.source), os.path.dirname(os.path.abspath(out))) \
         if os.path.isfile(script.source) else script.source
-    meta = {"target": getattr(target, "url", ""), "script": rel_script, "name": script.name,
-            "devices": _layout_text(script.devices), "tool": "buildhat-conformance record",
-            "version": _tool_version(), "date": _now_iso()}
-    plan = Plan(script_steps(script), script.duration_ms, "script", dict(script.devices))
-    missing = missing_capabilities(plan, target)
-    if script.explicit_devices and not layout_applied:
-        missing.append("device (a start-up layout)")
-    if missing:
-        raise NeedsCapability(", ".join("@" + m for m in missing), getattr(target, "url", ""))
-    transcript, _slack, remarks = run_plan(plan, target, meta, ready_lines(script.devices),
-                                           30.0 if boot_timeout is None else boot_timeout)
-    transcript.meta["time_scale"] = float(getattr(target, "time_scale", 1.0) or 1.0)
-    first_t = transcript.events[0].get("t", 0) if transcript.events else 0
-    transcript.events[:0] = [{"t": first_t, "dir": "note", "text": r} for r in remarks]
-    write_transcript(transcript, out)
-    return transcript, remarks
+    meta = {"script": rel_script, "tool": f"buildhat-conformance {_tool_version()} record",
+            "date": _now_iso()}
+    result = run_script(script, target, transcript=out, meta=meta,
+                        layout_wait_s=30.0 if boot_timeout is None else boot_timeout)
+    if not result.ok:
+        raise TargetError(f"{result.reason}; the transcript {out} keeps every byte received until then")
+    return read_transcript(out), list(result.notes)
 
 
 # -- proxy -------------------------------------------------------------------------------------
@@ -200,6 +170,21 @@ def record_proxy(target, out: str, command: Sequence[str] = (), link: Optional[s
     return status
 
 
+def write_chunks(writer: TranscriptWriter, chunks: Sequence[Tuple[float, str, bytes]], t0: float,
+                 scale: float) -> None:
+    """Write (monotonic time, "hat"|"host"|"note", bytes) chunks as transcript events, in HAT
+    milliseconds from ``t0``."""
+    for when, kind, data in chunks:
+        t = (when - t0) * 1000.0 * scale
+        if kind == "hat":
+            writer.hat(t, data)
+        elif kind == "host":
+            writer.host(t, data)
+        else:
+            writer.flush_partial(t)
+            writer.note(t, data.decode(errors="replace"))
+
+
 def _wait_for_start_up(chunks: list, lock: threading.Lock, ready: Sequence[str], timeout: float) -> None:
     def stream() -> bytes:
         with lock:
@@ -219,12 +204,12 @@ def _wait_for_start_up(chunks: list, lock: threading.Lock, ready: Sequence[str],
 # -- command line --------------------------------------------------------------------------------
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("script", nargs="?", metavar="SCRIPT", help="scenario script (.script) to run")
-    parser.add_argument("--target", required=True, metavar="URL",
-                        help="emulator[:N][?speed=N], inprocess[:N], /dev/..., socket://HOST:PORT ...")
+    add_target_option(parser)
     parser.add_argument("-o", "--output", required=True, metavar="FILE", help="transcript to write (.jsonl)")
     parser.add_argument("--boot-timeout", type=float, metavar="S",
-                        help="--proxy: a target that talks when opened is booting: wait up to S seconds "
-                             "for its start-up before letting the host in (default 30; 0: never wait)")
+                        help="a booting target has up to S seconds (HAT time) to bring up the start-up "
+                             "layout before the script starts, or with --proxy before the host is let in "
+                             "(default 30; with --proxy 0 means never wait)")
     parser.add_argument("--proxy", action="store_true",
                         help="record a host program's session through a pty instead of a script; "
                              "the command follows '--' ({device} = the pty path)")
@@ -232,18 +217,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def main(args: argparse.Namespace) -> int:
-    from .targets import make_target
-    from .targets.base import NeedsCapability, TargetError
+    from .preflight import checked_target
 
     extra = [a for a in getattr(args, "extra", []) if a != "--"]
+    check_writable(args.output, "-o")
     if args.proxy:
         if args.script:
             extra = [args.script] + extra
-        try:
-            target = make_target(args.target)
-        except TargetError as exc:
-            print(f"record: {exc}", file=sys.stderr)
-            return 2
+        target = checked_target(args.target)
         from ..protocol.devices import DEFAULT_LAYOUT
 
         timeout = 30.0 if args.boot_timeout is None else args.boot_timeout
@@ -255,26 +236,25 @@ def main(args: argparse.Namespace) -> int:
         print(f"record: wrote {args.output}{exited}")
         return status
     if extra:
-        print(f"record: unexpected arguments {' '.join(extra)} (a command goes with --proxy)",
-              file=sys.stderr)
-        return 2
+        raise UsageError(f"unexpected arguments {' '.join(extra)} (a command goes with --proxy)")
     if not args.script:
-        print("record: give a SCRIPT, or --proxy to record a host program", file=sys.stderr)
-        return 2
+        raise UsageError("give a SCRIPT, or --proxy to record a host program")
     try:
         script = load_script(args.script)
-        target, applied = _target_for(args.target, script)
-        _transcript, remarks = record_script(script, target, args.output, args.boot_timeout, applied)
+    except FileNotFoundError:
+        raise UsageError(f"{args.script}: no such script") from None
     except (OSError, ScriptError) as exc:
-        print(f"record: {exc}", file=sys.stderr)
-        return 2
+        raise UsageError(str(exc)) from None
+    target = checked_target(args.target, layout=script.devices if script.explicit_devices else None)
+    try:
+        _transcript, remarks = record_script(script, target, args.output, args.boot_timeout)
     except NeedsCapability as exc:
-        print(f"record: cannot run {args.script} on {args.target}: it {exc}. Nothing was sent; use a target "
-              "with a control channel (emulator, inprocess) or a rig.", file=sys.stderr)
-        return 3
-    except TargetError as exc:
-        print(f"record: {exc}", file=sys.stderr)
-        return 2
+        print(f"buildhat-conformance record: cannot run {args.script} on {args.target}: it {exc}. "
+              "Nothing was "
+              "sent; use a target with a control channel (emulator, inprocess) or a rig.", file=sys.stderr)
+        return EXIT_TARGET
+    except OSError as exc:
+        raise UsageError(f"{args.output}: {exc.strerror or exc}") from None
     for r in remarks:
         print(f"record: note: {r}")
     print(f"record: wrote {args.output}")

@@ -8,8 +8,9 @@ times; a target without the matching control capability cannot replay such a tra
 faithfully, and replay says what is missing instead of pretending (``--without-world`` replays
 the host bytes alone, and says so).
 
-Two drivers: targets in virtual time (``inprocess``) are stepped to each recorded millisecond,
-which makes the replay deterministic; every other target runs in real time through a Session.
+The replay runs through the one script runner (harness/script_runner.py), as ``script`` and
+``record`` do: each recorded host line at its recorded time, in virtual time on ``inprocess``
+(deterministic), in real time on every other target.
 The comparison (harness/compare.py) starts after the recording's first host line at t >= 0:
 the start-up before it depends on when the target was switched on, not on the protocol.
 """
@@ -20,17 +21,18 @@ import io
 import json
 import os
 import sys
-import threading
-import time
 from dataclasses import dataclass, field
-from typing import Dict, List, Optional, Sequence, Tuple
+from typing import Dict, List, Optional, Tuple
 
+from .cli_options import UsageError, add_target_option, check_writable
 from .compare import Comparison, RuleSet, Unit, compare_units, output_units
-from .script import Script, load_script, parse_script, parse_world_action
-from .transcript import Transcript, TranscriptWriter, field_bytes, read_transcript
+from .errors import TargetError
+from .script import Action, Script, escape_raw, load_script, parse_script, parse_world_action
+from .script_runner import run_script
+from .transcript import Transcript, field_bytes, read_transcript
 
-__all__ = ["Step", "Plan", "plan_replay", "missing_capabilities", "replay", "compare_transcripts",
-           "units_after_first_host", "run_plan", "write_transcript", "add_arguments", "main"]
+__all__ = ["Step", "Plan", "plan_replay", "plan_script", "missing_capabilities", "replay",
+           "compare_transcripts", "units_after_first_host", "write_transcript", "add_arguments", "main"]
 
 WORLD_NOTE = "world "   # Session.world() notes: "world @plug 1 0x30 -> ok"
 
@@ -128,206 +130,26 @@ def missing_capabilities(plan: Plan, target) -> List[str]:  # type: ignore[no-un
     return [k for k in plan.world_kinds if not target.has(k)]
 
 
-# -- drivers ---------------------------------------------------------------------------------
-def _replay_virtual(plan: Plan, target, writer: TranscriptWriter) -> None:  # type: ignore[no-untyped-def]
-    """Step an in-process emulator to each recorded millisecond: deterministic."""
-    start_out = target.read(0)
-    if start_out:
-        writer.hat(-1, start_out)
-        writer.flush_partial(-1)
-    origin = target.now
-
-    def run_to(t_goal: float) -> None:
-        while target.now - origin < t_goal:
-            left = t_goal - (target.now - origin)
-            data = target.read(left / 1000.0 / target.time_scale)
-            if data:
-                writer.hat(target.now - origin, data)
-
+def plan_script(plan: Plan, name: str = "") -> Script:
+    """The plan as a scenario for the one script runner (harness/script_runner.py): each
+    step at its recorded time (the waits are the gaps), the recording's start-up layout."""
+    script = Script(name=name, source="<replay>")
+    if plan.layout:
+        script.devices.update(plan.layout)
+    t = 0.0
     for step in plan.steps:
-        run_to(step.t)
+        if step.t > t:
+            script.actions.append(Action("wait", (step.t - t,), text=f"@wait {step.t - t:g}"))
+            t = step.t
         if step.kind == "send":
-            writer.host(target.now - origin, step.data)
-            target.write(step.data)
+            script.actions.append(Action("send", (), step.data, text=f">raw {escape_raw(step.data)}"))
         else:
-            reply = target.control.action(step.line)
-            writer.note(target.now - origin, f"world {step.line} -> {reply}")
-        data = target.read(0)
-        if data:
-            writer.hat(target.now - origin, data)
-    run_to(plan.end_t)
-    writer.end(target.now - origin)
-
-
-class _Reader:
-    """Reads a real-time target on a thread, keeping every chunk with the time it came."""
-
-    def __init__(self, target) -> None:  # type: ignore[no-untyped-def]
-        self.target = target
-        self.chunks: List[Tuple[float, str, bytes]] = []   # (monotonic s, dir, bytes)
-        self.error: Optional[BaseException] = None
-        self._stop = threading.Event()
-        self._lock = threading.Lock()
-        self._thread = threading.Thread(target=self._run, name="replay-reader", daemon=True)
-        self._thread.start()
-
-    def _run(self) -> None:
-        while not self._stop.is_set():
-            try:
-                data = self.target.read(0.05)
-            except Exception as exc:  # noqa: BLE001 - the target went away; the caller reports it
-                self.error = exc
-                return
-            if data:
-                self.add("hat", data)
-
-    def add(self, kind: str, data: bytes) -> None:
-        with self._lock:
-            self.chunks.append((time.monotonic(), kind, data))
-
-    def seen_line(self, line: str) -> bool:
-        with self._lock:
-            stream = b"".join(d for _t, k, d in self.chunks if k == "hat")
-        return (b"\r\n" + line.encode("utf-8") + b"\r\n") in b"\r\n" + stream
-
-    def wait_quiet(self, quiet: float, limit: float) -> None:
-        """Until nothing has arrived for ``quiet`` seconds, or ``limit`` seconds have passed."""
-        end = time.monotonic() + limit
-        while time.monotonic() < end:
-            with self._lock:
-                last = self.chunks[-1][0] if self.chunks else 0.0
-            if time.monotonic() - last >= quiet:
-                return
-            time.sleep(0.02)
-
-    def stop(self) -> None:
-        self._stop.set()
-        self._thread.join(timeout=2)
-
-
-def _replay_realtime(plan: Plan, target, writer: TranscriptWriter, ready: Sequence[str],
-                     boot_timeout: float) -> Tuple[float, Optional[str]]:  # type: ignore[no-untyped-def]
-    """Sleep to each recorded time / time scale. Returns the lateness of the last step (HAT ms)
-    and a remark when the recorded start-up was not seen."""
-    target.open()
-    reader = _Reader(target)
-    remark = None
-    try:
-        if ready and boot_timeout > 0:
-            # A target that talks as soon as it is opened is booting (a fresh emulator): wait for
-            # the start-up lines the script needs. One that stays silent is already running
-            # (hardware) and will never print them.
-            deadline = time.monotonic() + boot_timeout
-            talking = time.monotonic() + min(1.0, boot_timeout)
-            while not reader.chunks and time.monotonic() < talking:
-                time.sleep(0.02)
-            while reader.chunks and time.monotonic() < deadline and \
-                    not all(reader.seen_line(line) for line in ready):
-                time.sleep(0.02)
-            unseen = [line for line in ready if not reader.seen_line(line)]
-            if not reader.chunks:
-                remark = "the target said nothing when opened: taken as already running"
-            elif unseen:
-                remark = f"start-up line(s) {unseen!r} did not arrive within {boot_timeout:g} s; went on"
-        scale = float(target.time_scale or 1.0)
-        t0 = time.monotonic()
-        late = 0.0
-        for step in plan.steps:
-            wait = t0 + step.t / 1000.0 / scale - time.monotonic()
-            if wait > 0:
-                time.sleep(wait)
-            late = max(late, (time.monotonic() - t0) * 1000.0 * scale - step.t)
-            if step.kind == "send":
-                reader.add("host", step.data)
-                target.write(step.data)
-            else:
-                reply = target.control.action(step.line)
-                reader.add("note", f"world {step.line} -> {reply}".encode())
-        wait = t0 + plan.end_t / 1000.0 / scale - time.monotonic()
-        if wait > 0:
-            time.sleep(wait)
-        reader.wait_quiet(0.3, 3.0)   # answers still on their way (shared noisy cores)
-    finally:
-        reader.stop()
-    if reader.error is not None:
-        raise reader.error
-    write_chunks(writer, reader.chunks, t0, scale)   # HAT ms; the start-up comes out at t < 0
-    writer.end((time.monotonic() - t0) * 1000.0 * scale)
-    return late, remark
-
-
-def write_chunks(writer: TranscriptWriter, chunks: Sequence[Tuple[float, str, bytes]], t0: float,
-                 scale: float) -> None:
-    """Write (monotonic time, "hat"|"host"|"note", bytes) chunks as transcript events, in HAT
-    milliseconds from ``t0``."""
-    for when, kind, data in chunks:
-        t = (when - t0) * 1000.0 * scale
-        if kind == "hat":
-            writer.hat(t, data)
-        elif kind == "host":
-            writer.host(t, data)
-        else:
-            writer.flush_partial(t)
-            writer.note(t, data.decode(errors="replace"))
-
-
-def run_plan(plan: Plan, target, meta: dict, ready: Sequence[str] = (),  # type: ignore[no-untyped-def]
-             boot_timeout: float = 20.0) -> Tuple[Transcript, float, List[str]]:
-    """Run a plan on a target (opened here, closed after). Returns (what crossed the port,
-    slack in HAT ms for cutting real-time output, remarks). ``meta.firmware`` is filled in
-    from the output's ``version`` answer, or the target's control, when the run shows it."""
-    buf = io.StringIO()
-    writer = TranscriptWriter(buf, dict(meta, firmware=meta.get("firmware", "unknown")))
-    remarks = list(plan.remarks)
-    slack = 0.0
-    firmware = None
-    try:
-        if target.has("virtual_time") and hasattr(target, "advance"):
-            target.open()
-            _replay_virtual(plan, target, writer)
-        else:
-            late, remark = _replay_realtime(plan, target, writer, ready, boot_timeout)
-            slack = late + 20.0
-            if remark:
-                remarks.append(remark)
-            if late > 10.0:
-                remarks.append(f"a step went out up to {late:.0f} ms (HAT time) after its recorded time; "
-                               "output timed from it shifts by as much")
-        firmware = _firmware_of(target)
-    finally:
-        writer.close()
-        try:
-            target.close()
-        except Exception:  # noqa: BLE001 - closing a dead target must not hide the real error
-            pass
-    result = read_transcript(io.StringIO(buf.getvalue()))
-    for line in result.hat_lines():
-        if line.startswith("Firmware version: "):
-            firmware = line[len("Firmware version: "):]
-            break
-    if firmware:
-        result.meta["firmware"] = firmware
-    return result, slack, remarks
-
-
-def _firmware_of(target) -> Optional[str]:  # type: ignore[no-untyped-def]
-    """The firmware a target with a control says it runs (no traffic on the command port)."""
-    emu = getattr(target, "emulator", None)
-    hat = getattr(emu, "hat", None)
-    if hat is not None and getattr(hat, "version_string", None):
-        return str(hat.version_string)
-    control = getattr(target, "control", None)
-    if control is not None:
-        try:
-            reply = control.action("@firmware")
-        except Exception:  # noqa: BLE001 - a control without @firmware: leave it unknown
-            return None
-        return reply[3:].strip() if reply.startswith("ok ") else None
-    return None
+            script.actions.append(parse_world_action(step.line))
+    return script
 
 
 def write_transcript(transcript: Transcript, path: str) -> None:
-    """Save a transcript (meta first), e.g. one that :func:`run_plan` returned."""
+    """Save a transcript (meta first)."""
     os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
     with open(path, "w", encoding="utf-8") as fh:
         for obj in [dict({"dir": "meta"}, **{k: v for k, v in transcript.meta.items() if k != "dir"})] \
@@ -337,13 +159,27 @@ def write_transcript(transcript: Transcript, path: str) -> None:
 
 def replay(transcript: Transcript, target, plan: Optional[Plan] = None,  # type: ignore[no-untyped-def]
            out: Optional[str] = None, boot_timeout: float = 20.0) -> Tuple[Transcript, float, List[str]]:
-    """Replay a recording on a target; returns (what came back, slack in HAT ms, remarks)."""
+    """Replay a recording on a target through the script runner; returns (what came back,
+    slack in HAT ms for cutting real-time output, remarks). ``boot_timeout``: HAT seconds a
+    booting target has to bring up the recording's layout."""
     plan = plan or plan_replay(transcript)
     source = transcript.meta.get("name") or transcript.meta.get("script") or ""
-    meta = {"target": getattr(target, "url", ""), "tool": "buildhat-conformance replay",
-            "version": _tool_version(), "replay_of": source}
-    last = _last_line_before_first_host(transcript)
-    actual, slack, remarks = run_plan(plan, target, meta, [last] if last else [], boot_timeout)
+    meta = {"tool": f"buildhat-conformance {_tool_version()} replay", "replay_of": source,
+            "script": None}
+    buf = io.StringIO()
+    result = run_script(plan_script(plan, str(source)), target, transcript=buf, meta=meta,
+                        layout_wait_s=boot_timeout, end_ms=plan.end_t)
+    remarks = list(plan.remarks) + list(result.notes)
+    if not result.ok:
+        raise TargetError(result.reason)
+    slack = 0.0
+    if not result.virtual:
+        slack = result.late_ms + 20.0
+    if result.late_ms > 10.0:
+        remarks.append(f"a step went out up to {result.late_ms:.0f} ms (HAT time) after its recorded time; "
+                       "output timed from it shifts by as much")
+    actual = read_transcript(io.StringIO(buf.getvalue()))
+    actual.meta = {k: v for k, v in actual.meta.items() if v is not None}
     if out:
         write_transcript(actual, out)
     return actual, slack, remarks
@@ -353,18 +189,6 @@ def _tool_version() -> str:
     from .version import __version__
 
     return __version__
-
-
-def _last_line_before_first_host(transcript: Transcript) -> Optional[str]:
-    """The last start-up line: the last one before the host first spoke (a session's own
-    ``version`` at t < 0 counts, since what answers it is not start-up)."""
-    last = None
-    for e in transcript.events:
-        if e.get("dir") == "host":
-            return last
-        if e.get("dir") == "hat" and "line" in e and e["line"]:
-            last = e["line"]
-    return last
 
 
 # -- comparison ------------------------------------------------------------------------------
@@ -396,8 +220,7 @@ def compare_transcripts(expected: Transcript, actual: Transcript, rules: RuleSet
 # -- command line ----------------------------------------------------------------------------
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("transcript", metavar="FILE", help="the recorded transcript (.jsonl)")
-    parser.add_argument("--target", required=True, metavar="URL",
-                        help="where to replay: emulator[:N], inprocess[:N], /dev/..., socket://...")
+    add_target_option(parser)
     parser.add_argument("--rule", action="append", default=[], metavar="CLASS=RULE",
                         help="comparison rule per event class: exact | pattern:REGEX | tolerance:N[%%] | "
                              "ignore (repeatable; CLASS 'data' = all data lines, '*' = default)")
@@ -411,30 +234,33 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="replay the host bytes even though the target cannot perform the world actions")
     parser.add_argument("-o", "--output", metavar="FILE", help="keep what came back as a transcript")
     parser.add_argument("--boot-timeout", type=float, default=20.0, metavar="S",
-                        help="real-time targets: wait up to S seconds for the recorded start-up (0: don't)")
+                        help="a booting target has up to S seconds (HAT time) to bring up the recording's "
+                             "start-up layout (default 20)")
 
 
 def main(args: argparse.Namespace) -> int:
-    from .targets import make_target
-    from .targets.base import TargetError
+    from .preflight import checked_target
+    from .script import ScriptError
+    from .transcript_check import load_transcript
 
+    recorded = load_transcript(args.transcript)
+    if args.output:
+        check_writable(args.output, "-o")   # before the run: its result is not lost at the end
     try:
-        recorded = read_transcript(args.transcript)
         rules = RuleSet.from_options(args.rule, args.timing_tolerance)
+    except ValueError as exc:
+        raise UsageError(f"--rule: {exc}") from None
+    try:
         script = load_script(args.script) if args.script else None
+    except FileNotFoundError:
+        raise UsageError(f"{args.script}: no such script") from None
+    except ScriptError as exc:
+        raise UsageError(str(exc)) from None
+    try:
         plan = plan_replay(recorded, args.transcript, script)
     except (OSError, ValueError) as exc:
-        print(f"replay: {exc}", file=sys.stderr)
-        return 2
-    options = {}
-    if plan.layout and args.target.split(":", 1)[0].split("?", 1)[0] in ("emulator", "inprocess") \
-            and "device=" not in args.target:
-        options["devices"] = plan.layout   # the recording's start-up layout, on a target that can take it
-    try:
-        target = make_target(args.target, **options)
-    except TargetError as exc:
-        print(f"replay: {exc}", file=sys.stderr)
-        return 2
+        raise UsageError(f"{args.transcript}: {exc}") from None
+    target = checked_target(args.target, layout=plan.layout)   # the recording's start-up layout
     missing = missing_capabilities(plan, target)
     if missing and not args.without_world:
         print(f"replay: cannot replay {args.transcript} faithfully on {args.target}: the recording's world "
@@ -445,11 +271,7 @@ def main(args: argparse.Namespace) -> int:
     if missing:
         plan.steps = [s for s in plan.steps if s.kind != "world"]
         plan.remarks.append(f"world actions left out (--without-world): {', '.join(missing)}")
-    try:
-        actual, slack, remarks = replay(recorded, target, plan, args.output, args.boot_timeout)
-    except TargetError as exc:
-        print(f"replay: {exc}", file=sys.stderr)
-        return 2
+    actual, slack, remarks = replay(recorded, target, plan, args.output, args.boot_timeout)
     result = compare_transcripts(recorded, actual, rules, include_startup=args.include_startup,
                                  trim_after=plan.end_t + slack if slack else None)
     hosts = [e for e in recorded.events if e.get("dir") == "host"]

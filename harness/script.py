@@ -1,4 +1,4 @@
-"""Scenario scripts (shared/formats/SCENARIO-SCRIPT.md): the parser.
+"""Scenario scripts (docs/formats/SCENARIO-SCRIPT.md): the parser.
 
 A script is a list of actions run in order from t = 0 ms. Host actions (``>``, ``>raw``)
 and ``@wait`` work on any target; world actions (``@plug``, ``@data``, faults, ...) need a
@@ -259,8 +259,16 @@ def parse_script(text: str, source: str = "<script>") -> Script:
 
 
 def load_script(path: Union[str, os.PathLike]) -> Script:
-    with open(path, encoding="utf-8") as fh:
-        return parse_script(fh.read(), os.fspath(path))
+    """Read and parse a script file; text that is not UTF-8 is a ScriptError naming its line."""
+    with open(path, "rb") as fh:
+        raw = fh.read()
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        line = raw.count(b"\n", 0, exc.start) + 1
+        why = f"not UTF-8 text ({exc.reason} at byte {exc.start})"
+        raise ScriptError(why, line, os.fspath(path)) from None
+    return parse_script(text, os.fspath(path))
 
 
 def format_action(action: Action) -> str:

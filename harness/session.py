@@ -381,6 +381,13 @@ class Session(Identification, Conversation):
             elif len(self.received) == got:
                 budget_ms = 0  # neither time nor bytes moved: nothing more will come
 
+    def poll(self) -> None:
+        """Take in what the target has already sent, letting no time pass (a virtual-time
+        target is read without being stepped; a real-time one has its reader thread)."""
+        self._check()
+        if self.virtual:
+            self._read_once(0)
+
     def wait_new(self, count: int, timeout: float) -> bool:
         """Block until there are more than ``count`` events, at most ``timeout`` seconds (wall
         clock; HAT seconds / time_scale for virtual-time targets). True if one came. Waiters

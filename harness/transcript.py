@@ -1,4 +1,4 @@
-"""JSONL transcripts (shared/formats/TRANSCRIPT.md): writer, reader, byte-stream rebuild.
+"""JSONL transcripts (docs/formats/TRANSCRIPT.md): writer, reader, byte-stream rebuild.
 
 The writer flushes every event as it is written, so a crash loses nothing that was
 received. Output bytes from the HAT are split into ``line`` events at CRLF; bytes not

@@ -9,7 +9,7 @@ from typing import Optional
 __all__ = ["catalogue", "active_device", "active_type_ids", "passive_ids", "passive_device",
            "parse_device_spec", "DEFAULT_LAYOUT"]
 
-# Scenario-script default layout (formats/SCENARIO-SCRIPT.md): P0 0x30, P1 0x40, P2 passive 8, P3 none.
+# Scenario-script default layout (docs/formats/SCENARIO-SCRIPT.md): P0 0x30, P1 0x40, P2 passive 8, P3 none.
 DEFAULT_LAYOUT = {0: ("active", 0x30), 1: ("active", 0x40), 2: ("passive", 8), 3: None}
 
 

@@ -35,7 +35,8 @@ def _faults():
 def _args(out: pathlib.Path, *extra: str) -> argparse.Namespace:
     parser = argparse.ArgumentParser()
     cli.add_arguments(parser)
-    args = parser.parse_args(["--profile", "R7", "--out", str(out), "--no-database", "--quiet", *extra])
+    args = parser.parse_args(["--target", "inprocess", "--profile", "R7", "--out", str(out), "--no-database",
+                              "--quiet", *extra])
     args.devices = LAYOUT
     return args
 

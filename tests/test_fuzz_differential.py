@@ -26,7 +26,8 @@ def test_compare_answers_tolerates_analogue_values_only():
 def _args(tmp_path, *extra):
     parser = argparse.ArgumentParser()
     cli.add_arguments(parser)
-    args = parser.parse_args(["--out", str(tmp_path), "--no-database", "--quiet", "--waits", "", *extra])
+    args = parser.parse_args(["--target", "inprocess", "--out", str(tmp_path), "--no-database", "--quiet",
+                              "--waits", "", *extra])
     args.devices = EMPTY
     return args
 

@@ -129,12 +129,12 @@ def test_cli_script_exit_codes(tmp_path, capsys):
     assert "skipped" in capsys.readouterr().err and not (tmp_path / "p.jsonl").exists()
     ok = tmp_path / "ok.script"
     ok.write_text("> vin\n")
-    assert cli(["script", str(ok), "--target", "/dev/ttyNOSUCH", "-o", str(tmp_path / "n.jsonl")]) == 1
+    assert cli(["script", str(ok), "--target", "/dev/ttyNOSUCH", "-o", str(tmp_path / "n.jsonl")]) == 3
     assert "no such device: /dev/ttyNOSUCH" in capsys.readouterr().err
     silent = PtyResponder(mode="silent")
     try:
         assert cli(["script", str(ok), "--target", silent.path, "--open-timeout", "0.2",
-                    "-o", str(tmp_path / "s.jsonl")]) == 1
+                    "-o", str(tmp_path / "s.jsonl")]) == 3
         assert "nothing answering" in capsys.readouterr().err
     finally:
         silent.close()
@@ -143,7 +143,7 @@ def test_cli_script_exit_codes(tmp_path, capsys):
     dies = tmp_path / "dies.script"
     dies.write_text("> vin\n@wait 500\n> vin\n")
     out = str(tmp_path / "d.jsonl")
-    assert cli(["script", str(dies), "--target", CMD + " --die-after 1", "-o", out]) == 1
+    assert cli(["script", str(dies), "--target", CMD + " --die-after 1", "-o", out]) == 3
     err = capsys.readouterr().err
     assert "exited with status 3" in err
 
@@ -154,6 +154,9 @@ def test_cli_targets_lists_ports_releases_and_urls(capsys, tmp_path, monkeypatch
     assert "Serial ports:" in out and "emulator:R7" in out and "(latest, default)" in out
     assert "emulator:R1" in out and "1630165527" in out
     assert "cmd:<command line>" in out and "socket://HOST:PORT" in out
+    r1 = next(line for line in out.splitlines() if "emulator:R1" in line)
+    assert r1.count("1630165527") == 1, r1          # the version number once, then the build date
+    assert "booted=1" in out and "baud=N" in out and "emulator:latest?speed=10" in out and "reset=gpio" in out
 
 
 def test_run_script_on_a_virtual_time_target_keeps_exact_times(tmp_path):

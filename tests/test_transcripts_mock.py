@@ -165,7 +165,7 @@ def test_bad_file_is_a_clear_error(tmp_path, capsys):
     bad = tmp_path / "x.jsonl"
     bad.write_text('{"t":0}\n', encoding="utf-8")
     assert main(["mock", str(bad)]) == 2
-    assert "cannot read" in capsys.readouterr().err
+    assert "x.jsonl:1: the first line must be" in capsys.readouterr().err
 
 
 @pytest.mark.parametrize("speed", [0, -1])

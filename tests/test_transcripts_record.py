@@ -80,3 +80,33 @@ def test_replay_refuses_a_mismatched_script(tmp_path, capsys):
     other.write_text("> vin\n", encoding="utf-8")
     assert cli_main(["replay", str(out), "--target", "inprocess", "--script", str(other)]) == 2
     assert "does not send what the transcript's host events hold" in capsys.readouterr().err
+
+
+def test_script_record_and_replay_are_one_runner(tmp_path, capsys):
+    """`script`, `record` and `replay` run a scenario the same way (one runner,
+    harness/script_runner.py): on the in-process emulator their transcripts after t = 0 are the
+    same bytes at the same times, and the lines the emulator's own script mode wrote in the
+    golden transcript (reviewed against FIRMWARE-FACTS in test_transcripts_golden.py)."""
+    import pathlib
+
+    golden = pathlib.Path(__file__).resolve().parent.parent / "transcripts"
+    script = str(golden / "appendix-a-motor.script")
+    target = "inprocess:1737564117"
+    ran, recorded, replayed = (str(tmp_path / n) for n in ("script.jsonl", "record.jsonl", "replay.jsonl"))
+    assert cli_main(["script", script, "-t", target, "-o", ran, "-q"]) == 0
+    assert cli_main(["record", script, "-t", target, "-o", recorded]) == 0
+    assert cli_main(["replay", recorded, "-t", target, "-o", replayed]) == 0
+    capsys.readouterr()
+
+    def after_zero(path: str) -> list:
+        """From the first host line at t >= 0 on (the in-process start-up is read at t = 0)."""
+        events = [(e["t"], e["dir"], e.get("bytes", e.get("line", e.get("partial"))))
+                  for e in read_transcript(path).events if e["dir"] in ("host", "hat") and e["t"] >= 0]
+        return events[next(i for i, e in enumerate(events) if e[1] == "host"):]
+
+    got = after_zero(ran)
+    assert after_zero(recorded) == got and after_zero(replayed) == got
+    # the same lines as script mode, within the in-process target's 1-2 ms phase (as in the golden test)
+    expected = after_zero(str(golden / "appendix-a-motor.jsonl"))
+    assert len(expected) > 20 and [e[1:] for e in got] == [e[1:] for e in expected]
+    assert all(abs(g[0] - e[0]) <= 2 for g, e in zip(got, expected))

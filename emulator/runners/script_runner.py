@@ -1,5 +1,5 @@
-"""Script mode: run a scenario script (shared/formats/SCENARIO-SCRIPT.md) in virtual time and
-write its transcript (shared/formats/TRANSCRIPT.md).
+"""Script mode: run a scenario script (docs/formats/SCENARIO-SCRIPT.md) in virtual time and
+write its transcript (docs/formats/TRANSCRIPT.md).
 
 The start-up runs before the script and is recorded at t < 0: the banner and the layout's
 devices connecting. t = 0 is the moment every device of the layout is established. Host

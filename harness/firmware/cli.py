@@ -12,7 +12,8 @@ import argparse
 import sys
 from typing import Optional
 
-from ..targets import make_target
+from ..cli_options import UsageError
+from ..preflight import checked_target
 from ..targets.base import TargetError
 from ..transcript import TranscriptWriter
 from .errors import EXIT_TARGET, EXIT_USAGE, LoadError
@@ -25,10 +26,10 @@ PROG = "buildhat-conformance load"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.description = (__doc__ or "").split("\n\n")[0]
+    parser.description = (__doc__ or "").split("\n\n")[0].replace("``", "'")   # plain text in --help
     parser.epilog = (__doc__ or "").split("\n\n", 1)[1]
     parser.formatter_class = argparse.RawDescriptionHelpFormatter
-    parser.add_argument("--target", default="emulator:?bootloader=1",
+    parser.add_argument("-t", "--target", metavar="URL", default="emulator:?bootloader=1",
                         help="target URL: a serial port (add ?reset=gpio on a Raspberry Pi to reset the HAT "
                              "into its bootloader), socket://, cmd:..., emulator:?bootloader=1 (default)")
     parser.add_argument("--transcript", default=None, metavar="FILE",
@@ -44,9 +45,11 @@ def load_from_args(url: str, image: str, signature: str, transcript: Optional[st
     out = out if out is not None else sys.stdout
     fw = read_firmware(image, signature)
     try:
-        target = make_target(url)
+        target = checked_target(url)     # the pre-flight every sub-command shares
+    except UsageError as exc:
+        raise LoadError(str(exc), EXIT_USAGE) from None
     except TargetError as exc:
-        raise LoadError(" ".join(str(exc).split()), EXIT_USAGE) from None
+        raise LoadError(" ".join(str(exc).split()), EXIT_TARGET) from None
     writer = TranscriptWriter(transcript, {"target": url, "tool": PROG}) if transcript else None
     try:
         try:

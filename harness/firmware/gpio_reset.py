@@ -17,6 +17,7 @@ import os
 import time
 from typing import Any, Callable, Dict, FrozenSet, List, Optional
 
+from ..extras import install_hint
 from ..targets.base import Control, NeedsCapability, TargetError
 
 __all__ = ["GpioReset", "gpio_reset_from_options", "GPIO_OPTIONS", "DEFAULT_CHIP", "RESET_LINE", "BOOT0_LINE",
@@ -112,13 +113,13 @@ def gpio_reset_from_options(values: Dict[str, str], url: str,
         return None
     if kind != "gpio":
         raise TargetError(f"{url}: reset={kind!r} is not known; the one way is reset=gpio (a Raspberry Pi's "
-                          "GPIO lines, needs the gpiod package: pip install 'buildhat-conformance[gpio]')")
+                          f"GPIO lines, needs the gpiod package: {install_hint('gpio')})")
     if request_lines is None:
         try:
             import gpiod  # noqa: F401 - only to say now, in one line, that it is missing
         except ImportError:
             raise TargetError(f"{url}: reset=gpio needs the gpiod package (libgpiod v2 bindings): "
-                              "pip install 'buildhat-conformance[gpio]'") from None
+                              f"{install_hint('gpio')}") from None
     lines = {}
     for key, default in (("reset_line", RESET_LINE), ("boot0_line", BOOT0_LINE)):
         text = values.get(key, str(default))

@@ -16,6 +16,7 @@ import threading
 import time
 from typing import Deque, List, Optional
 
+from ..parent_death import die_with_parent
 from .base import NotReading, Target, TargetError
 
 __all__ = ["CommandTarget", "from_url", "stop_process_group"]
@@ -63,7 +64,7 @@ class CommandTarget(Target):
         try:
             self.proc = subprocess.Popen(self.argv, stdin=subprocess.PIPE, stdout=subprocess.PIPE,
                                          stderr=subprocess.PIPE, bufsize=0, env=self.env, cwd=self.cwd,
-                                         start_new_session=True)
+                                         start_new_session=True, preexec_fn=die_with_parent())
         except FileNotFoundError:
             raise TargetError(f"{self.url}: command not found: {self.argv[0]!r}") from None
         except PermissionError:

@@ -27,6 +27,7 @@ import pexpect
 import serial
 
 from ...protocol.devices import DEFAULT_LAYOUT, format_device_spec, parse_device_spec
+from ..parent_death import die_with_parent
 from ..script import WORLD_ACTIONS
 from .base import Control, TargetError
 from .pyserial_base import PyserialTarget, SerialPort
@@ -54,8 +55,9 @@ def emulator_command(command: Union[str, Sequence[str], None] = None) -> List[st
     found = shutil.which("buildhat-emulator")
     if found:
         return [found]
-    raise TargetError("buildhat-emulator not found: install this package ('pip install -e .' in the "
-                      "checkout) or set BUILDHAT_EMULATOR to the command that starts it")
+    raise TargetError("buildhat-emulator not found: install this package (pip install -e . in a "
+                      "checkout, or pip install the built wheel) or set BUILDHAT_EMULATOR to the command "
+                      "that starts it")
 
 
 class EmulatorControl(Control):
@@ -223,7 +225,9 @@ class EmulatorTarget(PyserialTarget):
 
         try:
             self.child = pexpect.spawn(argv[0], argv[1:], encoding=None, echo=False,
-                                       timeout=self.startup_timeout, preexec_fn=send_stderr_to_file)
+                                       timeout=self.startup_timeout,
+                                       # the emulator ends with this process, even if it is SIGKILLed
+                                       preexec_fn=die_with_parent(then=send_stderr_to_file))
         except pexpect.ExceptionPexpect as exc:
             raise TargetError(f"cannot start the emulator ({shlex.join(argv)}): {exc}") from None
         deadline = time.monotonic() + self.startup_timeout

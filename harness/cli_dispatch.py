@@ -1,0 +1,103 @@
+"""buildhat-conformance: one command, one sub-command per job.
+
+The dispatcher behind the entry point (buildhat_conformance/cli.py). Each sub-command lives in
+the package that owns it and provides two functions, ``add_arguments(parser)`` and
+``main(args) -> int``; only the chosen one is imported.
+A user's mistake (a bad option, file or target) is one line on stderr and the exit status of
+harness/cli_options.py, the same in every sub-command; a traceback means a bug of ours.
+"""
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+from typing import Optional, Sequence
+
+from .cli_options import (
+    EXIT_STATUS_HELP,
+    EXIT_TARGET,
+    EXIT_USAGE,
+    TARGET_HELP,
+    OneLineParser,
+    UsageError,
+)
+from .targets.base import TargetError
+from .version import __version__
+
+SUBCOMMANDS = {
+    "run": ("buildhat_conformance.conformance.runner", "run the conformance suite against a target"),
+    "script": ("buildhat_conformance.harness.cli_script", "run one scenario script and write its transcript"),
+    "targets": ("buildhat_conformance.harness.cli_targets", "list the targets this machine can see"),
+    "fuzz": ("buildhat_conformance.fuzz.cli", "grammar-based and stateful fuzzing of a target"),
+    "record": ("buildhat_conformance.harness.record", "record a scenario's transcript on a target"),
+    "replay": ("buildhat_conformance.harness.replay", "replay a transcript against a target and diff"),
+    "mock": ("buildhat_conformance.harness.mock", "serve a transcript as a fake HAT"),
+    "report": ("buildhat_conformance.harness.report.cli", "build the HTML report from JUnit files"),
+    "load": ("buildhat_conformance.harness.firmware.cli", "load firmware through the HAT's bootloader"),
+    "bench": ("buildhat_conformance.bench.cli", "benchmarks: timing, throughput, fidelity"),
+}
+
+_EPILOG = f"{TARGET_HELP[0].upper()}{TARGET_HELP[1:]}.\n{EXIT_STATUS_HELP[0].upper()}{EXIT_STATUS_HELP[1:]}."
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = OneLineParser(prog="buildhat-conformance", description=(__doc__ or "").splitlines()[0],
+                           epilog="Every COMMAND takes --help. " + _EPILOG)
+    parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    for name, (_module, help_text) in SUBCOMMANDS.items():
+        sub.add_parser(name, help=help_text, add_help=False)
+    return parser
+
+
+def _say(name: str, message: str) -> None:
+    from .preflight import one_line
+
+    print(f"buildhat-conformance {name}: {one_line(message)}", file=sys.stderr)
+
+
+def main(argv: Optional[Sequence[str]] = None) -> int:
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if not argv or argv[0] in ("-h", "--help"):
+        build_parser().print_help()
+        return 0 if argv else EXIT_USAGE
+    if argv[0] not in SUBCOMMANDS:
+        build_parser().parse_args(argv)    # --version, or one line naming the unknown command
+        return EXIT_USAGE
+    name = argv[0]
+    module_name, help_text = SUBCOMMANDS[name]
+    try:
+        module = importlib.import_module(module_name)
+    except ModuleNotFoundError as exc:
+        if exc.name and module_name.startswith(exc.name):
+            _say(name, f"not available in this build ({exc.name})")
+            return EXIT_USAGE
+        raise
+    parser = OneLineParser(prog=f"buildhat-conformance {name}", description=help_text,
+                           epilog=EXIT_STATUS_HELP[0].upper() + EXIT_STATUS_HELP[1:] + ".")
+    module.add_arguments(parser)
+    if getattr(module, "PASS_UNKNOWN_ARGS", False):
+        args, extra = parser.parse_known_args(argv[1:])
+        args.extra = extra
+    else:
+        args = parser.parse_args(argv[1:])
+    try:
+        return int(module.main(args) or 0)
+    except UsageError as exc:
+        _say(name, str(exc))
+        return EXIT_USAGE
+    except TargetError as exc:
+        _say(name, str(exc))
+        return EXIT_TARGET
+    except OSError as exc:
+        if not exc.filename:
+            raise                   # not a file the user named: a bug of ours, with its traceback
+        _say(name, f"{exc.filename}: {exc.strerror or exc}")
+        return EXIT_USAGE
+    except KeyboardInterrupt:
+        _say(name, "interrupted")
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())
