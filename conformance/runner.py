@@ -14,6 +14,8 @@ import sys
 from typing import List
 
 PASS_UNKNOWN_ARGS = True
+# Options passed through to pytest that need pytest-xdist (several targets, or workers).
+_XDIST_OPTIONS = {"--inventory", "-n", "--numprocesses", "--dist", "--tx", "-d", "--looponfail", "-f"}
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -49,7 +51,17 @@ def pytest_argv(args: argparse.Namespace) -> List[str]:
             "--transcripts", transcripts, "--import-mode=importlib", "-q",
             # The suite uses no Hypothesis; its pytest plugin imports the library in the terminal
             # summary, two seconds of every run (H10 profile).
-            "-p", "no:hypothesispytest"]
+            "-p", "no:hypothesispytest",
+            # The host-library fixture plugin (emulator/pytest_fixture.py) is not the suite's.
+            "-p", "no:buildhat_emulator",
+            # pytest's closing gc.collect() passes over the whole session's heap (twice): a tenth
+            # of a virtual-time run in the profile; the suite raises nothing in __del__ to report.
+            "-p", "no:unraisableexception"]
+    extra = list(getattr(args, "extra", []) or [])
+    if len(targets) == 1 and not any(a.split("=")[0] in _XDIST_OPTIONS or a.startswith("-n")
+                                     for a in extra):
+        # One target: no xdist workers (conformance/multitarget.py), so not its plugins either.
+        argv += ["-p", "no:xdist", "-p", "no:xdist.looponfail"]
     argv += ["--conformance-html", os.path.join(os.path.dirname(junit), "index.html")]
     if args.firmware:
         argv += ["--firmware", args.firmware]
@@ -57,7 +69,7 @@ def pytest_argv(args: argparse.Namespace) -> List[str]:
         argv += ["-k", args.keyword]
     if args.operator:
         argv += ["--operator", "-s"]
-    return argv + list(getattr(args, "extra", []) or [])
+    return argv + extra
 
 
 def build_html_report(junit: str) -> None:

@@ -83,7 +83,7 @@ def _tick_everything(hat: Hat) -> None:
 
 
 def _run(firmware: str, devices: Optional[dict], plan: Plan, total_ms: int, reference: bool,
-         baud: Optional[int] = None) -> List[tuple]:
+         baud: Optional[int] = None, until_output: bool = False) -> List[tuple]:
     emu = Emulator(firmware=firmware, devices=devices, baud=baud)
     log: List[tuple] = []
     emu.on_event(lambda e: log.append(("event", json.dumps(e, sort_keys=True, default=str))))
@@ -101,6 +101,9 @@ def _run(firmware: str, devices: Optional[dict], plan: Plan, total_ms: int, refe
             if reference:
                 _tick_everything(emu.hat)
                 emu.step()
+            elif until_output:                 # as the in-process target reads
+                emu.advance_until_output(min(7, start + t - emu.now))
+                emu.read()
             else:
                 emu.advance(min(7, start + t - emu.now))   # uneven chunks: jumps cross them
         if action.startswith("!mute"):       # the device stops talking for good (dead)
@@ -128,6 +131,8 @@ def test_skipping_idle_milliseconds_changes_nothing(firmware, devices, plan, tot
     skipping = _run(firmware, devices, plan, total_ms, reference=False, baud=baud)
     assert len(reference) > 200
     assert skipping == reference
+    reading = _run(firmware, devices, plan, total_ms, reference=False, baud=baud, until_output=True)
+    assert reading == reference
 
 
 def test_idle_milliseconds_are_skipped():
