@@ -40,6 +40,8 @@ _STOP_GRACE_S = 15.0       # the child closes the target and writes its files in
 # pytest's exit statuses: 0 all passed, 1 some failed, 2 interrupted, 3 internal error,
 # 4 usage error, 5 no tests collected.
 _PYTEST_TO_EXIT = {0: EXIT_OK, 1: EXIT_FAILED, 2: EXIT_INTERRUPTED, 3: EXIT_TARGET, 4: 2, 5: 2}
+# Options passed through to pytest that need pytest-xdist (several targets, or workers).
+_XDIST_OPTIONS = {"--inventory", "-n", "--numprocesses", "--dist", "--tx", "-d", "--looponfail", "-f"}
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -92,7 +94,17 @@ def pytest_argv(args: argparse.Namespace) -> List[str]:
             # The suite uses no Hypothesis; its pytest plugin imports the library in the terminal
             # summary, two seconds of every run (H10 profile).
             "-p", "no:hypothesispytest",
-            "-p", "buildhat_conformance.conformance.interrupt"]
+            "-p", "buildhat_conformance.conformance.interrupt",
+            # The host-library fixture plugin (emulator/pytest_fixture.py) is not the suite's.
+            "-p", "no:buildhat_emulator",
+            # pytest's closing gc.collect() passes over the whole session's heap (twice): a tenth
+            # of a virtual-time run in the profile; the suite raises nothing in __del__ to report.
+            "-p", "no:unraisableexception"]
+    extra = list(getattr(args, "extra", []) or [])
+    if len(targets) == 1 and not getattr(args, "inventory", None) and not any(
+            a.split("=")[0] in _XDIST_OPTIONS or a.startswith("-n") for a in extra):
+        # One target: no xdist workers (conformance/multitarget.py), so not its plugins either.
+        argv += ["-p", "no:xdist", "-p", "no:xdist.looponfail"]
     argv += ["--conformance-html", os.path.join(os.path.dirname(junit), "index.html")]
     if getattr(args, "inventory", None):
         argv += ["--inventory", os.path.abspath(args.inventory)]
@@ -104,7 +116,7 @@ def pytest_argv(args: argparse.Namespace) -> List[str]:
         argv += ["-k", args.keyword]
     if args.operator:
         argv += ["--operator", "-s"]
-    return argv + list(getattr(args, "extra", []) or [])
+    return argv + extra
 
 
 def preflight(args: argparse.Namespace) -> None:

@@ -164,8 +164,11 @@ class Emulator:
         while self._now < end and not self.uart.host_pending():
             machine = self.machine
             if isinstance(machine, Hat):
-                due = min(max(machine.idle_until(), machine.now + 1), end)
-                machine.advance(int(due) - machine.now)  # the ticks before `due` only count time
+                # Hat.advance up to the first due ms, inlined: this loop runs once per ticked ms.
+                due = machine.idle_until()
+                if due > machine.now + 1:
+                    machine.now = int(min(due, end)) - 1   # the ticks before `due` only count time
+                machine.tick()
             else:
                 machine.tick()                      # the bootloader (it may boot a Hat)
             self._now = self.machine.now

@@ -24,6 +24,9 @@ CRLF = b"\r\n"
 # 115200 baud); output that waits longer (a prompt, a half line from a dying HAT) goes to disk.
 PARTIAL_MAX_AGE = 0.1
 PARTIAL_MAX_BYTES = 4096
+# One encoder for every event: json.dumps with options builds a new one per call (a run writes
+# tens of thousands of events).
+_ENCODER = json.JSONEncoder(ensure_ascii=True, separators=(",", ":"))
 
 
 def text_field(data: bytes) -> tuple[str, Optional[str]]:
@@ -71,7 +74,7 @@ class TranscriptWriter:
     def _write(self, obj: dict, flush: bool = True) -> None:
         if self._fh.closed:
             return
-        self._fh.write(json.dumps(obj, ensure_ascii=True, separators=(",", ":")) + "\n")
+        self._fh.write(_ENCODER.encode(obj) + "\n")
         if flush:
             self._fh.flush()
 

@@ -60,6 +60,15 @@ PASSIVE: Plan = [
     (3900, "@button 3 0"), (4200, "@plug 1 0x40"), (4300, "port 1 ; plimit 1 ; set 1"),
 ]
 
+# Hot-plugs whose device falls silent (``!mute``, as an unpowered light matrix does) during the
+# setup messages, right after its ACK and in the data phase: the link's own timeouts (2000 ms
+# setup, 500 ms data) and the handshake steps fall in milliseconds the skipping run jumps over.
+SILENCED: Plan = [
+    (0, "@unplug 1"), (0, "@unplug 2"), (0, "@unplug 3"), (200, "@plug 1 0x30"), (210, "@plug 2 0x3D"),
+    (230, "@plug 3 0x41"), (480, "!mute 1"), (1500, "!mute 3"), (2600, "port 0 ; list"),
+    (4000, "@unplug 1"), (4000, "@plug 1 0x31"), (4010, "list"),
+]
+
 
 def _tick_everything(hat: Hat) -> None:
     """Reference mode: every object is due now and every device samples afresh."""
@@ -74,7 +83,7 @@ def _tick_everything(hat: Hat) -> None:
 
 
 def _run(firmware: str, devices: Optional[dict], plan: Plan, total_ms: int, reference: bool,
-         baud: Optional[int] = None) -> List[tuple]:
+         baud: Optional[int] = None, until_output: bool = False) -> List[tuple]:
     emu = Emulator(firmware=firmware, devices=devices, baud=baud)
     log: List[tuple] = []
     emu.on_event(lambda e: log.append(("event", json.dumps(e, sort_keys=True, default=str))))
@@ -92,9 +101,17 @@ def _run(firmware: str, devices: Optional[dict], plan: Plan, total_ms: int, refe
             if reference:
                 _tick_everything(emu.hat)
                 emu.step()
+            elif until_output:                 # as the in-process target reads
+                emu.advance_until_output(min(7, start + t - emu.now))
+                emu.read()
             else:
                 emu.advance(min(7, start + t - emu.now))   # uneven chunks: jumps cross them
-        if action.startswith("@"):
+        if action.startswith("!mute"):       # the device stops talking for good (dead)
+            port = emu.hat.ports[int(action.split()[1])]
+            port.device.dead = True
+            port.wake()
+            log.append(("world", emu.now, action))
+        elif action.startswith("@"):
             log.append(("world", emu.now, action, emu.world(action)))
         elif action:
             emu.write(action.encode("ascii") + b"\r")
@@ -107,12 +124,15 @@ def _run(firmware: str, devices: Optional[dict], plan: Plan, total_ms: int, refe
     (MOTORS, AT_REST, 7500, None),
     (None, PASSIVE, 5500, None),
     (MIXED, CONTROL[:12], 2500, 115200),
-], ids=["control", "motors-at-rest", "passive", "paced"])
+    (MIXED, SILENCED, 5500, None),
+], ids=["control", "motors-at-rest", "passive", "paced", "silenced-hot-plugs"])
 def test_skipping_idle_milliseconds_changes_nothing(firmware, devices, plan, total_ms, baud):
     reference = _run(firmware, devices, plan, total_ms, reference=True, baud=baud)
     skipping = _run(firmware, devices, plan, total_ms, reference=False, baud=baud)
     assert len(reference) > 200
     assert skipping == reference
+    reading = _run(firmware, devices, plan, total_ms, reference=False, baud=baud, until_output=True)
+    assert reading == reference
 
 
 def test_idle_milliseconds_are_skipped():
@@ -133,3 +153,26 @@ def test_idle_milliseconds_are_skipped():
         Hat._run_due = real                # type: ignore[method-assign]
     # The controllers' 10 ms updates at least; far from every millisecond.
     assert 100 <= len(ticks) <= 400
+
+
+def test_a_hot_plug_handshake_is_skipped_through():
+    """Between the device's messages and the handshake's steps the port waits: those ms are
+    not ticked (they were, every one, before the link said when it is next due)."""
+    emu = Emulator(devices={0: None, 1: None, 2: None, 3: None})
+    emu.boot()
+    emu.advance(100)
+    ticks = []
+    real = Hat._run_due
+
+    def counted(hat: Hat, now: int) -> None:
+        ticks.append(now)
+        real(hat, now)
+
+    Hat._run_due = counted                 # type: ignore[method-assign]
+    try:
+        emu.world("@plug 0 0x3D")          # a sensor: no motor physics, only the link
+        emu.advance(4500)                  # setup at 2400 baud (~3 s), handshake, data
+    finally:
+        Hat._run_due = real                # type: ignore[method-assign]
+    assert emu.hat.ports[0].established
+    assert len(ticks) < 2000, len(ticks)
