@@ -44,6 +44,7 @@ import random
 from collections import deque
 from typing import TYPE_CHECKING, Deque, Dict, List, Optional, Tuple
 
+from ..protocol.profiles import passive_signature_ids
 from . import lpf2
 from .devices import ActiveDevice, MotorDevice, PassiveDevice, make_device
 from .devices.info import DeviceInfo
@@ -95,6 +96,9 @@ class Port:
         self.repeat_connect = bool(f["passive_connect_repeats"])
         self.button_events = bool(f["button_events"])
         self.matrix_autopower = bool(f["matrix_autopower"])
+        # §7.4: the release's signature -> ID table, and the "possibly active" rule (id 99).
+        (self._signature_ids, self._active_mask, self._active_value,
+         self._active_id) = passive_signature_ids(f["passive_signature_table"])
         self.rng = random.Random((getattr(hat, "seed", 0) or 0) * 7919 + index)
         self.device = None                      # what is plugged in (the world)
         self.reporter = Reporter(self)
@@ -121,7 +125,8 @@ class Port:
         self._queue: Deque[lpf2.Message] = deque()
         self._last_msg = 0
         self._errors = 0
-        self._handshake_at: Optional[int] = None
+        self._handshake_at: Optional[int] = None    # when the next handshake step is due
+        self._handshake_step = 0
         self._next_nack: Optional[int] = None
         self._dev_rx = lpf2.Assembler(keep_system=True)
         self.due: float = 0     # the Hat ticks the port from this virtual ms on (0: at once)
@@ -331,19 +336,26 @@ class Port:
             self._cycle_start = now
         self._begin_scan(now)
 
-    def _read_pins(self) -> Tuple[int, int, bool]:
-        """(signature, passive ID, active device present) as the scan reads them."""
+    def _read_pins(self) -> Tuple[int, int]:
+        """(signature, table ID) as the scan reads them: the ID from the release's table,
+        ``_active_id`` (99) for a possible active device, 0 for unknown codes (§7.4)."""
         dev = self.device
         if isinstance(dev, PassiveDevice):
-            return dev.signature, dev.passive_id, False
-        if isinstance(dev, ActiveDevice) and dev.talking:
-            return SIGNATURE_ACTIVE, 0, True
-        return SIGNATURE_EMPTY, 0, False
+            signature = dev.signature_in(self._signature_ids)
+        elif isinstance(dev, ActiveDevice) and dev.talking:
+            signature = SIGNATURE_ACTIVE
+        else:
+            signature = SIGNATURE_EMPTY
+        if signature & self._active_mask == self._active_value:
+            return signature, self._active_id
+        return signature, self._signature_ids.get(signature, 0)
 
     def _scan_done(self, now: int) -> None:
-        signature, pid, active = self._read_pins()
+        signature, table_id = self._read_pins()
         if self.hat.debug & 4:
-            self._line(f"D5 signature={signature:04X} id={pid}")
+            self._line(f"D5 signature={signature:04X} id={table_id}")
+        active = table_id == self._active_id
+        pid = 0 if active else table_id
         was = self.passive_id
         if active or pid == 0 or (was and pid != was):
             self._matches = self._scan_id = 0
@@ -447,23 +459,32 @@ class Port:
                         self._state0(now)          # no TYPE seen: restart silently
                         return
                     self._phase = "handshake"
-                    self._handshake_at = now
+                    self._handshake_at = now + HANDSHAKE_SPEED_MS
+                    self._handshake_step = 0
                     break
                 self._setup_message(msg)
             if self._phase == "setup":
                 if now - self._last_msg > SETUP_TIMEOUT_MS:
                     self._fail(now, "timeout during setup phase: disconnecting")
                 return
-        t = now - self._handshake_at
+        # Each step waits its delay from the step before (the firmware's per-port `delay`: a
+        # step that ran late, e.g. after a main-loop stall, shifts the ones after it).
+        if now < self._handshake_at:
+            return
         info = self.info
-        if t == HANDSHAKE_SPEED_MS:
+        step = self._handshake_step
+        self._handshake_step += 1
+        if step == 0:
             self.send_to_device(lpf2.speed_frame(info.baud))
-        elif t == HANDSHAKE_ACK_MS:
+            self._handshake_at = now + HANDSHAKE_ACK_MS - HANDSHAKE_SPEED_MS
+        elif step == 1:
             self.send_to_device(bytes([lpf2.ACK]))
-        elif t == HANDSHAKE_SWITCH_MS:
+            self._handshake_at = now + HANDSHAKE_SWITCH_MS - HANDSHAKE_ACK_MS
+        elif step == 2:
             self._baud = max(MIN_BAUD, min(MAX_BAUD, info.baud))
             self.hat.emit(f"set baud rate to {info.baud}")
-        elif t >= HANDSHAKE_DUMP_MS:
+            self._handshake_at = now + HANDSHAKE_DUMP_MS - HANDSHAKE_SWITCH_MS
+        else:
             self._establish(now)
 
     def _setup_message(self, msg: lpf2.Message) -> None:

@@ -60,7 +60,8 @@ def test_the_stalled_pass_delays_the_next_line_and_the_reports():
     texts = [line for _, line in after]
     end = texts.index("P3: no device detected")
     assert texts[end + 1] == "deltat=00000003"
-    assert texts[end + 2].startswith("Firmware version: ")
+    assert texts[end + 2] == ""                      # the CRLF of the next line's CR (§1) ...
+    assert texts[end + 3].startswith("Firmware version: ")   # ... and its output
     t_stall = after[end + 1][0]
     assert t_stall == t + 3                          # in virtual time: 3 ms later
     reports = [tt for tt, line in after if line.startswith("P0M1:")]
