@@ -7,7 +7,6 @@ command in the profile's own syntax, and the cleanup fence run between test case
 from __future__ import annotations
 
 import re
-import time
 from dataclasses import dataclass, field
 from typing import Any, Callable, List, Optional, Union
 
@@ -136,8 +135,13 @@ class Hat:
         return float(getattr(self.session, "time_scale", 1.0) or 1.0)
 
     def seconds(self, hat_ms: float) -> float:
-        """Wall-clock seconds for a stretch of HAT time."""
+        """Seconds on :meth:`clock` for a stretch of HAT time."""
         return hat_ms / 1000.0 / self.time_scale
+
+    def clock(self) -> float:
+        """The session's clock in seconds: the wall clock, or HAT time for a virtual-time
+        target (every wait and deadline here uses it, so such a run never sleeps)."""
+        return self.session.clock()
 
     def can(self, capability: str) -> bool:
         return bool(self.target.has(capability))
@@ -229,7 +233,7 @@ class Hat:
         slow the link (H10: a fixed 150 ms wall-clock floor did that job before, and cost
         most of a case's time at --speed 20)."""
         self._note_wait(hat_ms)          # H10: the window is mandatory waiting; the fence is not
-        time.sleep(self.seconds(hat_ms))
+        self.session.sleep(self.seconds(hat_ms))
         self._settle()
         return self._take()
 
@@ -253,7 +257,7 @@ class Hat:
         """Block until there are more than ``seen`` events or the wall-clock deadline passes
         (woken by the event itself: H10, polling every 10 ms cost ~5 ms a wait)."""
         self.session.wait_ms(0)          # raises if the target has gone away
-        left = deadline - time.monotonic()
+        left = deadline - self.clock()
         return left > 0 and self.session.wait_new(seen, left)
 
     def wait_for(self, predicate: Callable[[Any], bool], count: int, max_hat_ms: float) -> List[Any]:
@@ -261,20 +265,23 @@ class Hat:
         HAT time is up (then a fence brings in what is still on its way); returns everything
         collected."""
         out: List[Any] = []
-        began = time.monotonic()
+        began = self.clock()
         deadline = began + self.seconds(max_hat_ms)
+        matched = 0
         while True:
-            out += self._take()
-            if sum(1 for e in out if predicate(e)) >= count:
+            new = self._take()
+            out += new
+            matched += sum(1 for e in new if predicate(e))   # each event is judged once
+            if matched >= count:
                 break
-            if time.monotonic() >= deadline:
+            if self.clock() >= deadline:
                 self._settle()
                 out += self._take()
                 break
             self._await_new(self._next, deadline)
         # H10: waiting for lines the HAT prints on its own schedule is mandatory waiting (at
         # most what the test allowed).
-        self._note_wait(min(max_hat_ms, (time.monotonic() - began) * 1000.0 * self.time_scale))
+        self._note_wait(min(max_hat_ms, (self.clock() - began) * 1000.0 * self.time_scale))
         return out
 
     def _find(self, start: int, predicate: Callable[[Any], bool], deadline: float) -> Optional[int]:
@@ -294,11 +301,11 @@ class Hat:
         """Wait until an event from ``mark`` on satisfies ``predicate`` (True) or ``hat_ms`` of
         HAT time has passed (False). Nothing is consumed: the events stay for the test. The
         time spent counts as mandatory waiting (the HAT's own schedule)."""
-        began = time.monotonic()
+        began = self.clock()
         try:
             return self._find(mark, predicate, began + self.seconds(hat_ms)) is not None
         finally:
-            self._note_wait(min(hat_ms, (time.monotonic() - began) * 1000.0 * self.time_scale))
+            self._note_wait(min(hat_ms, (self.clock() - began) * 1000.0 * self.time_scale))
 
     def mark(self) -> int:
         """A position in the event stream, for :meth:`since`."""
@@ -321,7 +328,7 @@ class Hat:
         else:
             rx = re.compile(match)
             pred = (lambda e: e.kind == match or bool(rx.search(e.text)))  # noqa: E731
-        began = time.monotonic()
+        began = self.clock()
         i = self._find(self._next, pred, began + self.seconds(hat_ms))
         if i is None:
             # Time is up: a fence brings in whatever the HAT printed before it; look once more.
@@ -333,7 +340,7 @@ class Hat:
                                  f"the last lines were {seen!r}")
         self._next = i + 1
         # H10: waiting for a line the HAT prints on its own schedule is mandatory.
-        self._note_wait(min(hat_ms, (time.monotonic() - began) * 1000.0 * self.time_scale))
+        self._note_wait(min(hat_ms, (self.clock() - began) * 1000.0 * self.time_scale))
         return self.session.events[i]
 
     def world(self, line: str) -> str:

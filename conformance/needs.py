@@ -9,7 +9,6 @@ states its own needs); everything changed is put back at the end of the run.
 from __future__ import annotations
 
 import re
-import time
 from typing import Any, Dict, List, Optional, Tuple
 
 import pytest
@@ -214,10 +213,10 @@ class World:
                     e.text == f"P{port}: connected to passive ID {spec[1]}" for e in self.hat.since(began)):
                 # R1 shows a rescanned passive port as empty most of the time (FACTS §5).
                 return
-            t0 = time.monotonic()
+            t0 = self.hat.clock()
             self.hat.watch(look_from, lambda e: bool(ends_change.match(e.text)), STEP_MS)
             look_from = self.hat.mark()
-            waited += max((time.monotonic() - t0) * 1000.0 * self.hat.time_scale, 1.0)
+            waited += max((self.hat.clock() - t0) * 1000.0 * self.hat.time_scale, 1.0)
             entries = {e.port: self.spec_of(e) for e in self.layout()}
             if entries.get(port) == spec:
                 return

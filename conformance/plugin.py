@@ -19,7 +19,7 @@ from ..protocol.requirements import requirements
 from .junit import Case, JUnitFile
 from .link import Hat
 from .needs import World
-from .tee import TeeTarget
+from .tee import TeeTarget, tee
 from .verdict import FAIL, INFO, KNOWN, PASS, SKIP, Verdict
 
 DEFAULT_CASE_TIMEOUT = 120.0
@@ -114,7 +114,7 @@ class Run:
         between = TranscriptWriter(os.path.join(self.transcripts, "_between-cases.jsonl"),
                                    {"target": self.url, "firmware": "unknown", "case": "between cases"})
         try:
-            self.tee = TeeTarget(make_target(self.url), between=between)
+            self.tee = tee(make_target(self.url), between=between)
             forced = self.config.getoption("firmware")
             profile = get_profile(forced) if forced else None
             session = Session(self.tee, transcript=None, profile=profile)

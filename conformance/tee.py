@@ -13,7 +13,15 @@ from typing import Optional
 from ..harness.targets.base import Target
 from ..harness.transcript import TranscriptWriter
 
-__all__ = ["TeeTarget"]
+__all__ = ["TeeTarget", "VirtualTeeTarget", "tee"]
+
+
+def tee(inner: Target, between: Optional[TranscriptWriter] = None) -> TeeTarget:
+    """The wrapper for ``inner``: one that keeps its virtual clock visible where it has one, so
+    the session steps it in HAT time instead of pacing it against the wall clock."""
+    if inner.has("virtual_time") and hasattr(type(inner), "now"):
+        return VirtualTeeTarget(inner, between)
+    return TeeTarget(inner, between)
 
 
 class TeeTarget(Target):
@@ -26,6 +34,7 @@ class TeeTarget(Target):
         self.between = between
         self.current: Optional[TranscriptWriter] = None
         self._t0 = time.monotonic()
+        self._hat0 = 0.0
         self.dead: Optional[str] = None        # why the target went away, once it has
         # The session may read from a thread while the test thread writes.
         self._lock = threading.Lock()
@@ -91,3 +100,32 @@ class TeeTarget(Target):
 
     def has(self, capability: str) -> bool:
         return self.inner.has(capability)
+
+
+class VirtualTeeTarget(TeeTarget):
+    """A tee for a virtual-time target (``inprocess``): its clock shows through, and transcript
+    times are HAT milliseconds read off it rather than the wall clock."""
+
+    @property
+    def now(self) -> float:
+        return float(self.inner.now)  # type: ignore[attr-defined]
+
+    def advance(self, ms: int) -> None:
+        self.inner.advance(ms)  # type: ignore[attr-defined]
+
+    def _hat_ms(self) -> float:
+        try:
+            return float(self.inner.now)  # type: ignore[attr-defined]
+        except Exception:  # noqa: BLE001 - not open yet / closed: transcript time 0
+            return 0.0
+
+    def _now_ms(self) -> float:
+        return self._hat_ms() - self._hat0
+
+    def switch(self, writer: Optional[TranscriptWriter]) -> None:
+        super().switch(writer)
+        self._hat0 = self._hat_ms()
+
+    def open(self) -> None:
+        super().open()
+        self._hat0 = self._hat_ms()

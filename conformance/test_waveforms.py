@@ -9,7 +9,6 @@ early) and loosely from above, scaled by the target's time scale.
 """
 from __future__ import annotations
 
-import time
 from typing import List, Optional, Tuple
 
 import pytest
@@ -35,7 +34,7 @@ def capture(hat: Hat, port: int, command: str, ticks: int) -> Tuple[List[str], L
     ``ticks`` ticks after it, all events, the send time and the reply."""
     start_quiet_pid(hat, port, sp=OLD_SP)
     mark = hat.mark()
-    sent_at = time.monotonic()
+    sent_at = hat.clock()
     reply = hat.exchange(command)
     hat.wait_for(lambda e: e.text.startswith(f"P{port}: pv="), ticks + 3, ticks * 10 * 2 + 1000)
     events = hat.since(mark)
@@ -47,8 +46,8 @@ def capture(hat: Hat, port: int, command: str, ticks: int) -> Tuple[List[str], L
 
 
 def events_t0(hat: Hat, monotonic: float) -> float:
-    """A ``time.monotonic()`` instant on the clock of ``Event.t`` (ms since the session opened)."""
-    return hat.session.now_ms() - (time.monotonic() - monotonic) * 1000.0
+    """A :meth:`Hat.clock` instant on the clock of ``Event.t`` (ms since the session opened)."""
+    return hat.session.now_ms() - (hat.clock() - monotonic) * 1000.0
 
 
 def mismatches(seen: List[str], model: List[float]) -> List[str]:

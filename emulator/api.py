@@ -149,6 +149,22 @@ class Emulator:
                 machine.tick()                     # the bootloader (it may boot a Hat)
             self._now = self.machine.now
 
+    def advance_until_output(self, ms: int) -> int:
+        """Let at most ``ms`` milliseconds pass, stopping after the first one that gave the host
+        output (idle milliseconds are skipped as in :meth:`advance`). Returns the time spent:
+        a virtual-time reader waits for output this way without stepping every millisecond."""
+        start = self._now
+        end = start + max(0, int(ms))
+        while self._now < end and not self.uart.host_pending():
+            machine = self.machine
+            if isinstance(machine, Hat):
+                due = min(max(machine.idle_until(), machine.now + 1), end)
+                machine.advance(due - machine.now)  # the ticks before `due` only count time
+            else:
+                machine.tick()                      # the bootloader (it may boot a Hat)
+            self._now = self.machine.now
+        return self._now - start
+
     def step(self) -> None:
         """One millisecond."""
         self.machine.tick()

@@ -145,6 +145,23 @@ class Session:
                 return (hat - self._hat0) / self.time_scale
         return (time.monotonic() - self._t0) * 1000.0
 
+    def clock(self) -> float:
+        """Seconds on the session's clock: the wall clock, or for a virtual-time target its
+        HAT time divided by the time scale. Deadlines and durations measured by callers use
+        this, so a virtual-time run never waits on the wall clock."""
+        return self.now_ms() / 1000.0 if self.virtual else time.monotonic()
+
+    def sleep(self, seconds: float) -> None:
+        """Let ``seconds`` pass on :meth:`clock` (a virtual-time target is stepped, not waited
+        for). Unlike :meth:`wait_ms` it counts nothing as mandatory waiting."""
+        if seconds <= 0:
+            self._check()
+        elif self.virtual:
+            self._wait_index(lambda e: False, len(self.events), seconds)
+        else:
+            time.sleep(seconds)
+            self._check()
+
     @property
     def time_scale(self) -> float:
         return float(self.target.time_scale or 1.0)
@@ -498,13 +515,7 @@ class Session:
         """Let ``ms`` milliseconds of HAT time pass (real time divided by the time scale)."""
         if ms > 0:
             self.note_wait(ms)
-        if ms <= 0:
-            self._check()
-        elif self.virtual:
-            self._wait_index(lambda e: False, len(self.events), ms / 1000.0 / self.time_scale)
-        else:
-            time.sleep(ms / 1000.0 / self.time_scale)
-            self._check()
+        self.sleep(ms / 1000.0 / self.time_scale)
 
     def note_wait(self, hat_ms: float) -> None:
         """Count ``hat_ms`` of HAT time as waiting the protocol requires (H10: callers that
