@@ -2,7 +2,8 @@
 
 ``Hat`` builds ``Port(hat, index)`` and calls ``tick(now)`` every millisecond once the start-up
 is done. The port owns the wire to the plugged-in device model (``emulator/devices/``): bytes
-the device sends arrive at its baud rate (2400 during setup, then the device's rate), and
+the device sends arrive at its baud rate (the profile's ``device_setup`` baud during setup,
+then the device's rate), and
 frames the HAT sends reach the device at once. Phases:
 
 - ``scan``: each pass through *state 0* resets the port's controller (``port_initpwm``), prints
@@ -15,7 +16,7 @@ frames the HAT sends reach the device at once. Phases:
   connected flag cleared during the scan) and the connect line repeats after each scan.
   Button (ID 5, ``button_events``): ``P<p>: button pressed/released`` when the state changes.
 - active: a scan that sees an active device waits 100 ms (RX held low), prints
-  ``P<p>: connecting to active device`` and turns the UART on at 2400 baud. Bytes count only after
+  ``P<p>: connecting to active device`` and turns the UART on at the set-up rate. Bytes count only after
   100 ms of silence. Setup messages fill a :class:`DeviceInfo`; the device's ACK starts the
   handshake: +10 ms SPEED, +100 ms ACK, +10 ms baud switch (``set baud rate to <baud>``, no
   prefix), +1 ms the ``list`` dump and ``P<p>: established serial communication with active ID
