@@ -166,3 +166,40 @@ def test_matrix_grace_is_profile_data_and_booted_leaves_the_host_all_of_it():
         tap.run(1000)
         dead = bool(tap.times("P1: timeout during data phase: disconnecting"))
         assert dead is not survives, (power_at, grace)
+
+
+# -- start-up and device set-up timing (§5, §8, §10; the device side is a profile value) -------
+HANDSHAKE_MS = 10 + 100 + 10 + 1    # §10 "ACK -> +10 ms SPEED -> +100 ms ACK -> +10 ms switch -> +1 ms"
+
+
+def established_after(emu: Emulator, port: int, limit_ms: int = 5000) -> int:
+    """Milliseconds from now until `P<port>: established serial communication ...` (§5)."""
+    start, buf = emu.now, b""
+    want = b"P%d: established serial communication" % port
+    while want not in buf:
+        assert emu.now - start < limit_ms, buf[-300:]
+        emu.step()
+        buf += emu.read()
+    return emu.now - start
+
+
+@pytest.mark.parametrize("firmware", ["R1", "R3", "R7"])
+def test_hot_plugged_motor_is_established_in_under_a_second(firmware):
+    # Issue 14: "a hot-plugged motor ... about 0.75 s is expected". The HAT's own share is fixed
+    # by the facts: detection by the next scan, RX held low 100 ms (§5), the 100 ms receive-sync
+    # gap (§8) and the 121 ms handshake (§10); the device's share is the profile's device_setup.
+    emu = Emulator(firmware=firmware, devices=EMPTY)
+    emu.boot()
+    emu.read()
+    emu.world("@plug 2 0x30")
+    took = established_after(emu, 2)
+    assert 100 + 100 + HANDSHAKE_MS <= took <= 1000
+
+
+@pytest.mark.parametrize("firmware", ["R1", "R7"])
+def test_start_up_with_the_default_devices_takes_well_under_two_seconds(firmware):
+    # Issue 14: start-up plus the default devices' handshakes "about 1.5 s" (was 2.7 s). §5/§10:
+    # the firmware boot alone is >= 10 + 100 + 100 ms before `Done initialising ports`.
+    emu = Emulator(firmware=firmware)
+    took = emu.boot()
+    assert 210 + 100 + 100 + HANDSHAKE_MS <= took <= 1500
