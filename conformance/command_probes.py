@@ -122,6 +122,9 @@ def _pid_like(differentiate: bool) -> Callable[[Ctx, str], Outcome]:
             hat.world(f"@data {ctx.port} 3 64 00")        # APOS = 100
         try:
             hat.exchange(f"port {ctx.port} ; select 3 ; debug 16")
+            # Let the @data message cross the wire before the first PID sample: a sample of the
+            # old APOS followed by the new one gives one non-zero differentiated PV (§7.2).
+            hat.collect_ms(20)
             args = hat.pid_command(ctx.port, 3, 0, "s2", "1", "0", "0", "0", "0", "0", "0").split(" ", 1)[1]
             r = hat.exchange(f"{token} {args}")
             lines = pid_lines(reports_after(hat, ctx.port, count=3), ctx.port)
