@@ -21,6 +21,7 @@ SUBCOMMANDS = {
     "replay": ("buildhat_conformance.harness.replay", "replay a transcript against a target and diff"),
     "mock": ("buildhat_conformance.harness.mock", "serve a transcript as a fake HAT"),
     "report": ("buildhat_conformance.harness.report.cli", "build the HTML report from JUnit files"),
+    "load": ("buildhat_conformance.harness.firmware.cli", "load a firmware image through the HAT's bootloader"),
     "bench": ("buildhat_conformance.bench.cli", "benchmarks: timing, throughput, fidelity"),
 }
 

@@ -9,13 +9,13 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass
-from typing import Callable, Dict
+from typing import Callable, Dict, List, Optional
 
 from .link import Hat, Reply
 from .oracles.listing import parse_list
 from .probes import TickClock, data_lines, pid_lines, reports_after, start_quiet_pid
 
-__all__ = ["Outcome", "PROBES", "probe"]
+__all__ = ["Outcome", "PROBES", "probe", "pid_or_diff"]
 
 
 @dataclass
@@ -29,7 +29,6 @@ class Outcome:
 class Ctx:
     hat: Hat
     port: int            # a port with a motor (0x30) established
-    can_data: bool       # the target can fix the motor's mode data (world @data)
 
 
 def _reply(r: Reply, ran: bool) -> Outcome:
@@ -113,29 +112,69 @@ def _debug(ctx: Ctx, token: str) -> Outcome:
     return _reply(r, bool(pid_lines(reports_after(ctx.hat, ctx.port), ctx.port)))
 
 
+def pid_or_diff(pvs: List[float], positions: List[float]) -> Optional[str]:
+    """Which of pid / pid_diff produced these process values (scale 1 on APOS, whole degrees),
+    given the positions the motor reported meanwhile; None when the values cannot tell.
+
+    FACTS §7.2: ``pid`` takes the position itself; ``pid_diff`` takes 100 x its change per
+    10 ms tick, a multiple of 100, and 0 whenever the sensor did not change. A value is
+    evidence for one of them only if the other could not have printed it: a position that is
+    no multiple of 100 (a resting motor's jitter, or any angle but 0 and +-100) tells ``pid``; a
+    multiple of 100 far from every reported position (the jitter's +-100, or 0 while the motor
+    rests elsewhere) tells ``pid_diff``. A motor resting at exactly 0 (or +-100) without jitter
+    gives neither: the caller moves it and looks again."""
+    def like_position(pv: float) -> bool:
+        return any(abs(pv - p) <= 2 for p in positions)
+
+    def like_change(pv: float) -> bool:
+        return abs(pv / 100 - round(pv / 100)) < 1e-6
+
+    pid = any(like_position(pv) and not like_change(pv) for pv in pvs)
+    diff = any(like_change(pv) and not like_position(pv) for pv in pvs)
+    if pid != diff:
+        return "pid" if pid else "diff"
+    return None
+
+
+def _nudge(hat: Hat, port: int) -> None:
+    """Turn the motor a little (drive 0.4 for about two report periods, then coast about four)
+    so it rests somewhere else. Timed by the HAT's own data reports, however fast it runs."""
+    hat.exchange(f"port {port} ; select 3 ; pwm ; plimit 1 ; set 0.4")
+    reports_after(hat, port, count=2)
+    hat.exchange("coast")
+    reports_after(hat, port, count=4)
+    hat.exchange("plimit 0.1")           # the boot value (§7.3)
+
+
 def _pid_like(differentiate: bool) -> Callable[[Ctx, str], Outcome]:
-    """pid and pid_diff both start PID lines; with constant, non-zero data the process
-    variable tells them apart (pid_diff differentiates it to 0, FACTS §7.2)."""
+    """pid and pid_diff both start PID lines; their process values tell them apart (see
+    :func:`pid_or_diff`), read off the motor's own absolute position whatever it is: no
+    world control needed, and a motor at rest on exactly 0 is moved until the values tell."""
+    want = "diff" if differentiate else "pid"
+
     def run(ctx: Ctx, token: str) -> Outcome:
         hat = ctx.hat
-        if ctx.can_data:
-            hat.world(f"@data {ctx.port} 3 64 00")        # APOS = 100
-        try:
+        seen = ""
+        for attempt in range(3):
+            if attempt:
+                _nudge(hat, ctx.port)
             hat.exchange(f"port {ctx.port} ; select 3 ; debug 16")
-            # Let the @data message cross the wire before the first PID sample: a sample of the
-            # old APOS followed by the new one gives one non-zero differentiated PV (§7.2).
-            hat.collect_ms(20)
             args = hat.pid_command(ctx.port, 3, 0, "s2", "1", "0", "0", "0", "0", "0", "0").split(" ", 1)[1]
             r = hat.exchange(f"{token} {args}")
-            lines = pid_lines(reports_after(hat, ctx.port, count=3), ctx.port)
-        finally:
-            if ctx.can_data:
-                hat.world(f"@data {ctx.port} 3 auto")
-        if not lines:
-            return Outcome(False, r.errors > 0, f"{r.raw!r}; no PID lines")
-        zero = all(ln.pv in ("0.00000", "-0.00000") for ln in lines[1:])
-        ran = zero if differentiate else not zero
-        return Outcome(ran and r.errors == 0, r.errors > 0, f"{r.raw!r}; pv {[ln.pv for ln in lines][:4]}")
+            events = r.events + reports_after(hat, ctx.port, count=3)
+            lines = pid_lines(events, ctx.port)
+            if not lines:
+                return Outcome(False, r.errors > 0, f"{r.raw!r}; no PID lines")
+            # The first sample after pid/pid_diff is the position for both on R1-R5 and for pid,
+            # 0 for pid_diff (§7.2): fine either way, but skip it so a stale line cannot mislead.
+            pvs = [ln.value("pv") for ln in lines[1:]]
+            positions = [float(v) for t in data_lines(events, ctx.port) if t.startswith(f"P{ctx.port}M3:")
+                         for v in t.split(":", 1)[1].split()[:1]]
+            seen = f"{r.raw!r}; pv {[ln.pv for ln in lines][:6]}, positions {positions[:6]}"
+            told = pid_or_diff(pvs, positions)
+            if told is not None:
+                return Outcome(told == want and r.errors == 0, r.errors > 0, seen)
+        return Outcome(False, False, f"cannot tell pid from pid_diff after moving the motor twice: {seen}")
     return run
 
 
@@ -202,5 +241,5 @@ PROBES: Dict[str, Callable[[Ctx, str], Outcome]] = {
 
 def probe(hat: Hat, port: int, command: str, token: str) -> Outcome:
     """Run ``command``'s probe with ``token`` standing for the command name."""
-    ctx = Ctx(hat, port, hat.can("data"))
+    ctx = Ctx(hat, port)
     return PROBES[command](ctx, token)

@@ -1,5 +1,9 @@
 """A JUnit XML file that is complete and valid after every test case.
 
+Per case the ``verdict`` property carries one of conformance/verdict.py's VERDICTS; the suite's
+``verdict_count.<verdict>`` properties count them (a target fault is a JUnit ``<error>``, a case
+not run a ``<skipped>``, but neither is a protocol failure).
+
 pytest's own ``--junitxml`` is written once, at the end; a run whose target dies (or whose
 process is killed) would leave nothing. This writer rewrites the whole file atomically
 after each case, so the file on disk is always a valid report of everything run so far.
@@ -58,11 +62,20 @@ class JUnitFile:
                            failures=str(count["failed"]), errors=str(count["error"]),
                            skipped=str(count["skipped"]),
                            time=f"{sum(c.time for c in self.cases):.3f}")
-        if self.properties:
-            props = ET.SubElement(suite, "properties")
-            for name, value in self.properties:
-                ET.SubElement(props, "property", name=_clean(name), value=_clean(value))
+        props = ET.SubElement(suite, "properties")
+        for name, value in self.properties + self._verdict_counts():
+            ET.SubElement(props, "property", name=_clean(name), value=_clean(value))
         return suite
+
+    def _verdict_counts(self) -> List[Tuple[str, str]]:
+        """``verdict_count.<verdict>`` for every verdict the cases carry (their ``verdict``
+        property): target faults and cases not run have their own count, apart from failures."""
+        counts: dict = {}
+        for c in self.cases:
+            v = dict(c.properties).get("verdict")
+            if v:
+                counts[v] = counts.get(v, 0) + 1
+        return [(f"verdict_count.{v}", str(n)) for v, n in sorted(counts.items())]
 
     @staticmethod
     def _case_element(c: Case) -> ET.Element:

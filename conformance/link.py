@@ -7,94 +7,20 @@ command in the profile's own syntax, and the cleanup fence run between test case
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass, field
 from typing import Any, Callable, List, Optional, Union
 
+from ..harness.errors import ExpectTimeout, TargetError
+from ..harness.matching import matcher
 from ..protocol.profiles import Profile
+from .reply import ASYNC_BYTES, ASYNC_LINE, Reply
+from .target_fault import DEAD, GARBLED, NOT_READING, REBOOTED, TargetFault, describe_silence
 
-__all__ = ["Hat", "Reply", "TargetGone"]
+__all__ = ["Hat", "Reply", "TargetGone", "TargetFault", "ASYNC_BYTES", "ASYNC_LINE"]
 
 FENCE_ANSWER = b"Firmware version: "
 
-# Lines the HAT may print at any time (FIRMWARE-FACTS §5, §6): a reply that contains one of
-# these was interleaved with something asynchronous and an exact comparison must retry.
-ASYNC_LINE = re.compile(
-    r"P[0-3]: (?:connecting|connected to|established|disconnected|timeout|checksum|too many|button|"
-    r"pulse done|ramp done|pv=|DATA)|P[0-3][MCV][0-9]*:|set baud rate|deltat=|Port power fault|"
-    r"Motor power fault| Port 4D|   [0-3]  |type [0-9A-F]{2}$|  nmodes|MQ overrun")
-
-
 class TargetGone(RuntimeError):
     """The target stopped answering (closed, killed, unplugged)."""
-
-
-# Whole lines a HAT prints on its own between (never inside) command outputs: the R1 passive
-# re-connect every scan, data reports, PID debug, completion messages (FACTS §5-§7).
-# ``Reply.raw`` leaves them out so a reply can be compared byte for byte; ``Reply.wire`` keeps all.
-ASYNC_BYTES = re.compile(
-    rb"P[0-3]: (?:connected to passive ID [0-9]+|disconnected|button (?:pressed|released)|pulse done|"
-    rb"ramp done|timeout during data phase: disconnecting)\r\n|P[0-3][MCV][0-9]*:[^\r\n]*\r\n|"
-    rb"P[0-3]: (?:pv=|DATA )[^\r\n]*\r\n|deltat=[0-9A-F]{8}\r\n")
-
-
-_LIST_HEADER = re.compile(r"P([0-3]): (?:no device detected|connected to )")
-
-
-@dataclass
-class Reply:
-    """What one host line produced. ``wire``: every byte before the fence, CRLFs included;
-    ``raw``: the same without the asynchronous lines of ``ASYNC_BYTES``."""
-
-    sent: bytes
-    wire: bytes
-    events: List[Any] = field(default_factory=list)
-
-    @property
-    def raw(self) -> bytes:
-        return ASYNC_BYTES.sub(b"", self.wire)
-
-    @property
-    def lines(self) -> List[str]:
-        """Complete lines (CRLF-terminated) as text; a trailing prompt is not a line."""
-        parts = self.raw.split(b"\r\n")
-        return [p.decode("utf-8", errors="replace") for p in parts[:-1]]
-
-    def list_lines(self) -> List[str]:
-        """The lines of a ``list`` dump: asynchronous lines dropped, including a port header
-        out of sequence (R1 repeats ``P<n>: connected to passive ID`` on its own, FACTS §5)."""
-        out, expected = [], 0
-        for line in self.wire.split(b"\r\n")[:-1]:
-            text = line.decode("utf-8", errors="replace")
-            if not text or ASYNC_BYTES.fullmatch(line + b"\r\n") and not _LIST_HEADER.match(text):
-                continue
-            m = _LIST_HEADER.match(text)
-            if m:
-                if int(m.group(1)) != expected:
-                    continue
-                expected += 1
-            out.append(text)
-        return out
-
-    @property
-    def text_lines(self) -> List[str]:
-        """Lines without the blank ones (the CRLF every CR produces)."""
-        return [line for line in self.lines if line]
-
-    @property
-    def errors(self) -> int:
-        return self.lines.count("Error")
-
-    def after_processing(self) -> List[Any]:
-        """The events after the CRLF (or echo) the sent line produced: what the HAT printed
-        once it had processed the line. Lines before it were already on their way (printed
-        earlier in HAT time), however late they reached the host."""
-        for i, e in enumerate(self.events):
-            if "host_line" in getattr(e, "fields", {}):
-                return self.events[i + 1:]
-        return list(self.events)
-
-    def kinds(self, kind: str) -> List[Any]:
-        return [e for e in self.events if getattr(e, "kind", None) == kind]
 
 
 def _index_of(events: List[Any], event: Any, start: int) -> int:
@@ -114,6 +40,13 @@ class Hat:
         self._fence_own: set[int] = set()   # events of fences that ended a collection window
         #: Ports whose drive the fence leaves alone (devices that need power to stay connected).
         self.powered_ports: tuple[int, ...] = ()
+        self._scanned = session.mark()  # events before this were looked at for a start-up banner
+        self._case_bytes = 0            # byte offset where the current case's traffic began
+        #: The HAT restarted; the next resync puts the suite's preconditions back.
+        self.rebooted = False
+        self.restarts = 0               # restarts seen (and recovered from) in this run
+        self._restart_asked = False     # the case reset the HAT itself (a world action)
+        self._restart_at: Optional[int] = None
 
     # -- identity ----------------------------------------------------------------------
     @property
@@ -187,23 +120,82 @@ class Hat:
     def fence(self, timeout: float) -> tuple[int, int]:
         """Send ``version`` and wait for *its* answer: the first version line after the CRLF
         of the fence's own line (a version line the test's own line printed does not count).
-        Returns (index of the fence's first event, index just after its answer)."""
+        Returns (index of the fence's first event, index just after its answer).
+
+        Counting CRLFs is fast and exact on a sound link; when it finds no answer (a line ending
+        lost or added on the link, a silent or restarted HAT) the link is resynchronised by
+        content and the case ends with a :class:`TargetFault` saying what the target did."""
         s = self.session
         start = s.mark()
-        line_no = s.send("version")
-        crlf = s.expect(lambda e: e.fields.get("host_line") == line_no, timeout=timeout, since=start)
-        boundary = _index_of(s.events, crlf, start)
-        answer = s.expect(lambda e: e.kind == "version", timeout=timeout, since=boundary + 1)
+        try:
+            line_no = s.send("version")
+
+            def own_line_ending(e: Any) -> bool:
+                """the CRLF (or echo) of the fence's own line"""
+                return e.fields.get("host_line") == line_no
+
+            def version_line(e: Any) -> bool:
+                """the `Firmware version:` line answering the fence"""
+                return e.kind == "version"
+
+            crlf = s.expect(own_line_ending, timeout=timeout, since=start)
+            boundary = _index_of(s.events, crlf, start)
+            answer = s.expect(version_line, timeout=timeout, since=boundary + 1)
+        except ExpectTimeout:
+            raise self._recover(start, timeout) from None
+        except TargetError as exc:
+            raise TargetFault(DEAD if "stopped reading" not in str(exc) else NOT_READING, str(exc)) from None
         after = _index_of(s.events, answer, boundary) + 1
         if crlf.kind == "echo":
             # With echo on the prompt follows the answer; take it now so it does not open the
             # next reply.
             try:
-                prompt = s.expect(lambda e: e.kind == "prompt", timeout=min(timeout, 0.5), since=after)
+                prompt = s.expect("prompt", timeout=min(timeout, 0.5), since=after)
                 after = _index_of(s.events, prompt, after) + 1
             except AssertionError:
                 pass
+        self.check_reboot(after)
         return boundary, after
+
+    def _recover(self, start: int, waited: float) -> TargetFault:
+        """The counted fence found no answer: sync by content to put the link back in step, and
+        say what the target did."""
+        s = self.session
+        try:
+            sync = s.sync(1.0)
+        except ExpectTimeout:
+            return describe_silence(bytes(s.received[self._case_bytes:]), s.events[start:], waited + 3.0)
+        except TargetError as exc:
+            return TargetFault(DEAD, str(exc))
+        self._next = sync.answer + 1
+        self._fence_own.clear()
+        banner = self._banner_since(start)
+        self._scanned = self._next
+        if banner is not None and not self._restart_asked:
+            self.rebooted = True
+            self._restart_at = banner
+            return TargetFault(REBOOTED, "the HAT printed its start-up banner again during this case "
+                                         f"({s.events[banner].text!r})")
+        return TargetFault(GARBLED, "the reply to this case's line was garbled on the link (a line "
+                                    "ending lost or added); the link was resynchronised by content")
+
+    def _banner_since(self, start: int) -> Optional[int]:
+        # The banner's first line marks a restart (FACTS §5; the bootloader prints it too).
+        return self.session.events.scan(lambda e: e.kind == "banner" and e.fields.get("stage") == "help_hint",
+                                        max(start, self._scanned))
+
+    def check_reboot(self, upto: Optional[int] = None) -> None:
+        """Raise TargetFault(rebooted) if a start-up banner arrived since the last look."""
+        banner = self._banner_since(self._scanned)
+        self._scanned = self.session.mark() if upto is None else max(self._scanned, upto)
+        if banner is not None and self._restart_asked:
+            self.rebooted, self._restart_at = True, banner
+            return
+        if banner is not None:
+            self.rebooted = True
+            self._restart_at = banner
+            raise TargetFault(REBOOTED, "the HAT restarted during this case (its start-up banner came: "
+                                        f"{self.session.events[banner].text!r})")
 
     def exchange_quiet(self, text: Union[str, bytes], attempts: int = 3) -> Reply:
         """``exchange``, repeated while asynchronous lines got mixed into the reply, so the
@@ -324,10 +316,11 @@ class Hat:
         for the next collection. The deadline is HAT time; when it has passed, a fence brings in
         what is still on its way before the search gives up."""
         if callable(match):
-            pred = match
+            pred, what = matcher(match)
         else:
             rx = re.compile(match)
             pred = (lambda e: e.kind == match or bool(rx.search(e.text)))  # noqa: E731
+            what = repr(match)
         began = self.clock()
         i = self._find(self._next, pred, began + self.seconds(hat_ms))
         if i is None:
@@ -336,7 +329,7 @@ class Hat:
             i = self._find(self._next, pred, 0.0)
         if i is None:
             seen = [e.text for e in self.session.events[self._next:]][-15:]
-            raise AssertionError(f"expected {match!r} within {hat_ms:g} ms of HAT time; "
+            raise AssertionError(f"expected {what} within {hat_ms:g} ms of HAT time; "
                                  f"the last lines were {seen!r}")
         self._next = i + 1
         # H10: waiting for a line the HAT prints on its own schedule is mandatory.
@@ -344,6 +337,9 @@ class Hat:
         return self.session.events[i]
 
     def world(self, line: str) -> str:
+        if line.strip().lstrip("@").split(" ", 1)[0] == "reset":
+            # A restart the test asked for is not a fault; the next resync sets up again.
+            self._restart_asked = True
         return self.session.world(line)
 
     def now_ms(self) -> float:
@@ -386,18 +382,68 @@ class Hat:
         return lines + [line]
 
     def resync(self) -> None:
-        """End any half-typed line and put the HAT back in a known state. Reports queued
-        before ``select`` took effect arrive before the fence's answer, so no drain is needed."""
-        self.send(b"\r")
-        if not self._powered_checked:
-            self._powered_checked = True
-            self.powered_ports = self._ports_needing_power()
-        # The lines go back to back under one fence (H10: a fence each made three round trips
-        # per case); they fit the 8192-byte receive ring many times over (FACTS §1).
-        for line in self.cleanup_lines(self.powered_ports):
-            self.send(line)
-        _boundary, self._next = self.fence(2.0)
-        self._fence_own.clear()
+        """Between cases: end any half-typed line, put the HAT back in a known state and find
+        the link's place by content (harness/sync.py), whatever the last case left behind:
+        half a line, a lost or extra line ending, garbage, a restart. After a restart (a
+        start-up banner) the HAT is let finish starting and set up again. Reports queued before
+        ``select`` took effect arrive before the sync's answer, so no drain is needed."""
+        s = self.session
+        self._case_bytes = len(s.received)
+        for _round in range(3):
+            start = s.mark()
+            try:
+                if not self._powered_checked:
+                    s.sync(self._sync_wait())          # in step before asking `list`
+                    self._powered_checked = True
+                    self.powered_ports = self._ports_needing_power()
+                # The lines go back to back under one sync (H10: a fence each made three round
+                # trips per case); they fit the 8192-byte receive ring many times over (FACTS §1).
+                lines = self.cleanup_lines(self.powered_ports)
+                before = b"\r" + b"".join(line.encode() + b"\r" for line in lines)
+                sync = s.sync(self._sync_wait(), before=before)
+            except ExpectTimeout:
+                raise describe_silence(bytes(s.received[self._case_bytes:]), s.events[start:],
+                                       3 * self._sync_wait()) from None
+            except TargetError as exc:
+                raise TargetFault(NOT_READING if "stopped reading" in str(exc) else DEAD, str(exc)) from None
+            banner = self._banner_since(self._scanned)
+            self._next = sync.answer + 1
+            self._fence_own.clear()
+            self._scanned = self._next
+            if banner is None and not self.rebooted:
+                self._restart_asked = False
+                return
+            # The HAT restarted (now, or during the last case): its state is the power-on state
+            # (echo off, ports idle), but the devices connect again and the powered ports are
+            # found again; then the set-up above runs once more.
+            self.rebooted = False
+            self._powered_checked = False
+            self.restarts += 0 if self._restart_asked else 1
+            self._restart_asked = False
+            self._await_started(banner if banner is not None else self._restart_at)
+            self._restart_at = banner if banner is not None else self._restart_at
+        raise TargetFault(REBOOTED, "the HAT restarted again each time it was set up (3 times in a row)")
+
+    def _sync_wait(self) -> float:
+        """Seconds one sync waits for its answer: a round trip with the set-up lines, at most
+        ~60 ms at 115200 baud, with a wide margin (a slow link, a loaded machine)."""
+        return 1.0
+
+    def _await_started(self, banner: Optional[int]) -> None:
+        """Wait (at most 3 s of HAT time) for `Done initialising ports` after the banner at
+        index ``banner`` (FACTS §5: the host waits for it)."""
+        s = self.session
+
+        def started(e: Any) -> bool:
+            """`Done initialising ports`"""
+            return e.kind == "banner" and e.fields.get("stage") == "done"
+
+        since = banner if banner is not None else s.mark()
+        if s.events.scan(started, since) is None:
+            try:
+                s.expect(started, timeout=max(1.0, self.seconds(3000)), since=since)
+            except ExpectTimeout:
+                pass   # the sync that follows says whether the HAT answers
 
     def _ports_needing_power(self) -> tuple[int, ...]:
         """Ports with a device that disconnects without motor power (the light matrix, per

@@ -3,10 +3,17 @@ transcripts, verdict classes, an always-valid JUnit file and a per-requirement s
 
 Options: ``--target URL`` (default ``emulator``), ``--firmware V`` (override detection),
 ``--operator`` (ask a person for world actions), ``--transcripts DIR``,
-``--conformance-junit PATH``, ``--speed N`` (time scale for emulator URLs that give none).
+``--conformance-junit PATH``, ``--speed N`` (time scale for emulator URLs that give none),
+``--max-target-faults N`` (stop talking to a target after N target faults in a row).
+
+Target faults (conformance/target_fault.py) get the verdict ``target-fault``: a JUnit
+``<error>`` whose message is one line saying what the target did. After N of them in a row the
+run stops talking to the target and every remaining case is reported ``not-run`` (a JUnit
+``<skipped>``) with the reason, so a hung HAT costs N cases, not the rest of the run.
 """
 from __future__ import annotations
 
+import hashlib
 import os
 import re
 import time
@@ -19,13 +26,17 @@ from ..protocol.requirements import requirements
 from .junit import Case, JUnitFile
 from .link import Hat
 from .needs import World
+from .target_fault import TargetFault, fault_line, first_line, is_target_fault
 from .tee import TeeTarget, tee
-from .verdict import FAIL, INFO, KNOWN, PASS, SKIP, Verdict
+from .verdict import FAIL, INFO, KNOWN, NOT_RUN, PASS, SKIP, TARGET_FAULT, VERDICTS, Verdict
 
 DEFAULT_CASE_TIMEOUT = 120.0
+DEFAULT_MAX_TARGET_FAULTS = 5
 FW_AREA = "Firmware facts (FW-)"
 
 _verdict_key = pytest.StashKey[Verdict]()
+_not_run_key = pytest.StashKey[str]()          # why the case was not run
+_call_failed_key = pytest.StashKey[bool]()
 
 
 def pytest_addoption(parser: Any) -> None:
@@ -42,6 +53,10 @@ def pytest_addoption(parser: Any) -> None:
                     help="JUnit XML written (and kept valid) after every case")
     group.addoption("--speed", default="10",
                     help="time scale added to emulator URLs that give none (default 10)")
+    group.addoption("--max-target-faults", type=int, default=DEFAULT_MAX_TARGET_FAULTS,
+                    help="after this many target faults in a row (silent, dead, restarted, garbled, not "
+                         "reading) stop talking to the target and report the remaining cases as not-run "
+                         f"(default {DEFAULT_MAX_TARGET_FAULTS}; 0: never stop)")
 
 
 def pytest_configure(config: Any) -> None:
@@ -79,8 +94,15 @@ def area_of(req_id: str) -> str:
     return "Unknown IDs"
 
 
-def _safe(nodeid: str) -> str:
-    return re.sub(r"[^A-Za-z0-9_.-]+", "_", nodeid).strip("_")[:180]
+def transcript_name(nodeid: str) -> str:
+    """A file name for a case's transcript, unique per case: the node id with unsafe
+    characters replaced, plus a digest of the exact node id whenever that replacement (or the
+    length limit) lost anything (`[vin;vin]` and `[vin ; vin]` must not share a file)."""
+    safe = re.sub(r"[^A-Za-z0-9_.-]+", "_", nodeid).strip("_")
+    if safe == nodeid and len(safe) <= 180:
+        return safe
+    digest = hashlib.sha1(nodeid.encode("utf-8")).hexdigest()[:10]
+    return f"{safe[:170]}-{digest}"
 
 
 class Run:
@@ -97,6 +119,10 @@ class Run:
         self.collected_ids: Dict[str, List[str]] = {}
         self._case: Dict[str, Case] = {}
         self._started: Dict[str, float] = {}
+        self.max_target_faults = int(config.getoption("max_target_faults") or 0)
+        self.faults_in_a_row = 0
+        self.stopped: Optional[str] = None      # why the run stopped talking to the target
+        self.target_faults: List[Tuple[str, str]] = []    # (nodeid, what the target did)
         self.junit = JUnitFile(config.getoption("conformance_junit"), "buildhat-conformance",
                                [("target", self.url)])
 
@@ -105,7 +131,7 @@ class Run:
         if self.hat is not None:
             return self.hat
         if self.open_error:
-            pytest.fail(self.open_error, pytrace=False)
+            raise TargetFault("unreachable", self.open_error)
         from ..harness.session import Session
         from ..harness.targets import make_target
         from ..harness.transcript import TranscriptWriter
@@ -120,8 +146,9 @@ class Run:
             session = Session(self.tee, transcript=None, profile=profile)
             session.open()
         except Exception as exc:  # the message says how to reach the target
-            self.open_error = f"cannot open target {self.url}: {type(exc).__name__}: {exc}"
-            pytest.fail(self.open_error, pytrace=False)
+            self.open_error = f"cannot open target {self.url}: {first_line(str(exc)) or type(exc).__name__}"
+            self.stopped = self.open_error
+            raise TargetFault("unreachable", self.open_error) from exc
         self.hat = Hat(session, self.tee, self.url)
         p = self.hat.profile
         self.junit.set_property("firmware", p.version_string)
@@ -149,6 +176,15 @@ class Run:
     def pytest_runtest_makereport(self, item: Any, call: Any):
         outcome = yield
         report = outcome.get_result()
+        exc = call.excinfo.value if call.excinfo is not None else None
+        if report.failed and is_target_fault(exc):
+            assert exc is not None
+            report.user_properties.append(("target_fault", fault_line(exc)))
+        if report.when == "call":
+            item.stash[_call_failed_key] = bool(report.failed)
+        not_run = item.stash.get(_not_run_key, None)
+        if not_run is not None and report.skipped:
+            report.user_properties.append(("not_run", not_run))
         if report.when != "call":
             return
         verdict = item.stash.get(_verdict_key, None)
@@ -159,7 +195,7 @@ class Run:
         elif report.skipped:
             cls = SKIP
         else:
-            cls = FAIL
+            cls = TARGET_FAULT if is_target_fault(exc) else FAIL
         report.user_properties.append(("verdict", cls))
         if verdict.known:
             report.user_properties.append(("deviations", ",".join(k for k, _ in verdict.known)))
@@ -168,8 +204,13 @@ class Run:
             report.user_properties.append(("notes", " | ".join(verdict.notes)))
 
     def pytest_report_teststatus(self, report: Any, config: Any):
+        props = dict(report.user_properties)
+        if report.failed and "target_fault" in props:
+            return "target-fault", "T", ("TARGET-FAULT", {"red": True})
+        if report.skipped and "not_run" in props:
+            return "not-run", "N", ("NOT RUN", {"yellow": True})
         if report.when == "call" and report.passed:
-            cls = dict(report.user_properties).get("verdict")
+            cls = props.get("verdict")
             if cls == KNOWN:
                 return "known deviation", "K", ("KNOWN DEVIATION", {"yellow": True})
             if cls == INFO:
@@ -190,24 +231,63 @@ class Run:
         for k, v in report.user_properties:
             props[k] = str(v)
         case.properties = list(props.items())
-        if report.failed and case.outcome not in ("failed", "error"):
+        if report.failed and "target_fault" in props and case.outcome != "error":
+            # What the target did, in one line; the traceback stays in the details.
+            case.outcome, case.message = "error", props["target_fault"]
+            case.details = report.longreprtext
+        elif report.failed and case.outcome not in ("failed", "error"):
             case.outcome = "failed" if report.when == "call" else "error"
-            case.message = _first_line(report.longreprtext)
+            case.message = _failure_line(report)
             case.details = report.longreprtext
         elif report.skipped and case.outcome == "passed":
             case.outcome = "skipped"
             reason = report.longrepr[2] if isinstance(report.longrepr, tuple) else str(report.longrepr)
-            case.message = case.details = str(reason)
+            case.message = case.details = str(reason).removeprefix("Skipped: ")
         if report.when == "teardown":
-            case.time = time.monotonic() - self._started.get(nodeid, time.monotonic())
-            props = dict(case.properties)
+            self._finish(nodeid, case)
+
+    def _finish(self, nodeid: str, case: Case) -> None:
+        case.time = time.monotonic() - self._started.get(nodeid, time.monotonic())
+        props = dict(case.properties)
+        if "target_fault" in props:
+            cls = TARGET_FAULT
+        elif "not_run" in props:
+            cls = NOT_RUN
+        else:
             cls = {"failed": FAIL, "error": FAIL, "skipped": SKIP}.get(case.outcome) \
                 or props.get("verdict", PASS)
-            props["verdict"] = cls
-            case.properties = list(props.items())
-            self.junit.add(case)
-            self.results[nodeid] = (cls, self.collected_ids.get(nodeid, []))
-            del self._case[nodeid]
+        props["verdict"] = cls
+        case.properties = list(props.items())
+        self.junit.add(case)
+        self.results[nodeid] = (cls, self.collected_ids.get(nodeid, []))
+        del self._case[nodeid]
+        self._count_fault(nodeid, cls, props.get("target_fault", ""))
+
+    def _count_fault(self, nodeid: str, cls: str, what: str) -> None:
+        """N target faults in a row: stop talking to the target (the rest is not-run)."""
+        if cls == NOT_RUN:
+            return
+        if cls != TARGET_FAULT:
+            self.faults_in_a_row = 0
+            return
+        self.target_faults.append((nodeid, what))
+        self.faults_in_a_row += 1
+        dead = self.tee is not None and self.tee.dead
+        if self.stopped is None and (dead or self.max_target_faults and
+                                     self.faults_in_a_row >= self.max_target_faults):
+            why = "the target went away" if dead else f"{self.faults_in_a_row} target faults in a row"
+            self.stopped = f"{why}; the last: {what}"
+            self.junit.set_property("stopped", self.stopped)
+            if self.hat is not None:
+                self._close_quietly()
+
+    def _close_quietly(self) -> None:
+        # Stop talking to the target now: a hung HAT must not be written to (or waited for) again.
+        try:
+            self.close()
+        finally:
+            self.hat = None
+            self.open_error = self.open_error or self.stopped
 
     def pytest_sessionfinish(self, session: Any, exitstatus: Any) -> None:
         self.close()
@@ -224,18 +304,27 @@ class Run:
             for rid in set(ids):
                 covered.add(rid)
                 per_area[area_of(rid)][cls] += 1
-        classes = (PASS, FAIL, SKIP, KNOWN, INFO)
-        tr.write_line(f"{'area':<32}" + "".join(f"{c:>17}" for c in classes))
+        classes = VERDICTS
+        tr.write_line(f"{'area':<32}" + "".join(f"{c:>16}" for c in classes))
         areas = [r.area for r in requirements()]
         for area in sorted(per_area, key=lambda a: (areas.index(a) if a in areas else 99, a)):
-            tr.write_line(f"{area:<32}" + "".join(f"{per_area[area][c]:>17}" for c in classes))
+            tr.write_line(f"{area:<32}" + "".join(f"{per_area[area][c]:>16}" for c in classes))
         all_ids = [r.id for r in requirements()]
         missing = [rid for rid in all_ids if rid not in covered]
         tr.write_line(f"requirement IDs with no test run: {len(missing)} of {len(all_ids)}"
                       + (f" ({', '.join(missing)})" if missing else ""))
-        if self.hat is not None:
-            p = self.hat.profile
-            exact = "" if self.hat.profile_exact else \
+        counts = {c: sum(1 for cls, _ in self.results.values() if cls == c) for c in VERDICTS}
+        tr.write_line("verdicts: " + ", ".join(f"{counts[c]} {c}" for c in VERDICTS if counts[c]))
+        for nodeid, what in self.target_faults[:20]:
+            tr.write_line(f"  {nodeid}: {what}")
+        if len(self.target_faults) > 20:
+            tr.write_line(f"  ... and {len(self.target_faults) - 20} more target faults (JUnit has them all)")
+        if self.stopped:
+            tr.write_line(f"stopped talking to the target: {self.stopped}", yellow=True)
+        hat = self.hat
+        if hat is not None:
+            p = hat.profile
+            exact = "" if hat.profile_exact else \
                 " - unknown version, judged as the nearest earlier release"
             tr.write_line(f"target {self.url}: firmware {p.version_string} profile {p.name}{exact}")
         tr.write_line(f"JUnit: {self.junit.path}   transcripts: {self.transcripts}")
@@ -244,11 +333,15 @@ class Run:
 _run_key = pytest.StashKey[Run]()
 
 
-def _first_line(text: str) -> str:
-    for line in text.splitlines():
-        if line.strip():
-            return line.strip()[:300]
-    return ""
+def _failure_line(report: Any) -> str:
+    """One line saying what failed: the exception's own message (pytest's "crash" line), never
+    the first line of the traceback (that is `hat = <...Hat object at 0x...>`)."""
+    crash = getattr(getattr(report, "longrepr", None), "reprcrash", None)
+    message = getattr(crash, "message", "") if crash is not None else ""
+    line = first_line(message) if message else first_line(report.longreprtext)
+    for prefix in ("Failed: ", "AssertionError: "):
+        line = line.removeprefix(prefix)
+    return line
 
 
 # -- fixtures ------------------------------------------------------------------------------
@@ -257,10 +350,16 @@ def _run(pytestconfig: Any) -> Run:
     return pytestconfig.stash[_run_key]
 
 
-@pytest.fixture(scope="session")
+@pytest.fixture
 def hat(_run: Run) -> Hat:
-    """The HAT under test, shared by every case (opened once, closed at the end)."""
+    """The HAT under test, shared by every case (opened once, closed at the end). Function-scoped
+    as a fixture (the session is cached by the run) so that a target that could not be opened is
+    a target fault once, not an error cached for every later case."""
     return _run.open()
+
+
+class NotRun(pytest.skip.Exception):  # type: ignore[misc, name-defined]
+    """The case was not run: the run had stopped talking to the target."""
 
 
 @pytest.fixture(autouse=True)
@@ -268,27 +367,37 @@ def _conformance_case(request: Any, _run: Run) -> Any:
     """Per case: its own transcript, the resynchronising fence, and its JUnit properties."""
     from ..harness.transcript import TranscriptWriter
 
-    hat = _run.open()
     item = request.node
+    ids = requirement_ids(item)
+    item.user_properties.extend([("requirements", ",".join(ids)), ("target", _run.url)])
+    if _run.stopped is None and _run.tee is not None and _run.tee.dead:
+        _run.stopped = f"the target went away ({first_line(_run.tee.dead)})"
+    if _run.stopped is not None:
+        item.stash[_not_run_key] = _run.stopped
+        raise NotRun(f"not run: {_run.stopped}", pytrace=False)
+    hat = _run.open()
+    assert _run.tee is not None
     verdict = Verdict(hat.profile.name)
     item.stash[_verdict_key] = verdict
-    path = os.path.join(_run.transcripts, _safe(item.nodeid) + ".jsonl")
-    ids = requirement_ids(item)
+    path = os.path.join(_run.transcripts, transcript_name(item.nodeid) + ".jsonl")
     p = hat.profile
     item.user_properties.extend([
-        ("requirements", ",".join(ids)), ("target", _run.url), ("firmware", p.version_string),
+        ("firmware", p.version_string),
         ("profile", p.name if hat.profile_exact else f"{p.name} (nearest earlier)"), ("transcript", path)])
     if not hat.profile_exact:
         verdict.note(f"unknown firmware version; judged as {p.name}, the nearest earlier release")
-    if _run.tee.dead:
-        pytest.fail(f"the target went away earlier in the run ({_run.tee.dead})", pytrace=False)
     writer = TranscriptWriter(path, {"firmware": p.version_string, "target": _run.url, "case": item.nodeid,
                                      "requirements": ids, "profile": p.name})
     _run.tee.switch(writer)
     waited = getattr(hat.session, "waited_hat_ms", 0.0)   # H10: see Session.note_wait
+    restarts = hat.restarts
     try:
         hat.resync()
+        if hat.restarts > restarts:
+            verdict.note("the HAT restarted before this case; the suite's set-up was restored")
         yield
+        if not item.stash.get(_call_failed_key, False):
+            hat.check_reboot()     # a restart late in a case that did not fence after it
     finally:
         _run.tee.switch(None)
         writer.close()
@@ -304,13 +413,15 @@ def verdict(request: Any) -> Verdict:
 
 
 @pytest.fixture(scope="session")
-def _world_changes(hat: Hat, _run: Run, pytestconfig: Any) -> Any:
+def _world_changes(_run: Run, pytestconfig: Any) -> Any:
     """The ports the run changed and what they had before; put back when the run ends
-    (unless the HAT ends with the run: an emulator the target started itself)."""
+    (unless the HAT ends with the run: an emulator the target started itself, or the run
+    stopped talking to it)."""
     original: Dict[int, Any] = {}
     yield original
-    if original and _run.tee is not None and not _run.tee.dead and not _run.tee.disposable:
-        World(hat, pytestconfig, original).restore()
+    if original and _run.hat is not None and _run.tee is not None and not _run.tee.dead \
+            and not _run.tee.disposable:
+        World(_run.hat, pytestconfig, original).restore()
 
 
 @pytest.fixture

@@ -26,6 +26,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="folder for per-case transcripts (default: beside the JUnit file)")
     parser.add_argument("-k", dest="keyword", default=None, help="only tests matching this pytest expression")
     parser.add_argument("--operator", action="store_true", help="ask a person for plug/unplug actions")
+    parser.add_argument("--image", default=None, metavar="FILE",
+                        help="load this firmware image through the HAT's bootloader before the suite "
+                             "(with --signature; as `buildhat-conformance load`)")
+    parser.add_argument("--signature", default=None, metavar="FILE", help="the image's 64-byte signature")
 
 
 def suite_dir() -> str:
@@ -64,7 +68,44 @@ def build_html_report(junit: str) -> None:
         print(f"buildhat-conformance: HTML report not built: {exc}", file=sys.stderr)
 
 
+def load_image_first(args: argparse.Namespace) -> int:
+    """``--image/--signature``: load the release under test into every target before any case
+    runs (harness/firmware/). Returns 0, or the exit status of a failed load (one line said why)."""
+    from ..harness.firmware.cli import load_from_args
+    from ..harness.firmware.errors import EXIT_USAGE, LoadError
+    from ..harness.targets import TargetError, make_target
+
+    prog = "buildhat-conformance run"
+    if not (args.image and args.signature):
+        print(f"{prog}: --image and --signature go together (the bootloader needs both)", file=sys.stderr)
+        return EXIT_USAGE
+    targets = args.target if isinstance(args.target, list) else [args.target or "emulator"]
+    for url in targets:
+        try:
+            disposable = make_target(url).disposable
+        except TargetError as exc:
+            print(f"{prog}: {' '.join(str(exc).split())}", file=sys.stderr)
+            return EXIT_USAGE
+        if disposable:
+            print(f"{prog}: --image needs a HAT that outlives one connection, and {url} starts a new one for "
+                  "each; start one with `buildhat-emulator --pty --bootloader --link /tmp/hat` and use "
+                  "--target /tmp/hat", file=sys.stderr)
+            return EXIT_USAGE
+        transcript = os.path.join(os.path.dirname(os.path.abspath(args.junit)), "load.jsonl")
+        try:
+            result = load_from_args(url, args.image, args.signature, transcript=transcript)
+        except LoadError as exc:
+            print(f"{prog}: loading {args.image} into {url}: {exc}", file=sys.stderr)
+            return exc.exit_status
+        print(f"loaded: firmware version {result.firmware_version} into {url}", flush=True)
+    return 0
+
+
 def main(args: argparse.Namespace) -> int:
+    if args.image or args.signature:
+        status = load_image_first(args)
+        if status:
+            return status
     # The suite's own folder is the rootdir; pytest.ini options of the caller's project are not ours.
     code = subprocess.call(pytest_argv(args))
     build_html_report(os.path.abspath(args.junit))

@@ -77,11 +77,13 @@ class TeeTarget(Target):
         except Exception as exc:
             self.dead = self.dead or f"{type(exc).__name__}: {exc}"
             raise
-        if data:
-            with self._lock:
-                w = self._writer()
-                if w is not None:
+        with self._lock:
+            w = self._writer()
+            if w is not None:
+                if data:
                     w.hat(self._now_ms(), data)
+                # A half line that has waited for its CRLF goes to disk now: kill -9 loses nothing.
+                w.flush_stale()
         return data
 
     def close(self) -> None:

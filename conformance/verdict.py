@@ -1,4 +1,7 @@
-"""Per-test verdict: pass / fail / skip / known deviation / informational.
+"""Per-test verdict: pass / fail / skip / known deviation / informational, and the two that
+are not about the protocol: target-fault (the target misbehaved as a device: silent, dead,
+restarted, garbled, not reading; conformance/target_fault.py) and not-run (the run stopped
+talking to the target before the case).
 
 A test states what the document requires and what this release is known to do instead;
 :meth:`Verdict.document` turns that into the verdict. Failures go through ``pytest.fail``
@@ -12,9 +15,12 @@ import pytest
 
 from .deviations import deviation
 
-__all__ = ["Verdict", "PASS", "FAIL", "SKIP", "KNOWN", "INFO"]
+__all__ = ["Verdict", "PASS", "FAIL", "SKIP", "KNOWN", "INFO", "TARGET_FAULT", "NOT_RUN", "VERDICTS"]
 
 PASS, FAIL, SKIP, KNOWN, INFO = "pass", "fail", "skip", "known deviation", "informational"
+TARGET_FAULT, NOT_RUN = "target-fault", "not-run"
+#: Every verdict, in the order summaries show them.
+VERDICTS = (PASS, FAIL, TARGET_FAULT, NOT_RUN, SKIP, KNOWN, INFO)
 
 
 class Verdict:

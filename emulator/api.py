@@ -17,6 +17,7 @@ from ..protocol.devices import DEFAULT_LAYOUT, parse_device_spec
 from ..protocol.profiles import Profile, get_profile, load_profiles
 from .bootloader import Bootloader, bootloader_checksum
 from .hat import Hat
+from .reset_pins import HeldInReset
 from .uart import Uart
 from .world import WorldError, perform_line
 
@@ -132,6 +133,11 @@ class Emulator:
             self.uart.host_write(data[i:i + step])
             self.machine.poll()
 
+    def host_room(self) -> Optional[int]:
+        """Host bytes the wire takes now (None: any number, no baud rate); a real-time runner reads no
+        more than this from its link, so the host feels the wire's pace (back-pressure)."""
+        return self.uart.host_room()
+
     def read(self) -> bytes:
         """Every output byte not yet read."""
         return self.uart.host_read()
@@ -235,6 +241,8 @@ class Emulator:
         if head == "@time":
             return f"ok {self._now}"
         if head == "@firmware":
+            if isinstance(self.machine, HeldInReset):
+                return "ok reset"
             if self.in_bootloader:
                 return "ok bootloader"
             return f"ok {self.machine.version_string}"
@@ -246,6 +254,14 @@ class Emulator:
         elif head == "@unplug":
             self.devices[int(words[1])] = None
         return "ok"
+
+    def hold_reset(self) -> None:
+        """RESET held low (emulator/reset_pins.py): the chip stops until :meth:`reset` releases it."""
+        self.machine = HeldInReset(self.uart, now=self._now)
+
+    def note(self, text: str) -> None:
+        """A transcript ``note`` event at the current time (a remark by the tool)."""
+        self._sink("note", self._now, {"text": text})
 
     def reset(self, bootloader: bool = False) -> None:
         """Pulse the HAT's reset line: firmware restarts (or the bootloader, if asked)."""

@@ -20,6 +20,7 @@ import hashlib
 import os
 from typing import Any, Callable, Dict, List, Optional, Union
 
+from ..protocol.image_checksum import bootloader_checksum
 from ..protocol.profiles import bootloader_data
 from .lineeditor import CRLF, LineEditor
 from .parser import CommandError, Cursor
@@ -31,7 +32,6 @@ __all__ = ["Bootloader", "bootloader_checksum", "load_public_key", "RELEASE_PUBL
 STX, ETX = 0x02, 0x03
 DATA_TIMEOUT_MS = 1000
 REBOOT_DELAY_MS = 100
-_POLY = 0x1D872B41
 _ERROR = b"Error"
 
 # The key the released bootloader holds (bhbl-pico/key.public.h, 64 bytes as stored). Only
@@ -43,18 +43,6 @@ RELEASE_PUBLIC_KEY = bytes.fromhex(
 
 EventSink = Callable[[str, int, Dict[str, Any]], None]
 RebootHook = Callable[[bytes, Optional[bytes]], None]
-
-
-def bootloader_checksum(data: bytes, state: int = 1) -> int:
-    """§9: s starts at 1; per byte s = (s << 1) ^ (0x1D872B41 if the old top bit was 1), s ^= byte."""
-    s = state
-    for b in data:
-        top = s >> 31
-        s = (s << 1) & 0xFFFFFFFF
-        if top:
-            s ^= _POLY
-        s ^= b
-    return s
 
 
 def load_public_key(key: Union[bytes, str, os.PathLike]) -> Any:

@@ -16,12 +16,15 @@ __all__ = ["main", "build_parser"]
 
 CONTROL_HELP = """\
 control channel (--control PATH for a Unix socket, or --control tcp:HOST:PORT):
-  one request per line, one reply per line ("ok", "ok <value>" or "error <message>").
+  at start stderr shows "buildhat-emulator: BUILDHAT_EMULATOR_CONTROL=<address>" (on TCP also
+  "BUILDHAT_EMULATOR_TOKEN=<token>": send "@auth TOKEN" first; set that variable beforehand to choose
+  the token). One request per line, one reply per line ("ok", "ok <value>" or "error <message>").
   World actions as in a scenario script: @plug P SPEC, @unplug P, @data P M HH.. | auto,
   @motorfault 1 P [F4D F4E F4F] | 0 [P], @portfault 1|0, @button P 0|1, @adc RAW,
   @rate P MS, @hold P 0|1, @pos P DEG.  Also: @reset, @reset bootloader, @time (virtual ms),
   @firmware (version string), @speed [N] (get/set), @lint (host-traffic lint, JSON),
-  @settled (1 once the start-up is done and the devices are up).
+  @settled (1 once the start-up is done and the devices are up),
+  @gpio reset|boot0 0|1|z (the HAT's RESET/BOOT0 lines; GPIOZERO_PIN_FACTORY=buildhat_emulator).
 device SPEC: an active type id in hex (0x30), "passive N", or "none".
 default layout: P0 0x30, P1 0x40, P2 passive 8, P3 none.
 """
@@ -56,7 +59,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=int, default=0, metavar="N", help="seed for the device models' noise")
     p.add_argument("--strict-host", action="store_true",
                    help="exit with an error at the first host-lint finding")
-    p.add_argument("--control", metavar="PATH|tcp:HOST:PORT", help="serve the control channel there")
+    p.add_argument("--control", metavar="PATH|tcp:HOST:PORT", help="serve the control channel there "
+                   "(a Unix socket is mode 0600; TCP is loopback only and asks for the per-run token)")
+    p.add_argument("--allow-remote", action="store_true",
+                   help="let the TCP control channel listen on a non-loopback address")
+    p.add_argument("--transcript", metavar="FILE",
+                   help="write every byte both ways, device events and host-lint findings (as notes) "
+                        "to FILE as a JSONL transcript (with --script: instead of stdout)")
     return p
 
 
@@ -95,6 +104,10 @@ def _check(args: argparse.Namespace, parser: argparse.ArgumentParser) -> None:
     if args.booted and (args.script or args.bootloader):
         parser.error("--booted starts the firmware of a real-time mode; not with "
                      + ("--script" if args.script else "--bootloader"))
+    if args.allow_remote and not (args.control or "").startswith("tcp:"):
+        parser.error("--allow-remote is for a TCP control channel (--control tcp:HOST:PORT)")
+    if args.transcript and args.stdio and args.transcript == "-":
+        parser.error("--transcript -: stdout is the serial link with --stdio; give a file")
     if args.tcp:
         from .runners.links import parse_tcp_address
         try:
@@ -126,12 +139,20 @@ def _run_script(args: argparse.Namespace, devices: Dict[int, Optional[tuple]]) -
         return 2
     lint = _lint(args)
     try:
-        run_script(script, sys.stdout, firmware=args.firmware, devices=devices,
+        out = open(args.transcript, "w", encoding="utf-8") if args.transcript else sys.stdout
+    except OSError as exc:
+        print(f"buildhat-emulator: cannot write {args.transcript}: {exc.strerror}", file=sys.stderr)
+        return 2
+    try:
+        run_script(script, out, firmware=args.firmware, devices=devices,
                    version_string=args.version_string, seed=args.seed, baud=args.baud, lint=lint,
-                   tool_version=__version__)
+                   tool_version=__version__, lint_notes=bool(args.transcript))
     except (ScriptRunError, RuntimeError) as exc:    # RuntimeError: the layout never came up
         print(f"buildhat-emulator: {exc}", file=sys.stderr)
         return 2
+    finally:
+        if out is not sys.stdout:
+            out.close()
     _report(lint)
     if args.strict_host and lint.fatal_message():
         print(lint.fatal_message(), file=sys.stderr)
@@ -140,14 +161,17 @@ def _run_script(args: argparse.Namespace, devices: Dict[int, Optional[tuple]]) -
 
 
 def _run_realtime(args: argparse.Namespace, devices: Dict[int, Optional[tuple]]) -> int:
+    from ..harness.version import __version__
     from .api import Emulator
-    from .control import ControlHandler, ControlServer
+    from .control import ENV_TOKEN, ControlHandler, ControlServer
     from .runners.clock import RealTimeClock
     from .runners.links import PtyLink, StdioLink, TcpLink
     from .runners.realtime import run_realtime
+    from .runners.recording import LinkRecorder
 
     lint = _lint(args)
-    link = control = None
+    link = control = recorder = None
+    status: Optional[int] = None
     try:
         emulator = Emulator(firmware=args.firmware, devices=devices, version_string=args.version_string,
                             bootloader=args.bootloader, seed=args.seed, baud=args.baud,
@@ -162,23 +186,37 @@ def _run_realtime(args: argparse.Namespace, devices: Dict[int, Optional[tuple]])
                 return 2
             emulator.read()
         lint.follow(emulator)
-        if args.pty:
-            link = PtyLink(args.link)
-            print(link.path, flush=True)
-        elif args.tcp:
-            link = TcpLink(args.tcp)
-            print(link.address, flush=True)
-        else:
-            link = StdioLink()
         clock = RealTimeClock(args.speed)
         if args.control:
-            control = ControlServer(args.control, ControlHandler(emulator, clock, lint))
-            if control.address != args.control:      # e.g. tcp:...:0 -> the port it got
-                print(f"buildhat-emulator: control channel on {control.address}", file=sys.stderr,
-                      flush=True)
-        return run_realtime(emulator, link, clock, control, lint)
+            # Before the link: the first stdout line (the pty path) means everything is listening.
+            control = ControlServer(args.control, ControlHandler(emulator, clock, lint),
+                                    token=os.environ.get(ENV_TOKEN) or None, allow_remote=args.allow_remote)
+            print(f"buildhat-emulator: {control.environment()}", file=sys.stderr, flush=True)
+        if args.pty:
+            link = PtyLink(args.link)
+            where = link.path
+        elif args.tcp:
+            link = TcpLink(args.tcp, paced=args.baud is not None)
+            where = link.address
+        else:
+            link = StdioLink()
+            where = "stdio"
+        if args.transcript:
+            try:
+                recorder = LinkRecorder(args.transcript, emulator, {
+                    "target": "emulator", "tool": "buildhat-emulator", "version": __version__,
+                    "link": where, "profile": emulator.profile.name, "baud": args.baud,
+                    "booted": bool(args.booted)}).attach(lint)
+            except OSError as exc:
+                print(f"buildhat-emulator: cannot write {args.transcript}: {exc.strerror}", file=sys.stderr)
+                return 2
+        if not args.stdio:
+            print(where, flush=True)
+        status = run_realtime(emulator, link, clock, control, lint, tap=recorder)
+        return status
     except ValueError as exc:
         print(f"buildhat-emulator: {exc}", file=sys.stderr)
+        status = 2
         return 2
     finally:
         if control is not None:
@@ -186,6 +224,9 @@ def _run_realtime(args: argparse.Namespace, devices: Dict[int, Optional[tuple]])
         if link is not None:
             link.close()
         _report(lint)
+        if recorder is not None:
+            lint.finish()       # open chatty bursts become findings (notes) before the end event
+            recorder.close(status)
 
 
 def _report(lint) -> None:

@@ -10,27 +10,26 @@ dropped and everything already done stays done.
 """
 from __future__ import annotations
 
-import importlib
 from functools import cache
-from typing import TYPE_CHECKING, Callable, Dict, List, Tuple
+from typing import Callable, Dict, List, Tuple
 
+from . import commands_core, commands_device, commands_drive
+from .command_context import CommandContext
 from .parser import CommandError, Cursor, prefix_table
-
-if TYPE_CHECKING:
-    from .hat import Hat
 
 __all__ = ["run_line", "command_table", "ERROR_LINE", "COMMAND_MODULES"]
 
 ERROR_LINE = b"Error"
-COMMAND_MODULES = ("commands_core", "commands_device", "commands_drive")
+_MODULES = (commands_core, commands_device, commands_drive)
+COMMAND_MODULES = tuple(m.__name__.rsplit(".", 1)[-1] for m in _MODULES)
 
-Command = Callable[["Hat", Cursor], None]
+Command = Callable[[CommandContext, Cursor], None]
 
 
 def _implementations() -> Dict[str, Command]:
     found: Dict[str, Command] = {}
-    for name in COMMAND_MODULES:       # imported late: they import the Hat's collaborators
-        found.update(importlib.import_module(f"{__package__}.{name}").COMMANDS)
+    for module in _MODULES:
+        found.update(module.COMMANDS)
     return found
 
 
@@ -52,7 +51,7 @@ def _dispatch(commands: Tuple[str, ...]) -> Tuple[Dict[bytes, str], Dict[str, Co
     return prefix_table(names), table
 
 
-def run_line(hat: Hat, line: bytes) -> Tuple[bool, List[str], List[str]]:
+def run_line(hat: CommandContext, line: bytes) -> Tuple[bool, List[str], List[str]]:
     """Run every command on the line. Returns (error, commands run, unknown tokens)."""
     prefixes, table = _dispatch(tuple(hat.profile.commands))
     cur = Cursor(line)

@@ -4,12 +4,10 @@ help/?, port, vin, ledmode, echo, debug, version, signature. Each is ``fn(hat, c
 """
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Callable, Dict
+from typing import Callable, Dict
 
+from .command_context import CommandContext
 from .parser import Cursor
-
-if TYPE_CHECKING:
-    from .hat import Hat
 
 __all__ = ["COMMANDS", "format_vin", "UNKNOWN_SIGNATURE"]
 
@@ -18,11 +16,11 @@ __all__ = ["COMMANDS", "format_vin", "UNKNOWN_SIGNATURE"]
 UNKNOWN_SIGNATURE = bytes(64)
 
 
-def cmd_help(hat: Hat, cur: Cursor) -> None:
+def cmd_help(hat: CommandContext, cur: Cursor) -> None:
     hat.write_out(hat.profile.help_bytes)
 
 
-def cmd_port(hat: Hat, cur: Cursor) -> None:
+def cmd_port(hat: CommandContext, cur: Cursor) -> None:
     hat.port = min(cur.unsigned(), 3)     # unsigned: `port -1` fails; large values clamp
 
 
@@ -32,27 +30,27 @@ def format_vin(mv: int) -> str:
     return f"{k // 100}.{k % 100:02d} V"
 
 
-def cmd_vin(hat: Hat, cur: Cursor) -> None:
+def cmd_vin(hat: CommandContext, cur: Cursor) -> None:
     hat.emit(format_vin(hat.vin_mv))
 
 
-def cmd_ledmode(hat: Hat, cur: Cursor) -> None:
+def cmd_ledmode(hat: CommandContext, cur: Cursor) -> None:
     hat.ledmode = max(-1, min(cur.signed(), 3))
 
 
-def cmd_echo(hat: Hat, cur: Cursor) -> None:
+def cmd_echo(hat: CommandContext, cur: Cursor) -> None:
     hat.echo = cur.signed()
 
 
-def cmd_debug(hat: Hat, cur: Cursor) -> None:
+def cmd_debug(hat: CommandContext, cur: Cursor) -> None:
     hat.debug = cur.signed()
 
 
-def cmd_version(hat: Hat, cur: Cursor) -> None:
+def cmd_version(hat: CommandContext, cur: Cursor) -> None:
     hat.emit("Firmware version: " + hat.version_string)
 
 
-def cmd_signature(hat: Hat, cur: Cursor) -> None:
+def cmd_signature(hat: CommandContext, cur: Cursor) -> None:
     sig = hat.signature
     if sig is None:
         sig = UNKNOWN_SIGNATURE
@@ -60,7 +58,7 @@ def cmd_signature(hat: Hat, cur: Cursor) -> None:
     hat.emit(b"Firmware signature:" + b"".join(b" %02X" % b for b in sig))
 
 
-COMMANDS: Dict[str, Callable[[Hat, Cursor], None]] = {
+COMMANDS: Dict[str, Callable[[CommandContext, Cursor], None]] = {
     "help": cmd_help,
     "?": cmd_help,
     "port": cmd_port,

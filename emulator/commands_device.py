@@ -4,13 +4,11 @@ the firmware had already done (partial-failure rules of §3).
 """
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, List, Tuple
+from typing import List, Tuple
 
 from . import lpf2
+from .command_context import CommandContext
 from .parser import CommandError, Cursor
-
-if TYPE_CHECKING:
-    from .hat import Hat
 
 __all__ = ["COMMANDS", "MAX_WRITE_BYTES", "MAX_COMBI_PAIRS"]
 
@@ -22,13 +20,13 @@ def _clamp(x: int, lo: int, hi: int) -> int:
     return max(lo, min(hi, x))
 
 
-def cmd_list(hat: Hat, cur: Cursor) -> None:
+def cmd_list(hat: CommandContext, cur: Cursor) -> None:
     for port in hat.ports:
         for line in port.describe():
             hat.emit(line)
 
 
-def _select(hat: Hat, cur: Cursor, once: bool) -> None:
+def _select(hat: CommandContext, cur: Cursor, once: bool) -> None:
     reporter = hat.ports[hat.port].reporter
     mode = cur.try_signed()
     if mode is None:
@@ -47,19 +45,19 @@ def _select(hat: Hat, cur: Cursor, once: bool) -> None:
     reporter.select(mode, offset=offset, fmt=fmt, once=once)
 
 
-def cmd_select(hat: Hat, cur: Cursor) -> None:
+def cmd_select(hat: CommandContext, cur: Cursor) -> None:
     _select(hat, cur, once=False)
 
 
-def cmd_selonce(hat: Hat, cur: Cursor) -> None:
+def cmd_selonce(hat: CommandContext, cur: Cursor) -> None:
     _select(hat, cur, once=True)
 
 
-def cmd_selrate(hat: Hat, cur: Cursor) -> None:
+def cmd_selrate(hat: CommandContext, cur: Cursor) -> None:
     hat.ports[hat.port].reporter.set_rate(cur.signed())
 
 
-def cmd_combi(hat: Hat, cur: Cursor) -> None:
+def cmd_combi(hat: CommandContext, cur: Cursor) -> None:
     port = hat.ports[hat.port]
     index = _clamp(cur.signed(), 0, 7)
     pairs: List[Tuple[int, int]] = []
@@ -87,12 +85,12 @@ def _payload(cur: Cursor) -> List[int]:
     return out
 
 
-def cmd_write1(hat: Hat, cur: Cursor) -> None:
+def cmd_write1(hat: CommandContext, cur: Cursor) -> None:
     header = cur.hexbyte()
     hat.ports[hat.port].send_to_device(lpf2.hat_frame(header, _payload(cur)))
 
 
-def cmd_write2(hat: Hat, cur: Cursor) -> None:
+def cmd_write2(hat: CommandContext, cur: Cursor) -> None:
     header = cur.hexbyte()
     second = cur.hex32()
     # §8: a second token >= 2^31 is taken as "no second byte".

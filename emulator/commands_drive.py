@@ -9,52 +9,50 @@ was stored before the failure stays stored, exactly where the firmware stores fi
 """
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Callable, Dict
+from typing import Callable, Dict
 
+from .command_context import CommandContext
 from .controller import MODE_PID, MODE_PID_DIFF, MODE_PWM, PortController
 from .drive import param_q16
 from .parser import CommandError, Cursor
 from .pid import SensorVariable
-
-if TYPE_CHECKING:
-    from .hat import Hat
 
 __all__ = ["COMMANDS", "parse_svar"]
 
 _MAX_PORT, _MAX_MODE, _MAX_OFFSET = 3, 15, 127
 
 
-def _ctl(hat: Hat) -> PortController:
+def _ctl(hat: CommandContext) -> PortController:
     return hat.controllers[hat.port]
 
 
-def cmd_clear_faults(hat: Hat, cur: Cursor) -> None:
+def cmd_clear_faults(hat: CommandContext, cur: Cursor) -> None:
     hat.faults.clear_faults()
 
 
-def cmd_pwm(hat: Hat, cur: Cursor) -> None:
+def cmd_pwm(hat: CommandContext, cur: Cursor) -> None:
     c = _ctl(hat)
     c.pwmmode = MODE_PWM
     c.coast = False
     c.setpoint = 0.0      # the generator is untouched, so the next tick brings the set point back
 
 
-def cmd_coast(hat: Hat, cur: Cursor) -> None:
+def cmd_coast(hat: CommandContext, cur: Cursor) -> None:
     _ctl(hat).coast = True
 
 
-def _constant(hat: Hat, value: float) -> None:
+def _constant(hat: CommandContext, value: float) -> None:
     c = _ctl(hat)
     c.generator.set_constant(value)
     c.coast = False
 
 
-def cmd_on(hat: Hat, cur: Cursor) -> None:
+def cmd_on(hat: CommandContext, cur: Cursor) -> None:
     # Despite the help text, on/off do not switch to PWM mode (§4.1).
     _constant(hat, 1.0)
 
 
-def cmd_off(hat: Hat, cur: Cursor) -> None:
+def cmd_off(hat: CommandContext, cur: Cursor) -> None:
     _constant(hat, 0.0)
 
 
@@ -69,7 +67,7 @@ def parse_svar(cur: Cursor, svar: SensorVariable) -> None:
     svar.unwrap = cur.float()
 
 
-def cmd_set(hat: Hat, cur: Cursor) -> None:
+def cmd_set(hat: CommandContext, cur: Cursor) -> None:
     c = _ctl(hat)
     shape = cur.match(hat.profile.set_keywords)
     if shape is None:
@@ -89,7 +87,7 @@ def cmd_set(hat: Hat, cur: Cursor) -> None:
     c.coast = False
 
 
-def _pid(hat: Hat, cur: Cursor, mode: int) -> None:
+def _pid(hat: CommandContext, cur: Cursor, mode: int) -> None:
     c = _ctl(hat)
     c.pv.restart()
     pid = c.pid
@@ -110,19 +108,19 @@ def _pid(hat: Hat, cur: Cursor, mode: int) -> None:
     c.coast = False
 
 
-def cmd_pid(hat: Hat, cur: Cursor) -> None:
+def cmd_pid(hat: CommandContext, cur: Cursor) -> None:
     _pid(hat, cur, MODE_PID)
 
 
-def cmd_pid_diff(hat: Hat, cur: Cursor) -> None:
+def cmd_pid_diff(hat: CommandContext, cur: Cursor) -> None:
     _pid(hat, cur, MODE_PID_DIFF)
 
 
-def cmd_bias(hat: Hat, cur: Cursor) -> None:
+def cmd_bias(hat: CommandContext, cur: Cursor) -> None:
     _ctl(hat).drive.bias = param_q16(cur.float())
 
 
-def cmd_plimit(hat: Hat, cur: Cursor) -> None:
+def cmd_plimit(hat: CommandContext, cur: Cursor) -> None:
     # R1-R5 keep one global limit and R6+ write all four per-port limits: either way every
     # port gets the value; the difference is whether a port reset restores 0.1 (drive.py).
     limit = param_q16(cur.float())
@@ -130,18 +128,18 @@ def cmd_plimit(hat: Hat, cur: Cursor) -> None:
         c.drive.limit = limit
 
 
-def cmd_port_plimit(hat: Hat, cur: Cursor) -> None:
+def cmd_port_plimit(hat: CommandContext, cur: Cursor) -> None:
     _ctl(hat).drive.limit = param_q16(cur.float())
 
 
-def cmd_pwmparams(hat: Hat, cur: Cursor) -> None:
+def cmd_pwmparams(hat: CommandContext, cur: Cursor) -> None:
     thresh, minpwm = cur.float(), cur.float()      # both must parse, or nothing changes
     d = _ctl(hat).drive
     d.pwmthresh = param_q16(thresh)
     d.minpwm = param_q16(minpwm)
 
 
-COMMANDS: Dict[str, Callable[[Hat, Cursor], None]] = {
+COMMANDS: Dict[str, Callable[[CommandContext, Cursor], None]] = {
     "clear_faults": cmd_clear_faults,
     "pwm": cmd_pwm,
     "coast": cmd_coast,

@@ -36,29 +36,25 @@ Uses from other modules:
 """
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Optional, Union
+from typing import Optional
 
-from .drive import COAST, DrivePath
+from .drive import COAST, DrivePath, Duty
 from .pid import Pid, PidStep, SensorVariable
 from .printers import format_float
+from .services import ControllerServices
 from .setpoint import SetpointGenerator
-
-if TYPE_CHECKING:
-    from .hat import Hat
 
 __all__ = ["PortController", "PWM_UPDATE_MS", "MODE_PWM", "MODE_PID", "MODE_PID_DIFF"]
 
 PWM_UPDATE_MS = 10
 MODE_PWM, MODE_PID, MODE_PID_DIFF = 0, 1, 2
 
-Duty = Union[int, str]
-
 
 class PortController:
     """Set point, PID and drive path of one port (see the module docstring)."""
 
-    def __init__(self, hat: Hat, index: int) -> None:
-        self.hat = hat
+    def __init__(self, hat: ControllerServices, index: int) -> None:
+        self.hat = hat          # the HAT as far as a controller may use it
         self.index = index
         features = hat.profile.features
         self.per_port_limit = features["plimit_scope"] == "per_port"

@@ -20,10 +20,9 @@ The ``clear_faults`` command calls :meth:`FaultMonitor.clear_faults`.
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, List, Optional, Sequence
+from typing import List, Optional, Sequence
 
-if TYPE_CHECKING:
-    from .hat import Hat
+from .services import FaultServices
 
 __all__ = ["FaultMonitor", "DEGLITCH_MS", "REPEAT_MS", "HOLDOFF_MS", "DEFAULT_FLAGS"]
 
@@ -85,8 +84,8 @@ class _HoldoffReport:
 class FaultMonitor:
     """Fault pins, driver latches and the messages they cause."""
 
-    def __init__(self, hat: Hat) -> None:
-        self.hat = hat
+    def __init__(self, hat: FaultServices) -> None:
+        self.hat = hat          # the HAT as far as the fault monitor may use it
         style = hat.profile.features["motor_fault_report"]
         if style not in ("text_1hz", "dump_holdoff"):
             raise ValueError(f"unknown motor_fault_report {style!r}")

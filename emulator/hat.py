@@ -8,6 +8,11 @@ Ports, controllers and the fault monitor are separate objects it ticks:
 - ``emulator/controller.py`` ``PortController(hat, index)`` with ``tick(now)``
 - ``emulator/faults.py``     ``FaultMonitor(hat)``          with ``tick(now)``
 
+The Hat is their composition root: it builds them and hands each itself, which each part sees
+only through its Protocol in ``emulator/services.py`` (``PortServices``, ``ControllerServices``,
+``FaultServices``, ``StartupServices``; the commands: ``emulator/command_context.py``). No part
+imports this module (tests/test_emulator_layering.py).
+
 Each of them keeps ``due``: the first virtual millisecond in which its tick may do anything
 (0: at once). The Hat ticks an object only from then on, and a millisecond in which nothing is
 due (the usual case: timers run every 5-100 ms) costs a counter increment; :meth:`Hat.advance`
@@ -71,7 +76,7 @@ class Hat:
                  event_sink: Optional[EventSink] = None, now: int = 0, seed: int = 0):
         self.profile = profile if profile is not None else get_profile()
         self.uart = uart if uart is not None else Uart()
-        self.now = now
+        self.now: int = now
         self.seed = seed
         self.version_string = version_string or self.profile.version_string
         # The signature shown by `signature`: the uploaded one, else the release's (None: unknown).
@@ -238,7 +243,9 @@ class Hat:
         while self.now < end:
             nxt = self.idle_until()
             if nxt > self.now + 1:
-                self.now = min(nxt, end) - 1   # those ticks would only have counted
+                # Those ticks would only have counted. nxt < end here is a finite due time,
+                # a whole ms (``due`` is float only to hold math.inf).
+                self.now = int(min(nxt, end)) - 1
             self.tick()
 
     def poll(self) -> None:

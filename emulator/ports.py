@@ -43,7 +43,7 @@ from __future__ import annotations
 import math
 import random
 from collections import deque
-from typing import TYPE_CHECKING, Deque, Dict, List, Optional, Tuple
+from typing import Deque, Dict, List, Optional, Tuple
 
 from ..protocol.profiles import passive_signature_ids
 from . import lpf2
@@ -52,9 +52,7 @@ from .devices.info import DeviceInfo
 from .devices.passive import BUTTON_ID, BUTTON_RELEASED
 from .listing import active_dump, empty_line, passive_line
 from .reporting import Reporter
-
-if TYPE_CHECKING:
-    from .hat import Hat
+from .services import PortServices
 
 __all__ = ["Port", "DETECT_MATCHES", "RESCAN_PAUSE_MS", "ACTIVE_DETECT_MS", "SYNC_GAP_MS",
            "SETUP_TIMEOUT_MS", "DATA_TIMEOUT_MS", "NACK_PERIOD_MS", "QUEUE_SLOTS",
@@ -86,8 +84,8 @@ _MODE_BUFFER = 132          # per-mode payload store: offsets up to 127 plus a 4
 class Port:
     """The HAT side of one device port (see the module docstring)."""
 
-    def __init__(self, hat: Hat, index: int):
-        self.hat = hat
+    def __init__(self, hat: PortServices, index: int):
+        self.hat = hat          # the HAT as far as a port may use it
         self.index = index
         f = hat.profile.features
         self.scan_ms: int = f["passive_scan_ms"]
@@ -100,7 +98,7 @@ class Port:
         # §7.4: the release's signature -> ID table, and the "possibly active" rule (id 99).
         (self._signature_ids, self._active_mask, self._active_value,
          self._active_id) = passive_signature_ids(f["passive_signature_table"])
-        self.rng = random.Random((getattr(hat, "seed", 0) or 0) * 7919 + index)
+        self.rng = random.Random((hat.seed or 0) * 7919 + index)
         self.device = None                      # what is plugged in (the world)
         self.reporter = Reporter(self)
         self.info: Optional[DeviceInfo] = None  # the parsed setup of the active device

@@ -24,14 +24,12 @@ from __future__ import annotations
 
 import math
 import struct
-from typing import TYPE_CHECKING, List, Optional
+from typing import List, Optional
 
 from .devices.info import FORMAT_SIZES
 from .parser import format_is_float, format_is_signed, format_size
 from .printers import format_float, format_int
-
-if TYPE_CHECKING:
-    from .ports import Port
+from .services import ReporterPort
 
 __all__ = ["Reporter", "FIXED_PERIOD_MS", "DEFAULT_RATE_MS", "TX_THROTTLE_BYTES", "RATE_OFF",
            "RATE_ONCE", "MAX_RATE_MS", "read_value", "decode_values"]
@@ -70,7 +68,7 @@ def decode_values(buf: bytes, length: int, count: int, ftype: int) -> List[str]:
 class Reporter:
     """The select state and report timer of one port."""
 
-    def __init__(self, port: Port):
+    def __init__(self, port: ReporterPort):
         self.port = port
         features = port.hat.profile.features
         self.fixed = features["report_engine"] == "fixed_100ms"

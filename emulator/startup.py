@@ -7,10 +7,7 @@ the RX ring and are processed when the main loop starts.
 """
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
-if TYPE_CHECKING:
-    from .hat import Hat
+from .services import StartupServices
 
 __all__ = ["Startup", "BANNER", "DONE_LINE"]
 
@@ -24,8 +21,8 @@ _DRIVERS = b"0123"
 class Startup:
     """Runs the start-up as a small schedule; ``done`` turns True with the main loop."""
 
-    def __init__(self, hat: Hat):
-        self.hat = hat
+    def __init__(self, hat: StartupServices):
+        self.hat = hat          # the HAT as far as the start-up may use it
         self.done = False
         self.discarded = 0          # input bytes thrown away by the discard loop
         for line in BANNER:

@@ -12,13 +12,19 @@ from __future__ import annotations
 from collections import deque
 from typing import Optional
 
-__all__ = ["Uart", "RING_SIZE", "HOST_BUFFER_LIMIT"]
+__all__ = ["Uart", "RING_SIZE", "HOST_BUFFER_LIMIT", "WIRE_AHEAD"]
 
 RING_SIZE = 8192
 # Output nobody reads (Python API) and input the wire has not carried yet are kept up to
 # this size; beyond it the oldest output / newest input is dropped so memory stays bounded.
 HOST_BUFFER_LIMIT = 4 * 1024 * 1024
 _BYTE_COST = 10000  # credit units per byte: baud credits per ms, 10 bits per byte
+# Paced mode: host bytes accepted ahead of the wire, at least WIRE_AHEAD or what the wire carries in
+# WIRE_AHEAD_MS (a real-time runner may wake a few ms late on a loaded machine and must not fall below
+# the wire rate). A runner takes no more than this from its link, so the link (a pty's kernel buffer, a
+# TCP window) fills and pushes back on the host.
+WIRE_AHEAD = 16
+WIRE_AHEAD_MS = 8
 
 
 class Uart:
@@ -49,6 +55,14 @@ class Uart:
         else:
             room = HOST_BUFFER_LIMIT - len(self._wire_in)
             self._wire_in += data[:max(room, 0)]
+
+    def host_room(self) -> Optional[int]:
+        """How many host bytes to accept now: None (any number) unpaced; paced, what keeps at most
+        a few milliseconds of bytes waiting for the wire."""
+        if self.baud is None:
+            return None
+        ahead = max(WIRE_AHEAD, self.baud * WIRE_AHEAD_MS // _BYTE_COST)
+        return max(0, ahead - len(self._wire_in))
 
     def host_read(self) -> bytes:
         if not self._out:

@@ -22,14 +22,24 @@ model), so a device can own e.g. its shaft. Anything not implemented raises
 """
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any, Callable, Dict, Tuple
+from typing import Any, Callable, Dict, Protocol, Sequence, Tuple
 
 from ..harness.script import Action, parse_world_action
 
-if TYPE_CHECKING:
-    from .hat import Hat
-
 __all__ = ["WorldError", "WORLD_HANDLERS", "perform", "perform_line"]
+
+
+class WorldSide(Protocol):
+    """The HAT as world actions reach it (the table above): its ports, its fault monitor, its ADC.
+    Methods are looked up by name, so the parts are typed loosely here."""
+
+    @property
+    def ports(self) -> Sequence[Any]: ...
+
+    @property
+    def faults(self) -> Any: ...
+
+    def set_adc(self, raw: int) -> None: ...
 
 
 class WorldError(RuntimeError):
@@ -51,7 +61,7 @@ WORLD_HANDLERS: Dict[str, Tuple[str, str, Callable[[tuple], tuple]]] = {
 }
 
 
-def _target(hat: Hat, where: str, method: str, args: tuple) -> Any:
+def _target(hat: WorldSide, where: str, method: str, args: tuple) -> Any:
     if where == "hat":
         return hat
     if where == "faults":
@@ -62,7 +72,7 @@ def _target(hat: Hat, where: str, method: str, args: tuple) -> Any:
     return port
 
 
-def perform(hat: Hat, action: Action) -> None:
+def perform(hat: WorldSide, action: Action) -> None:
     """Carry out one parsed world action on ``hat``."""
     try:
         where, method, mapper = WORLD_HANDLERS[action.kind]
@@ -79,7 +89,7 @@ def perform(hat: Hat, action: Action) -> None:
         raise WorldError(f"@{action.kind}: {exc.args[0] if exc.args else exc}") from None
 
 
-def perform_line(hat: Hat, line: str) -> None:
+def perform_line(hat: WorldSide, line: str) -> None:
     """Parse (``harness.script.parse_world_action``) and perform one world-action line."""
     try:
         action = parse_world_action(line)

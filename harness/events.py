@@ -363,6 +363,9 @@ def expected_echo(sent: bytes) -> bytes:
     return bytes(out)
 
 
+MAX_LINE = 1024     # bytes without CRLF after which output is cut into an ``unknown`` event
+
+
 class LineSplitter:
     """Turns received bytes into events: complete CRLF lines and prompts.
 
@@ -417,6 +420,14 @@ class LineSplitter:
                 continue
             i = self._buf.find(b"\r\n")
             if i < 0:
+                if len(self._buf) > MAX_LINE:
+                    # No HAT line is this long (its longest, help text, is < 120 bytes): garbage.
+                    # Cut it into bounded events so it cannot grow the buffer (or the cost of
+                    # searching it) without bound.
+                    chunk = bytes(self._buf[:MAX_LINE])
+                    del self._buf[:MAX_LINE]
+                    out.append(Event("unknown", decode(chunk), chunk, t, {"overlong": True}))
+                    continue
                 break
             line = bytes(self._buf[:i])
             del self._buf[:i + 2]

@@ -22,25 +22,25 @@ from __future__ import annotations
 import atexit
 import contextlib
 import os
-import re
 import threading
 import time
 import weakref
-from typing import Callable, List, Optional, Pattern, Union
+from typing import Callable, List, Optional, Union
 
-from ..protocol.profiles import Profile, get_profile, resolve_version
+from ..protocol.profiles import Profile, get_profile
 from .errors import ExpectTimeout, NeedsCapability, SessionError, TargetError
-from .events import KINDS, Event, LineSplitter
+from .events import Event, LineSplitter
+from .history import ByteHistory, EventHistory
+from .identify import Identification
+from .matching import Match, describe_events, matcher
+from .sync import SYNC_ATTEMPTS, SyncResult, new_token, sync_bytes
 from .targets.base import Target
 from .transcript import TranscriptWriter
 
-__all__ = ["Session", "Match", "describe_events"]
-
-Match = Union[str, Pattern[str], Callable[[Event], bool]]
+__all__ = ["Session", "Match", "describe_events", "SyncResult"]
 
 FENCE_KINDS = ("version", "bootloader_version")
 _READ_SLICE = 0.05      # how long one read waits, so close() is noticed quickly
-_OPEN_ATTEMPTS = 3      # like the Python library, `version` is resent when nothing answers
 
 _live_sessions: weakref.WeakSet[Session] = weakref.WeakSet()
 
@@ -52,33 +52,17 @@ def _flush_live_sessions() -> None:
         s._flush_transcript()
 
 
-def _matcher(match: Match) -> tuple[Callable[[Event], bool], str]:
-    """(predicate, description). A string naming an event kind matches that kind; any
-    other string is a regular expression searched in the line's text."""
-    if callable(match) and not isinstance(match, str):
-        return match, getattr(match, "__name__", "predicate")
-    if isinstance(match, str) and match in KINDS:
-        return (lambda e: e.kind == match), f"an event of kind {match!r}"
-    rx = re.compile(match) if isinstance(match, str) else match
-    return (lambda e: bool(rx.search(e.text))), f"a line matching /{rx.pattern}/"
+def _restart_line(e: Event) -> bool:
+    """the first line of a start-up banner (FACTS §5, §9)"""
+    return e.kind == "banner" and e.fields.get("stage") == "help_hint"
 
 
-def describe_events(events: List[Event], partial: bytes = b"", limit: int = 25) -> str:
-    """What arrived, for error messages: the last ``limit`` events and any partial line."""
-    if not events and not partial:
-        return "nothing arrived"
-    if not events:
-        return f"no complete line arrived, only output not ended by CRLF: {partial!r}"
-    shown = events[-limit:]
-    lines = [f"{len(events)} event(s) arrived" + (f", the last {len(shown)}:" if len(shown) < len(events)
-                                                  else ":")]
-    lines += [f"  {e}" for e in shown]
-    if partial:
-        lines.append(f"  and output not ended by CRLF: {partial!r}")
-    return "\n".join(lines)
+def _event_weight(e: Event) -> int:
+    # What an event costs in memory, roughly: its bytes, its text and the object around them.
+    return 2 * len(e.raw) + 300
 
 
-class Session:
+class Session(Identification):
     """The API of docs/DEVELOPING.md ("Session"), plus:
 
     ``mark()`` (an index for ``expect(..., since=)``), ``drain()``, ``reset(bootloader)``,
@@ -103,10 +87,12 @@ class Session:
         self.in_bootloader = False
         self.version_string: Optional[str] = None
         self.notes: List[str] = []          # remarks for the report, e.g. an unknown firmware version
-        self.events: List[Event] = []
-        self.received = bytearray()
-        self.sent = bytearray()
-        self._log: List[tuple] = []         # (t ms, "host"|"hat", bytes), for attach_transcript
+        # Bounded (harness/history.py): the transcript on disk is the complete record.
+        self.events: EventHistory[Event] = EventHistory(weigh=_event_weight)
+        self.received = ByteHistory()
+        self.sent = ByteHistory()
+        # (t ms, "host"|"hat", bytes) for attach_transcript (its history): the recent past only
+        self._log: EventHistory[tuple] = EventHistory(weigh=lambda entry: len(entry[2]) + 64)
         self.echo_on = False                # last seen: did the HAT echo our line?
         self._splitter = LineSplitter()
         self._cond = threading.Condition()
@@ -303,6 +289,9 @@ class Session:
             return False
         if data:
             self._received(data)
+        elif self.transcript is not None:
+            with self._cond:
+                self.transcript.flush_stale()   # a half line waiting for its CRLF goes to disk
         return True
 
     def _received(self, data: bytes) -> None:
@@ -312,6 +301,7 @@ class Session:
             self._log.append((t, "hat", data))
             if self.transcript is not None:
                 self.transcript.hat(self._transcript_t(t), data)
+                self.transcript.flush_stale()
             self.events.extend(self._splitter.feed(data, t))
             self._cond.notify_all()
 
@@ -365,10 +355,10 @@ class Session:
         i = start
         with self._cond:
             while True:
-                while i < len(self.events):
-                    if pred(self.events[i]):
-                        return i
-                    i += 1
+                found = self.events.scan(pred, i)
+                if found is not None:
+                    return found
+                i = len(self.events)
                 self._check()
                 left = deadline - time.monotonic()
                 if left <= 0:
@@ -380,10 +370,10 @@ class Session:
         budget_ms = timeout * 1000.0 * self.time_scale
         i = start
         while True:
-            while i < len(self.events):
-                if pred(self.events[i]):
-                    return i
-                i += 1
+            found = self.events.scan(pred, i)
+            if found is not None:
+                return found
+            i = len(self.events)
             self._check()
             if budget_ms <= 0:
                 return None
@@ -402,7 +392,7 @@ class Session:
         ``match``: an event kind (``"vin"``), a regular expression searched in the text, or a
         predicate. On timeout raises :class:`ExpectTimeout` saying what did arrive.
         """
-        pred, what = _matcher(match)
+        pred, what = matcher(match)
         start = self._cursor if since is None else since
         i = self._wait_index(pred, start, timeout)
         if i is None:
@@ -442,7 +432,7 @@ class Session:
                                 f"{describe_events(arrived, self.partial)}", arrived, self.partial)
         answer = self.events[i]
         boundary = i
-        for j in range(sent_at, i):
+        for j in range(max(sent_at, self.events.dropped), i):
             if self.events[j].fields.get("host_line") == line_no:
                 boundary = j
                 self.echo_on = self.events[j].kind == "echo"
@@ -498,12 +488,51 @@ class Session:
             return self.events[start:]
 
     def resync(self, timeout: float = 2.0) -> List[Event]:
-        """Between tests: drain what is still coming, then fence. Returns what was drained."""
+        """Between tests: drain what is still coming, then fence; when the fence finds no
+        answer (a line ending lost on the link), sync by content. Returns what was drained."""
         drained = self.drain()
         with self._cond:
             self._splitter.forget_pending()   # after a quiet spell no CRLF is still owed
-        self.fence(timeout)
+        try:
+            self.fence(timeout)
+        except ExpectTimeout:
+            self.sync(timeout / SYNC_ATTEMPTS)
         return drained
+
+    def sync(self, timeout: float = 1.0, before: bytes = b"", attempts: int = SYNC_ATTEMPTS) -> SyncResult:
+        """Find our own reply by content (harness/sync.py), whatever came before it. Sends
+        ``before`` (e.g. set-up lines) and a sync, up to ``attempts`` times, waiting ``timeout``
+        seconds for each (HAT seconds / time_scale for virtual-time targets). Leaves echo off and
+        the cursor after the answer; forgets every line ending still owed (all are answered).
+        Raises ExpectTimeout when no attempt came back whole."""
+        start = self.mark()
+        for attempt in range(1, attempts + 1):
+            token = new_token()
+            tail = b"\x00" + token
+            self.send_raw(before + sync_bytes(token))
+
+            def own_echo(e: Event, tail: bytes = tail) -> bool:
+                """the echo of the sync's own token"""
+                return e.raw.endswith(tail)
+
+            echo = self._wait_index(own_echo, start, timeout)
+            if echo is None:
+                continue
+            answer = self._wait_index(lambda e: True, echo + 1, timeout)
+            if answer is None or self.events[answer].kind != "version":
+                continue     # the answer was garbled: the next attempt brings a fresh token
+            with self._cond:
+                self._splitter.forget_pending()
+                banner = self.events.scan(_restart_line, start)
+            self.echo_on = False
+            self._note_answer(self.events[answer])
+            self._cursor = answer + 1
+            return SyncResult(echo, answer, attempt, token,
+                              banner if banner is not None and banner < answer else None)
+        arrived = self.events[start:]
+        raise ExpectTimeout(f"no answer to {attempts} syncs (`version` with a token), {timeout:g} s each, "
+                            f"from {self.target.url}; {describe_events(arrived, self.partial)}",
+                            arrived, self.partial)
 
     def wait_new(self, count: int, timeout: float) -> bool:
         """Block until there are more than ``count`` events, at most ``timeout`` seconds (wall
@@ -557,63 +586,3 @@ class Session:
         self._splitter.forget_pending()   # whatever was typed before the reset is gone
         self._detect(timeout)
         return self.events[start:]
-
-    # -- detection -------------------------------------------------------------------------
-    def _note_answer(self, answer: Event) -> None:
-        if answer.kind == "bootloader_version":
-            self.in_bootloader = True
-            self.version_string = str(answer.fields.get("version", ""))
-            self.profile = self._requested_profile
-            return
-        self.in_bootloader = False
-        self.version_string = str(answer.fields.get("version", ""))
-        number = answer.fields.get("number")
-        if self._requested_profile is not None:
-            self.profile, self.profile_exact = self._requested_profile, True
-            if number is not None and number != self._requested_profile.number:
-                self._remark(f"target reports firmware {number}, but profile {self._requested_profile} "
-                             "was requested; using the requested profile")
-            return
-        if not isinstance(number, int):
-            self._remark(f"cannot read a version number from {answer.text!r}; using the latest profile")
-            self.profile, self.profile_exact = get_profile(None), False
-            return
-        profile, exact = resolve_version(number)
-        if not exact and (self.profile is None or self.profile.number != profile.number
-                          or self.profile_exact):
-            self._remark(f"unknown firmware version {number}; using the nearest earlier profile {profile}")
-        self.profile, self.profile_exact = profile, exact
-
-    def _remark(self, text: str) -> None:
-        if text not in self.notes:
-            self.notes.append(text)
-            if self.transcript is not None:
-                with self._cond:
-                    self.transcript.note(self._transcript_t(self.now_ms()), text)
-
-    def _detect(self, timeout: float) -> None:
-        self.drain(quiet=0.05, limit=1.0)  # stale output cannot fool the fence: a short drain is enough
-        for _attempt in range(_OPEN_ATTEMPTS):
-            try:
-                self.fence(timeout)
-                return
-            except ExpectTimeout:
-                continue
-        raise TargetError(self._diagnosis(timeout))
-
-    def _diagnosis(self, timeout: float) -> str:
-        url, data = self.target.url, bytes(self.received)
-        asked = f"sent `version` {_OPEN_ATTEMPTS} times, {timeout:g} s each"
-        if not data:
-            hint = self.target.diagnose("silent")
-            return f"nothing answering on {url}: {asked}, and not one byte came back." + \
-                (f"\n{hint}" if hint else "")
-        printable = sum(1 for b in data if 0x20 <= b < 0x7F or b in (0x0D, 0x0A))
-        if printable < 0.9 * len(data):
-            hint = self.target.diagnose("garbage")
-            return (f"{url} answers with garbage, not the Build HAT's text: {asked}; received "
-                    f"{len(data)} bytes, {len(data) - printable} of them not printable "
-                    f"(first bytes: {data[:24].hex(' ')})." + (f"\n{hint}" if hint else ""))
-        return (f"{url} answers, but not like a Build HAT (no 'Firmware version:' or "
-                f"'BuildHAT bootloader version' line): {asked}; "
-                f"{describe_events(self.events, self.partial, limit=10)}")

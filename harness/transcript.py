@@ -2,13 +2,17 @@
 
 The writer flushes every event as it is written, so a crash loses nothing that was
 received. Output bytes from the HAT are split into ``line`` events at CRLF; bytes not
-yet ended by CRLF become a ``partial`` event when the host next sends or the run ends.
+yet ended by CRLF become a ``partial`` event when the host next sends, the run ends, or they
+have waited :data:`PARTIAL_MAX_AGE` seconds for their CRLF (whoever reads the target calls
+:meth:`TranscriptWriter.flush_stale` after every read, so a kill -9 loses none of them), or
+there are :data:`PARTIAL_MAX_BYTES` of them (a garbage flood is written as it comes, not held).
 """
 from __future__ import annotations
 
 import io
 import json
 import os
+import time
 from dataclasses import dataclass, field
 from typing import IO, Iterable, Iterator, List, Optional, Union
 
@@ -16,6 +20,10 @@ __all__ = ["TranscriptWriter", "Transcript", "read_transcript", "iter_events", "
            "host_stream", "text_field", "field_bytes"]
 
 CRLF = b"\r\n"
+# A line split by a pause this long is rare on a healthy link (a 100-byte line takes 9 ms at
+# 115200 baud); output that waits longer (a prompt, a half line from a dying HAT) goes to disk.
+PARTIAL_MAX_AGE = 0.1
+PARTIAL_MAX_BYTES = 4096
 
 
 def text_field(data: bytes) -> tuple[str, Optional[str]]:
@@ -55,6 +63,7 @@ class TranscriptWriter:
             meta = dict(meta, firmware="unknown")
         self._pending = bytearray()
         self._pending_t: Optional[float] = None
+        self._pending_since = 0.0          # monotonic time the oldest pending byte arrived
         self._ended = False
         self._write(dict({"dir": "meta"}, **meta))
 
@@ -87,6 +96,8 @@ class TranscriptWriter:
         """Bytes received from the HAT, in any chunking; complete lines are written at once."""
         if not data:
             return
+        if not self._pending:
+            self._pending_since = time.monotonic()
         self._pending += data
         while True:
             i = self._pending.find(CRLF)
@@ -97,6 +108,16 @@ class TranscriptWriter:
             self._text_event(t, "line", line)
         # A partial is stamped with the time its last byte arrived, not when it is flushed.
         self._pending_t = t
+        if self._pending:
+            if len(self._pending) >= PARTIAL_MAX_BYTES:
+                self.flush_partial()
+        else:
+            self._pending_t = None
+
+    def flush_stale(self, max_age: float = PARTIAL_MAX_AGE) -> None:
+        """Write pending output that has waited ``max_age`` seconds for its CRLF."""
+        if self._pending and time.monotonic() - self._pending_since >= max_age:
+            self.flush_partial()
 
     def flush_partial(self, t: Optional[float] = None) -> None:
         """Write pending output as a ``partial`` event, stamped with its own arrival time
@@ -105,6 +126,7 @@ class TranscriptWriter:
             data = bytes(self._pending)
             self._pending.clear()
             self._text_event(self._pending_t if self._pending_t is not None else (t or 0.0), "partial", data)
+            self._pending_t = None
 
     def event(self, kind: str, t: float, **fields) -> None:
         """Any other event kind (dev, devrx, pwm, led, note) with its fields."""

@@ -1,6 +1,8 @@
 """The real python-build-hat library from PyPI, unmodified, over the emulator's pty (GitHub issue 8).
 
-Matrix: buildhat 0.9.0 against the release it bundles (1737564117), 0.5.7 against 1636109636. Every
+Matrix: buildhat 0.9.0 against the release it bundles (1737564117), 0.5.7 against 1636109636; and
+0.5.12 against 1636109636, which it replaces by its own image after a GPIO reset (our gpiozero pin
+factory). Every
 scenario (tests/hostlib/scenarios/) runs in the library's own venv with a hard time limit; the values
 it reports are checked against what the emulator was told (tests/hostlib/matrix.py). All scenarios
 start together on the first test that needs one, so the part costs about its longest scenario.
@@ -178,6 +180,41 @@ def test_boost_wedo_and_passive_devices(outcomes, version: str) -> None:
     # Pulled out: the HAT says so (R2+ `disconnected`), the library marks the port and refuses to read.
     assert v["unplug.noticed"] is True, got.explain()
     assert "unplug.get_tilt.error" in v and "unplug.get_tilt" not in v, got.explain()
+    lint_clean(got)
+
+
+def test_gpio_reset_then_upload_of_the_bundled_image(outcomes) -> None:
+    """python-build-hat 0.5.12 meets another release (R2 1636109636) than it bundles (R5 1670596313): its
+    own Hat() pulses RESET through gpiozero (our pin factory, GPIOZERO_PIN_FACTORY=buildhat_emulator),
+    finds the bootloader, uploads, reboots; then a motor, two sensors and the matrix through its API."""
+    got = outcome(outcomes, "0.5.12", "gpio_reset")
+    v, m = Values(got), hl.EXTRA_PLANS[("0.5.12", "gpio_reset")].params
+    assert v["pin_factory"] == "buildhat_emulator"
+    assert str(v["firmware_before"]).split()[0] == "1636109636", got.explain()
+    assert str(v["firmware"]).split()[0] == str(FIRMWARE_OF["0.5.12"]), got.explain()
+    # The pulse as the emulator saw it (its transcript): RESET low, then released with BOOT0 low
+    # (FIRMWARE-FACTS §9 step 2), then the bootloader's prompt and the upload of the bundled image.
+    notes = [e["text"] for e in got.transcript if e.get("dir") == "note"]
+    low = [i for i, n in enumerate(notes) if n.startswith("RESET (GPIO 4) pulled low")]
+    up = [i for i, n in enumerate(notes) if n.startswith("RESET (GPIO 4) released with BOOT0 0")]
+    assert low and up and low[0] < up[0], notes
+    hat_text = "".join(e.get("line", "") + e.get("partial", "")
+                       for e in got.transcript if e.get("dir") == "hat")
+    host_text = "".join(e.get("bytes", "") for e in got.transcript if e.get("dir") == "host")
+    assert "BHBL>" in hat_text and "Checksum OK" in hat_text and "Rebooting..." in hat_text, hat_text[-2000:]
+    assert "clear\r" in host_text and re.search(r"load \d+ \d+\r", host_text), host_text[:300]
+    devices = v["get"]
+    assert {p: devices[p]["typeid"] for p in "ABCD"} == {"A": 0x30, "B": 0x3D, "C": 0x3E, "D": 0x40}, devices
+    assert all(devices[p]["connected"] for p in "ABCD"), devices
+    assert v["a.before"] == m["pos"], got.explain()                      # @pos reached the library
+    assert near(v["a.after"], m["pos"] + m["degrees"], POSITION_TOLERANCE), got.explain()
+    assert v["color.reflected"] == hl.COLOR["reflected"], got.explain()
+    assert v["color.rgbi"] == [int(x / 1024 * 255) for x in hl.COLOR["rgbi"]], got.explain()
+    assert v["distance"] == hl.DISTANCE["far"], got.explain()
+    # No read-back of the matrix: set_pixels and clear are 3 lines each (select, write1, deselect), all taken.
+    before, after = json.loads(v["lint_before_matrix"]), json.loads(v["lint_after_matrix"])
+    assert after["lines"] - before["lines"] >= 6 and after["counts"]["error"] == 0, (before, after)
+    assert "matrix.set_pixels.error" not in v and "matrix.clear.error" not in v, got.explain()
     lint_clean(got)
 
 

@@ -1,13 +1,17 @@
 """Byte links between a host and the emulator in real time: a pty, a TCP socket, stdio.
 
-Each link offers ``readables()`` (what select() should watch), ``on_readable(obj) -> bytes``
-(host bytes; raises EOFError when the host side is gone for good), ``send(data)`` (buffered,
+Each link offers ``readables()`` (what select() should watch), ``on_readable(obj, limit) -> bytes``
+(at most ``limit`` host bytes; raises EOFError when the host side is gone for good), ``send(data)`` (buffered,
 never blocks), ``wants_write()`` / ``writables()`` / ``flush()``, and ``close()``.
 
 Output that cannot be delivered (no TCP client; a pty nobody reads) is kept up to
 ``OUT_LIMIT`` bytes and then the oldest is dropped, as bytes are lost on a wire nobody listens to.
 The limit is small on purpose: a host that opens the pty late should not get minutes of stale
 output (the kernel's own pty buffer holds about 20 KB more).
+
+Back-pressure (``--baud``): the runner reads no more host bytes than the wire carries, so what the
+host sends faster waits in the link itself: the pty's kernel buffer (about 18 KB on Linux) and then the
+host's write() blocks; on TCP the receive buffer is made small (``PACED_RCVBUF``) so the window closes.
 """
 from __future__ import annotations
 
@@ -21,10 +25,12 @@ from typing import Any, List, Optional
 
 from ...harness.pty import open_raw_pty
 
-__all__ = ["PtyLink", "TcpLink", "StdioLink", "OUT_LIMIT", "parse_tcp_address"]
+__all__ = ["PtyLink", "TcpLink", "StdioLink", "OUT_LIMIT", "PACED_RCVBUF", "parse_tcp_address"]
 
 OUT_LIMIT = 64 * 1024
 _READ = 65536
+# SO_RCVBUF for a paced TCP link (the kernel doubles it and keeps a floor of about 2 KB).
+PACED_RCVBUF = 4096
 
 
 class _Buffered:
@@ -75,12 +81,13 @@ class PtyLink(_Buffered):
         self.out_fd = self.master
         self.link = link
 
-    def readables(self) -> List[Any]:
-        return [self.master]
+    def readables(self, data: bool = True) -> List[Any]:
+        """What select() should watch; ``data=False``: not the host's bytes (the wire is full)."""
+        return [self.master] if data else []
 
-    def on_readable(self, obj: Any) -> bytes:
+    def on_readable(self, obj: Any, limit: int = _READ) -> bytes:
         try:
-            return os.read(self.master, _READ)
+            return os.read(self.master, max(1, min(limit, _READ)))
         except (BlockingIOError, InterruptedError):
             return b""
         except OSError as exc:
@@ -109,11 +116,13 @@ def parse_tcp_address(text: str) -> tuple[str, int]:
 class TcpLink(_Buffered):
     """A TCP server; one host at a time (a new connection replaces the old one)."""
 
-    def __init__(self, address: str):
+    def __init__(self, address: str, paced: bool = False):
         super().__init__()
         host, port = parse_tcp_address(address)
         self.listener = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
         self.listener.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        if paced:   # set before listen(): an accepted socket inherits it and the window stays small
+            self.listener.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, PACED_RCVBUF)
         try:
             self.listener.bind((host, port))
         except OSError as exc:
@@ -125,10 +134,10 @@ class TcpLink(_Buffered):
         bound = self.listener.getsockname()
         self.address = f"{bound[0]}:{bound[1]}"
 
-    def readables(self) -> List[Any]:
-        return [self.listener] + ([self.client] if self.client else [])
+    def readables(self, data: bool = True) -> List[Any]:
+        return [self.listener] + ([self.client] if self.client and data else [])
 
-    def on_readable(self, obj: Any) -> bytes:
+    def on_readable(self, obj: Any, limit: int = _READ) -> bytes:
         if obj is self.listener:
             try:
                 conn, _ = self.listener.accept()
@@ -142,7 +151,7 @@ class TcpLink(_Buffered):
             self._out.clear()            # output sent while nobody listened is gone
             return b""
         try:
-            data = self.client.recv(_READ) if self.client else b""
+            data = self.client.recv(max(1, min(limit, _READ))) if self.client else b""
         except (BlockingIOError, InterruptedError):
             return b""
         except OSError:
@@ -179,12 +188,12 @@ class StdioLink(_Buffered):
             tty.setraw(self.in_fd, termios.TCSANOW)
         os.set_blocking(self.out_fd, False)
 
-    def readables(self) -> List[Any]:
-        return [self.in_fd]
+    def readables(self, data: bool = True) -> List[Any]:
+        return [self.in_fd] if data else []
 
-    def on_readable(self, obj: Any) -> bytes:
+    def on_readable(self, obj: Any, limit: int = _READ) -> bytes:
         try:
-            data = os.read(self.in_fd, _READ)
+            data = os.read(self.in_fd, max(1, min(limit, _READ)))
         except (BlockingIOError, InterruptedError):
             return b""
         if not data:

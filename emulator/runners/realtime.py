@@ -29,6 +29,7 @@ MAX_SLEEP_SECONDS = 0.05
 # so that a command still gets its answer within a few milliseconds (H10: the catch-up of
 # up to 2000 ticks in one go delayed answers by ~100 ms).
 MAX_TICKS_PER_PASS = 100
+_READ_ANY = 65536     # bytes read from the link at once when the wire is not paced
 
 
 def _run_due(emulator: Any, clock: RealTimeClock) -> None:
@@ -50,16 +51,24 @@ def _sleep_seconds(emulator: Any, clock: RealTimeClock) -> float:
 
 
 def run_realtime(emulator: Any, link: Any, clock: RealTimeClock, control: Any = None, lint: Any = None,
-                 should_stop: Optional[Callable[[], bool]] = None) -> int:
+                 should_stop: Optional[Callable[[], bool]] = None, tap: Any = None) -> int:
     """Run until the host side ends (stdio EOF), ``should_stop()`` is true, or a strict lint fails.
-    Returns the process exit status."""
+    ``tap`` (optional) sees every byte: ``tap.host(data)`` as it is read, ``tap.hat(data)`` as it is sent.
+    With a baud rate no more host bytes are read than the wire carries (``Emulator.host_room``), so the
+    link pushes back on the host. Returns the process exit status."""
+
+    def send_output() -> None:
+        out = emulator.read()
+        if out:
+            if tap is not None:
+                tap.hat(out)
+            link.send(out)
+
     while True:
         _run_due(emulator, clock)
         if lint is not None:
             lint.follow(emulator)
-        out = emulator.read()
-        if out:
-            link.send(out)
+        send_output()
         if lint is not None and getattr(lint, "strict", False):
             message = lint.fatal_message()
             if message:
@@ -68,13 +77,17 @@ def run_realtime(emulator: Any, link: Any, clock: RealTimeClock, control: Any = 
                 return 3
         if should_stop is not None and should_stop():
             return 0
-        readables = list(link.readables()) + (control.sockets() if control is not None else [])
+        room = emulator.host_room()
+        readables = list(link.readables(data=room != 0))
+        readables += control.sockets() if control is not None else []
+        writables = list(link.writables()) + (control.writables() if control is not None else [])
         try:
-            ready, writable, _ = select.select(readables, link.writables(), [],
-                                               _sleep_seconds(emulator, clock))
+            ready, writable, _ = select.select(readables, writables, [], _sleep_seconds(emulator, clock))
         except InterruptedError:
             continue
         if writable:
+            if control is not None:
+                control.flush(writable)
             link.flush()
         for obj in ready:
             # The loop may have slept through idle ticks: run them, so that what arrives is
@@ -83,14 +96,15 @@ def run_realtime(emulator: Any, link: Any, clock: RealTimeClock, control: Any = 
             if control is not None and obj in control.sockets():
                 control.handle([obj])
                 continue
+            room = emulator.host_room()
             try:
-                data = link.on_readable(obj)
+                data = link.on_readable(obj, _READ_ANY if room is None else room)
             except EOFError:            # stdin closed: the host has gone
                 return 0
             if data:
+                if tap is not None:
+                    tap.host(data)
                 if lint is not None:
                     lint.feed_input(data)
                 emulator.write(data)
-                out = emulator.read()
-                if out:
-                    link.send(out)
+                send_output()

@@ -79,8 +79,9 @@ class _Recorder:
 def run_script(script: Script, out: IO[str], *, firmware: Any = None,
                devices: Optional[Dict[int, Optional[tuple]]] = None, version_string: Optional[str] = None,
                seed: int = 0, baud: Optional[int] = None, lint: Any = None,
-               tool_version: str = "") -> int:
-    """Run ``script``, writing the transcript JSONL to ``out``. Returns the exit status."""
+               tool_version: str = "", lint_notes: bool = False) -> int:
+    """Run ``script``, writing the transcript JSONL to ``out`` (with ``lint_notes``, each host-lint
+    finding as a ``note`` event too). Returns the exit status."""
     layout = dict(script.devices)
     layout.update(devices or {})
     emu = Emulator(firmware=firmware, devices=layout, version_string=version_string, seed=seed, baud=baud)
@@ -102,6 +103,11 @@ def run_script(script: Script, out: IO[str], *, firmware: Any = None,
         meta["baud"] = baud
     writer = TranscriptWriter(out, meta)
     rec.start(writer, prelude)
+    if lint is not None and lint_notes:
+        def lint_note(finding: Any) -> None:
+            writer.flush_partial()
+            writer.note(emu.now - prelude, f"host lint: {finding.describe()}")
+        lint.on_finding.append(lint_note)
     target = 0.0                                 # scripted time (ms since t = 0)
 
     def run_until(ms: float) -> None:

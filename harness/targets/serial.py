@@ -15,6 +15,7 @@ from urllib.parse import parse_qs, unquote, urlsplit
 
 import serial
 
+from ..firmware.gpio_reset import GPIO_OPTIONS, gpio_reset_from_options
 from .base import TargetError
 from .pyserial_base import BAUD, PyserialTarget
 
@@ -131,24 +132,36 @@ class SerialTarget(PyserialTarget):
 
 
 def from_url(url: str, **options) -> SerialTarget:
-    """``/dev/...`` or any existing path, or ``serial:///dev/...?baud=N&exclusive=0``."""
+    """``/dev/...`` or any existing path, or ``serial:///dev/...?baud=N&exclusive=0``; both take
+    ``reset=gpio[&chip=/dev/gpiochipN&reset_line=4&boot0_line=22]`` (a HAT on a Raspberry Pi's
+    header: reset through its GPIO lines, harness/firmware/gpio_reset.py)."""
     baud, exclusive, path = options.pop("baud", BAUD), options.pop("exclusive", True), url
+    request_lines = options.pop("request_lines", None)      # tests: a fake GPIO chip
+    query = ""
     if url.startswith("serial:"):
         parts = urlsplit(url)
-        path = unquote(parts.path)
+        path, query = unquote(parts.path), parts.query
         if not path:
             raise TargetError(f"{url}: give the device path, e.g. serial:///dev/ttyAMA0?baud=115200")
-        for key, vals in parse_qs(parts.query).items():
-            if key == "baud":
-                baud = vals[-1]
-            elif key == "exclusive":
-                exclusive = vals[-1] not in ("0", "false", "no")
-            else:
-                raise TargetError(f"{url}: unknown option {key!r} (known: baud, exclusive)")
+    elif "?" in url and not os.path.exists(url):
+        path, _, query = url.partition("?")
+    gpio = {}
+    for key, vals in parse_qs(query).items():
+        if key == "baud":
+            baud = vals[-1]
+        elif key == "exclusive":
+            exclusive = vals[-1] not in ("0", "false", "no")
+        elif key in GPIO_OPTIONS:
+            gpio[key] = vals[-1]
+        else:
+            raise TargetError(f"{url}: unknown option {key!r} (known: baud, exclusive, reset, chip, "
+                              "reset_line, boot0_line)")
     try:
         baud = int(baud)
     except ValueError:
         raise TargetError(f"{url}: baud must be a number, got {baud!r}") from None
     if options:
         raise TargetError(f"{url}: options not understood by a serial port: {', '.join(sorted(options))}")
-    return SerialTarget(path, baudrate=baud, exclusive=exclusive, url=url)
+    target = SerialTarget(path, baudrate=baud, exclusive=exclusive, url=url)
+    target.control = gpio_reset_from_options(gpio, url, request_lines=request_lines)
+    return target

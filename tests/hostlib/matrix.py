@@ -49,6 +49,9 @@ class Plan:
     timeout: float = 60.0
     # Run the release of the *other* protocol generation, reporting the version this library expects.
     wrong_generation: bool = False
+    # Start the emulator on this release (booted) and hand the library this project's gpiozero pin factory,
+    # so that its own GPIO reset reaches the emulator (``Hat()`` resets when the version differs).
+    gpio_reset_from: Optional[str] = None
 
 
 # Each library release against the other generation (R1-R5 dialect vs R6+), for the wrong_generation plan.
@@ -67,14 +70,16 @@ class Outcome:
     emulator_stderr: str = ""
     lint: Dict[str, Any] = field(default_factory=dict)
     wall: float = 0.0
+    transcript: List[Dict[str, Any]] = field(default_factory=list)   # the emulator's --transcript
 
     def explain(self) -> str:
         head = f"buildhat {self.version} / {self.name}"
         if self.setup_error:
             return f"{head}: emulator setup failed: {self.setup_error}"
         body = self.result.explain() if self.result else "(no result)"
+        shown = [json.dumps(e)[:200] for e in self.transcript[-40:]]
         return (f"{head}\n{body}\nemulator exit {self.emulator_exit}; stderr tail:\n"
-                f"{self.emulator_stderr[-2000:]}")
+                f"{self.emulator_stderr[-2000:]}\nemulator transcript (tail):\n" + "\n".join(shown))
 
 
 def _spike_world() -> Dict[str, List[str]]:
@@ -123,6 +128,19 @@ def plans() -> Dict[str, Plan]:
     }
 
 
+#: Scenarios run for one library release only: python-build-hat 0.5.12 resets the HAT through gpiozero.
+PIXELS = [[[3, 10], [3, 10], [3, 10]], [[6, 5], [6, 5], [6, 5]], [[9, 1], [9, 1], [9, 1]]]
+EXTRA_PLANS: Dict[Tuple[str, str], Plan] = {
+    ("0.5.12", "gpio_reset"): Plan(
+        "gpio_reset.py", {0: "0x30", 1: "0x3D", 2: "0x3E", 3: "0x40"},
+        {"pos": MOTOR["pos"], "degrees": MOTOR["degrees"], "speed": MOTOR["ramp_speed"], "pixels": PIXELS,
+         "set": {"color.reflected": [data_line(1, 0x3D, 1, [COLOR["reflected"]])],
+                 "color.rgbi": [data_line(1, 0x3D, 5, COLOR["rgbi"])],
+                 "distance": [data_line(2, 0x3E, 0, [DISTANCE["far"]])]}},
+        timeout=90, gpio_reset_from="1636109636"),
+}
+
+
 def run_one(version: str, name: str, plan: Plan) -> Outcome:
     """One scenario on a fresh emulator running the release the library bundles."""
     outcome = Outcome(version, name, plan)
@@ -134,18 +152,26 @@ def run_one(version: str, name: str, plan: Plan) -> Outcome:
         return outcome
     firmware = None if plan.bootloader else str(FIRMWARE_OF[version])
     extra = list(WIRE)
+    env: Dict[str, str] = {}
+    if plan.gpio_reset_from:
+        firmware = plan.gpio_reset_from
+        extra += ["--booted"]
     if plan.wrong_generation:
         firmware = OTHER_GENERATION[version]
         extra += ["--version-string", f"{FIRMWARE_OF[version]} (release {firmware} underneath)"]
     emu = EmulatorProcess(firmware=firmware, devices=plan.devices, bootloader=plan.bootloader,
                           speed=None if plan.bootloader else SETTLE_SPEED, extra=extra)
+    transcript = emu.tmp / "transcript.jsonl"
+    emu.args += ["--transcript", str(transcript)]
+    if plan.gpio_reset_from:
+        env = {"GPIOZERO_PIN_FACTORY": "buildhat_emulator", "BUILDHAT_EMULATOR_CONTROL": emu.control_path}
     try:
         emu.start()
         if not plan.bootloader:
             emu.wait_settled(SETTLE_HAT_MS)
             emu.control("@speed 1")
         outcome.result = run_scenario(python, plan.script, emu.pty, emu.control_path, plan.params,
-                                      plan.timeout)
+                                      plan.timeout, env_extra=env)
         time.sleep(0.3)   # the library's last lines (its shutdown at exit) reach the HAT at 115200 baud
         try:
             outcome.lint = json.loads(emu.control("@lint"))
@@ -156,6 +182,7 @@ def run_one(version: str, name: str, plan: Plan) -> Outcome:
     finally:
         outcome.emulator_exit = emu.stop()
         outcome.emulator_stderr = emu.stderr()
+        outcome.transcript = _events(transcript)
         emu.__exit__(None, None, None)
     outcome.wall = time.monotonic() - started
     return outcome
@@ -164,10 +191,18 @@ def run_one(version: str, name: str, plan: Plan) -> Outcome:
 Futures = Dict[Tuple[str, str], "concurrent.futures.Future[Outcome]"]
 
 
-def run_all(versions: List[str], workers: int = 8) -> Futures:
-    """Start every (version, scenario) at once; the caller waits on the futures it needs."""
+def _events(path: Any) -> List[Dict[str, Any]]:
+    try:
+        return [json.loads(line) for line in path.read_text(encoding="utf-8").splitlines() if line.strip()]
+    except (OSError, ValueError):
+        return []
+
+
+def run_all(versions: List[str], workers: int = 12) -> Futures:
+    """Start every (version, scenario) at once, and the EXTRA_PLANS; the caller waits on the futures."""
     pool = concurrent.futures.ThreadPoolExecutor(max_workers=workers, thread_name_prefix="hostlib")
     futures = {(v, name): pool.submit(run_one, v, name, plan)
                for v in versions for name, plan in plans().items()}
+    futures.update({key: pool.submit(run_one, key[0], key[1], plan) for key, plan in EXTRA_PLANS.items()})
     pool.shutdown(wait=False)
     return futures

@@ -50,11 +50,13 @@ class ScenarioResult:
 
 
 def run_scenario(python: pathlib.Path, script: str, pty: str, control: str, params: Dict[str, Any],
-                 timeout: float) -> ScenarioResult:
-    """Run ``scenarios/<script>`` with ``python``; kill its process group after ``timeout`` seconds."""
+                 timeout: float, env_extra: Optional[Dict[str, str]] = None) -> ScenarioResult:
+    """Run ``scenarios/<script>`` with ``python``; kill its process group after ``timeout`` seconds.
+    ``env_extra`` overrides environment variables (e.g. ``GPIOZERO_PIN_FACTORY``)."""
     argument = json.dumps({"pty": pty, "control": control, "params": params})
     env = dict(os.environ)
     env["GPIOZERO_PIN_FACTORY"] = "mock"      # no GPIO here; only the firmware-reset pulse would use it
+    env.update(env_extra or {})
     env["PYTHONUNBUFFERED"] = "1"
     env.pop("PYTHONPATH", None)               # the library venv sees only itself and the stdlib
     with tempfile.TemporaryDirectory(prefix="bh-scn-") as tmp:

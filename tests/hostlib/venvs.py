@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import contextlib
 import fcntl
+import hashlib
 import importlib.metadata
 import importlib.util
 import os
@@ -24,14 +25,20 @@ import subprocess
 import sys
 from typing import Dict, Iterator, List
 
-__all__ = ["SUPPORTED", "FIRMWARE_OF", "HostLibUnavailable", "buildhat_python", "venv_root", "requirements"]
+__all__ = ["SUPPORTED", "FIRMWARE_OF", "WITH_PROJECT", "HostLibUnavailable", "buildhat_python", "venv_root",
+           "requirements"]
 
 REPO = pathlib.Path(__file__).resolve().parents[2]
 
 #: The library releases the CI gate runs, each with the firmware its package bundles
-#: (``buildhat/data/version``): 0.9.0 is the current release, 0.5.7 the newest that uploads R2.
-FIRMWARE_OF: Dict[str, int] = {"0.9.0": 1737564117, "0.5.7": 1636109636}
-SUPPORTED = tuple(FIRMWARE_OF)
+#: (``buildhat/data/version``): 0.9.0 is the current release, 0.5.7 the newest that uploads R2, 0.5.12 the
+#: last 0.5.x (it uploads R5 1670596313 after resetting the HAT through gpiozero when the version differs).
+FIRMWARE_OF: Dict[str, int] = {"0.9.0": 1737564117, "0.5.7": 1636109636, "0.5.12": 1670596313}
+#: The releases the scenario matrix of tests/test_hostlib_python_build_hat.py runs.
+SUPPORTED = ("0.9.0", "0.5.7")
+#: Releases whose venv also holds this project (editable), for its gpiozero pin factory entry point
+#: (``GPIOZERO_PIN_FACTORY=buildhat_emulator``), as a host library's CI would install it.
+WITH_PROJECT = frozenset({"0.5.12"})
 
 # Pins beside the library: gpiozero 2.x still imports on Python 3.9 and offers the mock pin factory the
 # scenarios select (there is no GPIO here). Pinning keeps the venv the same from run to run.
@@ -58,7 +65,7 @@ def venv_root() -> pathlib.Path:
 def requirements(version: str) -> List[str]:
     """The exact requirement lines installed into the venv of ``version``."""
     if version not in FIRMWARE_OF:
-        raise ValueError(f"buildhat {version} is not one the gate runs; known: {', '.join(SUPPORTED)}")
+        raise ValueError(f"buildhat {version} is not one the gate runs; known: {', '.join(FIRMWARE_OF)}")
     return [f"buildhat=={version}"] + _EXTRA_PINS
 
 
@@ -66,9 +73,20 @@ def _python_in(venv: pathlib.Path) -> pathlib.Path:
     return venv / ("Scripts/python.exe" if os.name == "nt" else "bin/python")
 
 
+def _project_fingerprint() -> str:
+    """What an editable install of this project depends on: its packaging files (entry points)."""
+    digest = hashlib.sha256()
+    for name in ("pyproject.toml", "setup.py"):
+        digest.update((REPO / name).read_bytes())
+    return f"project {REPO} {digest.hexdigest()[:16]}"
+
+
 def _stamp_text(version: str) -> str:
     # The stamp names the interpreter too: a venv made by another Python must not be reused.
-    return "\n".join(requirements(version) + [f"python {sys.version_info[0]}.{sys.version_info[1]}"]) + "\n"
+    lines = requirements(version) + [f"python {sys.version_info[0]}.{sys.version_info[1]}"]
+    if version in WITH_PROJECT:
+        lines.append(_project_fingerprint())
+    return "\n".join(lines) + "\n"
 
 
 def _is_ready(venv: pathlib.Path, version: str) -> bool:
@@ -131,6 +149,15 @@ def _build(venv: pathlib.Path, version: str) -> None:
             raise HostLibUnavailable(f"PyPI unreachable (or buildhat=={version} withdrawn): pip found no "
                                      f"such release:\n{tail}")
         raise RuntimeError(f"pip install buildhat=={version} failed:\n{tail}")
+    if version in WITH_PROJECT:
+        done = _run(pip + ["install", "--no-input", "--quiet", "--no-deps", "-e", str(REPO)], timeout=600)
+        if done.returncode != 0:
+            shutil.rmtree(venv, ignore_errors=True)
+            tail = "\n".join(done.stdout.strip().splitlines()[-6:])
+            if any(sign in done.stdout for sign in _NETWORK_SIGNS):
+                raise HostLibUnavailable(f"PyPI unreachable: installing this project (build backend) "
+                                         f"failed:\n{tail}")
+            raise RuntimeError(f"pip install -e {REPO} into the buildhat {version} venv failed:\n{tail}")
     (venv / ".hostlib-ready").write_text(_stamp_text(version), encoding="utf-8")
 
 
@@ -147,7 +174,7 @@ def buildhat_python(version: str) -> pathlib.Path:
 
 def main(argv: List[str]) -> int:
     if len(argv) != 1:
-        print(f"usage: venvs.py VERSION   (one of {', '.join(SUPPORTED)})", file=sys.stderr)
+        print(f"usage: venvs.py VERSION   (one of {', '.join(FIRMWARE_OF)})", file=sys.stderr)
         return 2
     try:
         print(buildhat_python(argv[0]))

@@ -1,0 +1,102 @@
+"""What answers on a session: firmware (and which profile judges it) or bootloader, and, when
+nothing sensible answers, a diagnosis in the user's terms.
+
+A mixin of :class:`~.session.Session` (it works on the session's own state: profile, notes,
+events); kept apart because choosing a profile and explaining a silent link are their own job.
+"""
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any, List, Optional
+
+from ..protocol.profiles import Profile, get_profile, resolve_version
+from .errors import ExpectTimeout, TargetError
+from .events import Event
+from .matching import describe_events
+
+__all__ = ["Identification", "OPEN_ATTEMPTS"]
+
+OPEN_ATTEMPTS = 3      # like the Python library, `version` is resent when nothing answers
+
+
+class Identification:
+    """Mixin: ``profile``, ``profile_exact``, ``in_bootloader``, ``version_string``, ``notes``."""
+
+    if TYPE_CHECKING:   # provided by Session
+        target: Any
+        transcript: Any
+        events: Any
+        received: Any
+        _cond: Any
+        _requested_profile: Optional[Profile]
+
+        @property
+        def partial(self) -> bytes: ...
+        def drain(self, quiet: float = ..., limit: float = ...) -> List[Event]: ...
+        def fence(self, timeout: float = ...) -> List[Event]: ...
+        def _transcript_t(self, t_ms: float) -> float: ...
+        def now_ms(self) -> float: ...
+
+    profile: Optional[Profile]
+    profile_exact: bool
+    in_bootloader: bool
+    version_string: Optional[str]
+    notes: List[str]
+
+    def _note_answer(self, answer: Event) -> None:
+        if answer.kind == "bootloader_version":
+            self.in_bootloader = True
+            self.version_string = str(answer.fields.get("version", ""))
+            self.profile = self._requested_profile
+            return
+        self.in_bootloader = False
+        self.version_string = str(answer.fields.get("version", ""))
+        number = answer.fields.get("number")
+        if self._requested_profile is not None:
+            self.profile, self.profile_exact = self._requested_profile, True
+            if number is not None and number != self._requested_profile.number:
+                self._remark(f"target reports firmware {number}, but profile {self._requested_profile} "
+                             "was requested; using the requested profile")
+            return
+        if not isinstance(number, int):
+            self._remark(f"cannot read a version number from {answer.text!r}; using the latest profile")
+            self.profile, self.profile_exact = get_profile(None), False
+            return
+        profile, exact = resolve_version(number)
+        if not exact and (self.profile is None or self.profile.number != profile.number
+                          or self.profile_exact):
+            self._remark(f"unknown firmware version {number}; using the nearest earlier profile {profile}")
+        self.profile, self.profile_exact = profile, exact
+
+    def _remark(self, text: str) -> None:
+        if text not in self.notes:
+            self.notes.append(text)
+            if self.transcript is not None:
+                with self._cond:
+                    self.transcript.note(self._transcript_t(self.now_ms()), text)
+
+    def _detect(self, timeout: float) -> None:
+        self.drain(quiet=0.05, limit=1.0)  # stale output cannot fool the fence: a short drain is enough
+        for _attempt in range(OPEN_ATTEMPTS):
+            try:
+                self.fence(timeout)
+                return
+            except ExpectTimeout:
+                continue
+        raise TargetError(self._diagnosis(timeout))
+
+    def _diagnosis(self, timeout: float) -> str:
+        url, data = self.target.url, bytes(self.received)
+        asked = f"sent `version` {OPEN_ATTEMPTS} times, {timeout:g} s each"
+        if not data:
+            hint = self.target.diagnose("silent")
+            return f"nothing answering on {url}: {asked}, and not one byte came back." + \
+                (f"\n{hint}" if hint else "")
+        printable = sum(1 for b in data if 0x20 <= b < 0x7F or b in (0x0D, 0x0A))
+        if printable < 0.9 * len(data):
+            hint = self.target.diagnose("garbage")
+            return (f"{url} answers with garbage, not the Build HAT's text: {asked}; received "
+                    f"{len(data)} bytes, {len(data) - printable} of them not printable "
+                    f"(first bytes: {data[:24].hex(' ')})." + (f"\n{hint}" if hint else ""))
+        return (f"{url} answers, but not like a Build HAT (no 'Firmware version:' or "
+                f"'BuildHAT bootloader version' line): {asked}; "
+                f"{describe_events(self.events[:], self.partial, limit=10)}")
