@@ -468,7 +468,7 @@ class Port:
                 return
         # Each step waits its delay from the step before (the firmware's per-port `delay`: a
         # step that ran late, e.g. after a main-loop stall, shifts the ones after it).
-        if now < self._handshake_at:
+        if self._handshake_at is None or now < self._handshake_at:
             return
         info = self.info
         step = self._handshake_step
