@@ -69,7 +69,7 @@ class _FakeLink:
     def __init__(self) -> None:
         self.sent = bytearray()
 
-    def readables(self):  # type: ignore[no-untyped-def]
+    def readables(self, data: bool = True):  # type: ignore[no-untyped-def]
         return []
 
     def writables(self):  # type: ignore[no-untyped-def]

@@ -9,10 +9,11 @@ from __future__ import annotations
 import os
 import tempfile
 from concurrent.futures import ThreadPoolExecutor
+from typing import Dict, Tuple
 
 import pytest
 
-from .mutants.suite_run import run_suite
+from .mutants.suite_run import CaseResult, run_suite
 
 pytestmark = pytest.mark.timeout(600)
 
@@ -20,6 +21,21 @@ pytestmark = pytest.mark.timeout(600)
 # already measures in HAT time. Virtual time must not change a single verdict.
 WALL_CLOCK = "emulator:latest?speed=10"
 VIRTUAL = "inprocess:latest"
+
+
+# A loaded machine can starve the wall-clock run (its clock goes on while it is not scheduled), so a
+# case whose verdicts differ is run again on the wall clock at a gentler speed-up before the two are
+# compared: a case that differs then as well is a real difference between the two clocks.
+RECHECK = "emulator:latest?speed=2"
+
+
+def _differences(wall: Dict[str, CaseResult], virtual: Dict[str, CaseResult]) -> Dict[str, Tuple[str, str]]:
+    return {name: (wall[name].verdict, virtual[name].verdict)
+            for name in wall if name in virtual and wall[name].verdict != virtual[name].verdict}
+
+
+def _first_line(result: CaseResult) -> str:
+    return result.message.splitlines()[0] if result.message else ""
 
 
 def test_virtual_time_verdicts_equal_the_wall_clock_run() -> None:
@@ -31,11 +47,15 @@ def test_virtual_time_verdicts_equal_the_wall_clock_run() -> None:
         # A sanity floor: both ran the suite (it has several hundred cases), not an empty selection.
         assert len(wall_results) > 300, os.listdir(a)
         assert set(virtual_results) == set(wall_results)
-        differ = {name: (wall_results[name].verdict, virtual_results[name].verdict)
-                  for name in wall_results if wall_results[name].verdict != virtual_results[name].verdict}
+        differ = _differences(wall_results, virtual_results)
+        if differ:
+            functions = sorted({name.split("[")[0] for name in differ})
+            with tempfile.TemporaryDirectory() as c:
+                again = run_suite(c, RECHECK, keyword=" or ".join(functions), timeout=300)
+            wall_results = dict(wall_results, **{n: r for n, r in again.items() if n in differ})
+            differ = _differences(wall_results, virtual_results)
         assert not differ, "verdicts (wall clock, virtual time) differ: " + "; ".join(
-            f"{n}: {w} vs {v} ({virtual_results[n].message.splitlines()[0] if virtual_results[n].message else ''}"
-            f"{wall_results[n].message.splitlines()[0] if wall_results[n].message else ''})"
+            f"{n}: {w} vs {v} ({_first_line(virtual_results[n])}{_first_line(wall_results[n])})"
             for n, (w, v) in sorted(differ.items()))
         failed = [n for n, r in virtual_results.items() if r.verdict == "fail"]
         assert not failed, f"the virtual-time run failed: {failed}"
