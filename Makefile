@@ -13,9 +13,10 @@ $(STAMP): pyproject.toml setup.py
 	$(PY) -m pip install --quiet -e '.[dev]'
 	touch $(STAMP)
 
-## Run the conformance suite against the built-in emulator (or TARGET=...), writing reports/.
+## Run the conformance suite against the built-in emulator (or TARGET=...): a new run folder under
+## reports/runs/, with reports/latest, reports/junit.xml and reports/index.html following it.
 conformance: $(STAMP)
-	$(VENV)/bin/buildhat-conformance run --target $(TARGET) --junit reports/junit.xml
+	$(VENV)/bin/buildhat-conformance run --target $(TARGET)
 
 ## The project's own tests.
 test: $(STAMP)

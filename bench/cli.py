@@ -28,7 +28,7 @@ QUICK_SUITE = "test_select"
 
 
 def _groups(quick: bool) -> List[Group]:
-    from . import cost, fidelity, suite, throughput
+    from . import cost, fidelity, suite, target_faults, throughput
 
     lines = 100_000 if quick else 1_000_000
     # Seconds per measurement window: three 3 s windows give medians as steady as 5 s ones did
@@ -68,6 +68,17 @@ def _groups(quick: bool) -> List[Group]:
             (Figure("pulse done lateness, max", "ms"), "max_ms")], None),
         ("streaming cost", lambda: cost.streaming_cpu(seconds=secs), [
             (Figure("CPU share, 4 ports streaming at 10 ms", "% of a core"), "cpu_pct")], None),
+        # Issue 13: a dead HAT must not cost the rest of the run; a flood must not grow the harness.
+        ("dead target", lambda: target_faults.dead_target("silent"), [
+            (Figure("time to declare a silent target dead (5 faults in a row)", "s", "<= 30 s", target=30.0),
+             "declare_s")], 1),
+        ("target that stops reading", lambda: target_faults.dead_target("deaf"), [
+            (Figure("time to give up on a target that stops reading", "s", "<= 30 s", target=30.0),
+             "declare_s")], 1),
+        ("flood memory", lambda: target_faults.flood_memory(20.0 if quick else target_faults.FLOOD_SECONDS), [
+            (Figure("harness peak RSS, HAT flooding 3,000 lines/s", "MiB", "< 150 MB", target=143.0),
+             "rss_mib"),
+            (Figure("flooded lines kept in the transcript", "%", "100 %", "higher", 100.0), "kept_pct")], 1),
         ("memory", lambda: cost.memory_after_lines(lines), [
             (Figure(f"resident memory after {lines:,} lines", "MiB"), "rss_mib"),
             (Figure(f"memory growth over {lines:,} lines", "MiB"), "rss_growth_mib")], 1),  # deterministic

@@ -7,6 +7,7 @@ from typing import Dict
 
 from ..harness.session import Session
 from ..harness.targets import open_target
+from .fidelity import wait_settled
 
 # Powered up before the host opens the port: the devices' set-up is not what is measured.
 FOUR_MOTORS = "emulator:latest?speed=1&booted=1&device=0=0x30&device=1=0x30&device=2=0x31&device=3=0x41"
@@ -25,11 +26,7 @@ def streaming_cpu(url: str = FOUR_MOTORS, seconds: float = 5.0) -> Dict:
     10 ms (`select 1 ; selrate 10`, R5+), the host reading everything."""
     s = Session(open_target(url)).open()
     try:
-        ctl = s.target.control
-        for _ in range(200):
-            if ctl.action("@settled").strip().endswith("1"):
-                break
-            s.wait_ms(50)
+        wait_settled(s, attempts=200)
         s.command(" ; ".join(f"port {p} ; select 1 ; selrate 10" for p in range(4)))
         pid = s.target.child.pid  # type: ignore[attr-defined]
         s.collect(0.5)

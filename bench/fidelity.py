@@ -8,6 +8,7 @@ library sees.
 """
 from __future__ import annotations
 
+import math
 import statistics
 from typing import Dict, List
 
@@ -25,10 +26,14 @@ def _session(url: str) -> Session:
     return Session(open_target(url)).open()
 
 
-def _wait_settled(s: Session) -> None:
-    # The default layout's motor on port 0 must be established before selecting.
-    for _ in range(100):
-        if s.target.control.action("@settled").strip().endswith("1"):
+def wait_settled(s: Session, attempts: int = 100) -> None:
+    """Wait (50 ms steps) until the emulator's layout is up, e.g. the default layout's motor on
+    port 0 established before a ``select``."""
+    control = s.target.control
+    if control is None:
+        raise ValueError(f"{s.target.url}: this benchmark needs an emulator target (a control channel)")
+    for _ in range(attempts):
+        if control.action("@settled").strip().endswith("1"):
             return
         s.wait_ms(50)
 
@@ -37,7 +42,7 @@ def report_period(url: str = BOOTED, seconds: float = 3.0, period_ms: int = 100)
     """Intervals between `P0M1:` report lines for `select 1` (period 100 ms on every release)."""
     s = _session(url)
     try:
-        _wait_settled(s)
+        wait_settled(s)
         s.command("port 0 ; select 1")
         events = s.collect(seconds)
         s.command("select")
@@ -59,7 +64,7 @@ def pulse_lateness(url: str = BOOTED, duration_s: float = 0.5, repeats: int = 3)
     s = _session(url)
     late: List[float] = []
     try:
-        _wait_settled(s)
+        wait_settled(s)
         for _ in range(repeats):
             start = s.mark()
             t0 = s.now_ms()
@@ -79,7 +84,7 @@ def waveform_period(url: str = BOOTED, period_s: float = 0.2,
     """
     s = _session(url)
     try:
-        _wait_settled(s)
+        wait_settled(s)
         eleven = s.profile is not None and s.profile.feature("pid_numbers") == 11
         pid = "pid 0 1 0 s1 1 0 0 0 0 0" + (" 0" if eleven else "")  # R6+: a deadzone too
         s.command(f"port 0 ; select 1 ; {pid} ; set square 0 1 {period_s} 0 ; debug 16")
@@ -92,7 +97,8 @@ def waveform_period(url: str = BOOTED, period_s: float = 0.2,
     for e in events:
         if e.kind != "pid_debug":
             continue
-        sp = float(e.fields.get("sp", "nan"))
+        value = e.fields.get("sp")
+        sp = float(value) if isinstance(value, (int, float)) else math.nan
         if last is not None and last < 0.5 <= sp:
             rises.append(e.t)
         last = sp

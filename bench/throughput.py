@@ -44,7 +44,9 @@ def input_pool(profile: Profile, n: int = POOL_SIZE, seed: int = 1) -> List[byte
     pool: List[bytes] = []
 
     @hseed(seed)
-    @settings(max_examples=n, database=None, deadline=None, suppress_health_check=list(HealthCheck))
+    # HealthCheck iterates via an untyped metaclass __iter__: pyright cannot see its members
+    @settings(max_examples=n, database=None, deadline=None,
+              suppress_health_check=list(HealthCheck))  # pyright: ignore[reportArgumentType]
     @given(fuzz_input(grammar_for(profile)))
     def draw(inp) -> None:  # type: ignore[no-untyped-def]
         pool.append(inp.data)
@@ -190,7 +192,8 @@ def _fuzz_measure(url: str, seconds: float) -> Dict:
     from ..fuzz.bench import measure_throughput
 
     res = dict(measure_throughput(url, seconds=seconds, batch=FUZZ_BATCH))
-    n = int(res.get("findings") or 0)
+    findings = res.get("findings")
+    n = findings if isinstance(findings, int) else 0
     res["note"] = f"batch {FUZZ_BATCH}" + (f"; {n} finding(s), restarts included" if n else "")
     return res
 

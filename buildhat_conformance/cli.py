@@ -21,13 +21,15 @@ SUBCOMMANDS = {
     "replay": ("buildhat_conformance.harness.replay", "replay a transcript against a target and diff"),
     "mock": ("buildhat_conformance.harness.mock", "serve a transcript as a fake HAT"),
     "report": ("buildhat_conformance.harness.report.cli", "build the HTML report from JUnit files"),
-    "load": ("buildhat_conformance.harness.firmware.cli", "load a firmware image through the HAT's bootloader"),
+    "load": ("buildhat_conformance.harness.firmware.cli",
+             "load a firmware image through the HAT's bootloader"),
     "bench": ("buildhat_conformance.bench.cli", "benchmarks: timing, throughput, fidelity"),
 }
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="buildhat-conformance", description=__doc__.splitlines()[0])
+    summary = (__doc__ or "").partition("\n")[0]          # no docstring under python -OO
+    parser = argparse.ArgumentParser(prog="buildhat-conformance", description=summary)
     parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for name, (_module, help_text) in SUBCOMMANDS.items():

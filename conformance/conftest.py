@@ -6,6 +6,7 @@ package imports it by.
 pytest_plugins = [
     "buildhat_conformance.conformance.collect",     # test modules import under the package name
     "buildhat_conformance.conformance.plugin",      # options, the `hat` fixture, verdicts, JUnit
+    "buildhat_conformance.conformance.progress",    # terminal: legend, slow-case names, closing line
     "buildhat_conformance.conformance.fixtures",    # port fixtures
     "buildhat_conformance.conformance.multitarget", # several targets at once; inert with one
 ]

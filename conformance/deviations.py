@@ -22,6 +22,7 @@ class Deviation:
     profiles: FrozenSet[str]
     document: str
     firmware: str
+    explain: str = ""        # one sentence for the report: what the difference means to a host
 
     def applies_to(self, profile_name: str) -> bool:
         return profile_name in self.profiles
@@ -29,10 +30,11 @@ class Deviation:
 
 @lru_cache(maxsize=1)
 def deviations() -> Dict[str, Deviation]:
-    text = resources.files(__package__).joinpath("deviations.json").read_text(encoding="utf-8")
+    data = resources.files(__name__.rpartition(".")[0]).joinpath("deviations.json")   # in this package
+    text = data.read_text(encoding="utf-8")
     raw = json.loads(text)["deviations"]
     return {key: Deviation(key, d["requirement"], d["facts"], frozenset(d["profiles"]), d["document"],
-                           d["firmware"]) for key, d in raw.items()}
+                           d["firmware"], d.get("explain", "")) for key, d in raw.items()}
 
 
 def deviation(key: str) -> Deviation:

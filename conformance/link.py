@@ -13,11 +13,16 @@ from ..harness.errors import ExpectTimeout, TargetError
 from ..harness.matching import matcher
 from ..protocol.profiles import Profile
 from .reply import ASYNC_BYTES, ASYNC_LINE, Reply
-from .target_fault import DEAD, GARBLED, NOT_READING, REBOOTED, TargetFault, describe_silence
+from .resync import Resync
+from .target_fault import TargetFault, target_fault_of
 
 __all__ = ["Hat", "Reply", "TargetGone", "TargetFault", "ASYNC_BYTES", "ASYNC_LINE"]
 
 FENCE_ANSWER = b"Firmware version: "
+#: How long the fence's line ending may lag a version line before the count is taken as off. The
+#: HAT prints a line's CRLF before its answer and the next line's CRLF right after it; this is
+#: many times the gap a loaded host or a slow link puts between them.
+GRACE_S = 1.0
 
 class TargetGone(RuntimeError):
     """The target stopped answering (closed, killed, unplugged)."""
@@ -30,23 +35,14 @@ def _index_of(events: List[Any], event: Any, start: int) -> int:
     return start
 
 
-class Hat:
+class Hat(Resync):
     def __init__(self, session: Any, target: Any, url: str):
         self.session = session
         self.target = target
         self.url = url
         self._next = 0                  # first event not yet handed to the test
-        self._powered_checked = False
         self._fence_own: set[int] = set()   # events of fences that ended a collection window
-        #: Ports whose drive the fence leaves alone (devices that need power to stay connected).
-        self.powered_ports: tuple[int, ...] = ()
-        self._scanned = session.mark()  # events before this were looked at for a start-up banner
-        self._case_bytes = 0            # byte offset where the current case's traffic began
-        #: The HAT restarted; the next resync puts the suite's preconditions back.
-        self.rebooted = False
-        self.restarts = 0               # restarts seen (and recovered from) in this run
-        self._restart_asked = False     # the case reset the HAT itself (a world action)
-        self._restart_at: Optional[int] = None
+        self._init_resync()
 
     # -- identity ----------------------------------------------------------------------
     @property
@@ -126,7 +122,7 @@ class Hat:
         lost or added on the link, a silent or restarted HAT) the link is resynchronised by
         content and the case ends with a :class:`TargetFault` saying what the target did."""
         s = self.session
-        start = s.mark()
+        start, start_byte = s.mark(), len(s.received)
         try:
             line_no = s.send("version")
 
@@ -138,13 +134,24 @@ class Hat:
                 """the `Firmware version:` line answering the fence"""
                 return e.kind == "version"
 
-            crlf = s.expect(own_line_ending, timeout=timeout, since=start)
+            def ending_or_answer(e: Any) -> bool:
+                """the fence's own line ending, or a version line before it"""
+                return own_line_ending(e) or version_line(e)
+
+            crlf = s.expect(ending_or_answer, timeout=timeout, since=start)
+            if not own_line_ending(crlf):
+                # A version line came first: the answer to a `version` of the test's own (then
+                # the fence's line ending follows at once), or the fence's answer with its line
+                # ending lost on the link (then it never comes: find our place by content now
+                # rather than at the timeout).
+                crlf = s.expect(own_line_ending, timeout=min(timeout, GRACE_S),
+                                since=_index_of(s.events, crlf, start) + 1)
             boundary = _index_of(s.events, crlf, start)
             answer = s.expect(version_line, timeout=timeout, since=boundary + 1)
         except ExpectTimeout:
-            raise self._recover(start, timeout) from None
+            raise self._recover(start, start_byte, timeout) from None
         except TargetError as exc:
-            raise TargetFault(DEAD if "stopped reading" not in str(exc) else NOT_READING, str(exc)) from None
+            raise target_fault_of(exc) from None
         after = _index_of(s.events, answer, boundary) + 1
         if crlf.kind == "echo":
             # With echo on the prompt follows the answer; take it now so it does not open the
@@ -156,46 +163,6 @@ class Hat:
                 pass
         self.check_reboot(after)
         return boundary, after
-
-    def _recover(self, start: int, waited: float) -> TargetFault:
-        """The counted fence found no answer: sync by content to put the link back in step, and
-        say what the target did."""
-        s = self.session
-        try:
-            sync = s.sync(1.0)
-        except ExpectTimeout:
-            return describe_silence(bytes(s.received[self._case_bytes:]), s.events[start:], waited + 3.0)
-        except TargetError as exc:
-            return TargetFault(DEAD, str(exc))
-        self._next = sync.answer + 1
-        self._fence_own.clear()
-        banner = self._banner_since(start)
-        self._scanned = self._next
-        if banner is not None and not self._restart_asked:
-            self.rebooted = True
-            self._restart_at = banner
-            return TargetFault(REBOOTED, "the HAT printed its start-up banner again during this case "
-                                         f"({s.events[banner].text!r})")
-        return TargetFault(GARBLED, "the reply to this case's line was garbled on the link (a line "
-                                    "ending lost or added); the link was resynchronised by content")
-
-    def _banner_since(self, start: int) -> Optional[int]:
-        # The banner's first line marks a restart (FACTS §5; the bootloader prints it too).
-        return self.session.events.scan(lambda e: e.kind == "banner" and e.fields.get("stage") == "help_hint",
-                                        max(start, self._scanned))
-
-    def check_reboot(self, upto: Optional[int] = None) -> None:
-        """Raise TargetFault(rebooted) if a start-up banner arrived since the last look."""
-        banner = self._banner_since(self._scanned)
-        self._scanned = self.session.mark() if upto is None else max(self._scanned, upto)
-        if banner is not None and self._restart_asked:
-            self.rebooted, self._restart_at = True, banner
-            return
-        if banner is not None:
-            self.rebooted = True
-            self._restart_at = banner
-            raise TargetFault(REBOOTED, "the HAT restarted during this case (its start-up banner came: "
-                                        f"{self.session.events[banner].text!r})")
 
     def exchange_quiet(self, text: Union[str, bytes], attempts: int = 3) -> Reply:
         """``exchange``, repeated while asynchronous lines got mixed into the reply, so the
@@ -357,106 +324,3 @@ class Hat:
         if self.feature("pid_numbers") >= 11:
             args.append(deadzone)
         return " ".join([name] + [str(a) for a in args])
-
-    def cleanup_lines(self, powered: tuple[int, ...] = ()) -> List[str]:
-        """What the fence between test cases sends: echo/debug off, every port quiet and in
-        direct-PWM mode with a zero constant setpoint and the default limit. Ports in
-        ``powered`` keep their drive: a light matrix disconnects when its power goes."""
-        parts = ["echo 0", "debug 0"]
-        for p in range(4):
-            parts += [f"port {p}", "select"] + ([] if p in powered else ["pwm", "off"])
-            if self.has("bias"):
-                parts.append("bias 0")
-        if self.has("pwmparams"):
-            parts = parts + [f"port {p} ; pwmparams 0 0" for p in range(4)]
-        # plimit is left alone: a powered light matrix needs it, and tests that depend on the
-        # default limit set it themselves.
-        parts += ["port 0"]
-        # One line per 200 bytes at most: the line buffer holds 256 (FACTS §1).
-        lines, line = [], ""
-        for part in parts:
-            if len(line) + len(part) + 3 > 200:
-                lines.append(line)
-                line = ""
-            line = f"{line} ; {part}" if line else part
-        return lines + [line]
-
-    def resync(self) -> None:
-        """Between cases: end any half-typed line, put the HAT back in a known state and find
-        the link's place by content (harness/sync.py), whatever the last case left behind:
-        half a line, a lost or extra line ending, garbage, a restart. After a restart (a
-        start-up banner) the HAT is let finish starting and set up again. Reports queued before
-        ``select`` took effect arrive before the sync's answer, so no drain is needed."""
-        s = self.session
-        self._case_bytes = len(s.received)
-        for _round in range(3):
-            start = s.mark()
-            try:
-                if not self._powered_checked:
-                    s.sync(self._sync_wait())          # in step before asking `list`
-                    self._powered_checked = True
-                    self.powered_ports = self._ports_needing_power()
-                # The lines go back to back under one sync (H10: a fence each made three round
-                # trips per case); they fit the 8192-byte receive ring many times over (FACTS §1).
-                lines = self.cleanup_lines(self.powered_ports)
-                before = b"\r" + b"".join(line.encode() + b"\r" for line in lines)
-                sync = s.sync(self._sync_wait(), before=before)
-            except ExpectTimeout:
-                raise describe_silence(bytes(s.received[self._case_bytes:]), s.events[start:],
-                                       3 * self._sync_wait()) from None
-            except TargetError as exc:
-                raise TargetFault(NOT_READING if "stopped reading" in str(exc) else DEAD, str(exc)) from None
-            banner = self._banner_since(self._scanned)
-            self._next = sync.answer + 1
-            self._fence_own.clear()
-            self._scanned = self._next
-            if banner is None and not self.rebooted:
-                self._restart_asked = False
-                return
-            # The HAT restarted (now, or during the last case): its state is the power-on state
-            # (echo off, ports idle), but the devices connect again and the powered ports are
-            # found again; then the set-up above runs once more.
-            self.rebooted = False
-            self._powered_checked = False
-            self.restarts += 0 if self._restart_asked else 1
-            self._restart_asked = False
-            self._await_started(banner if banner is not None else self._restart_at)
-            self._restart_at = banner if banner is not None else self._restart_at
-        raise TargetFault(REBOOTED, "the HAT restarted again each time it was set up (3 times in a row)")
-
-    def _sync_wait(self) -> float:
-        """Seconds one sync waits for its answer: a round trip with the set-up lines, at most
-        ~60 ms at 115200 baud, with a wide margin (a slow link, a loaded machine)."""
-        return 1.0
-
-    def _await_started(self, banner: Optional[int]) -> None:
-        """Wait (at most 3 s of HAT time) for `Done initialising ports` after the banner at
-        index ``banner`` (FACTS §5: the host waits for it)."""
-        s = self.session
-
-        def started(e: Any) -> bool:
-            """`Done initialising ports`"""
-            return e.kind == "banner" and e.fields.get("stage") == "done"
-
-        since = banner if banner is not None else s.mark()
-        if s.events.scan(started, since) is None:
-            try:
-                s.expect(started, timeout=max(1.0, self.seconds(3000)), since=since)
-            except ExpectTimeout:
-                pass   # the sync that follows says whether the HAT answers
-
-    def _ports_needing_power(self) -> tuple[int, ...]:
-        """Ports with a device that disconnects without motor power (the light matrix, per
-        devices.json): the fence must not switch their drive off."""
-        from ..protocol.devices import catalogue
-        from .oracles.listing import parse_list
-        try:
-            entries = parse_list(self.exchange("list").list_lines())
-        except ValueError:
-            return ()
-        ports = []
-        for e in entries:
-            power = (catalogue().get(f"0x{e.id:02X}", {}).get("power") or {}) if e.kind == "active" else {}
-            if power.get("needs_port_power_at_connect") and "disconnect" in power.get("note", ""):
-                ports.append(e.port)
-        return tuple(ports)

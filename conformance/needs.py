@@ -13,7 +13,7 @@ from typing import Any, Dict, List, Optional, Tuple
 
 import pytest
 
-from ..protocol.devices import active_device, passive_device
+from ..protocol.devices import active_device, format_device_spec, passive_device
 from . import operator
 from .oracles.listing import PortEntry, parse_list
 
@@ -34,12 +34,6 @@ def device_name(spec: Spec) -> str:
     if kind == "active":
         return f"{active_device(ident)['name']} (active ID 0x{ident:02X})"
     return f"{passive_device(ident).get('name', 'passive device')} (passive ID {ident})"
-
-
-def _spec_text(spec: Spec) -> str:
-    if spec is None:
-        return "none"
-    return f"0x{spec[1]:02X}" if spec[0] == "active" else f"passive {spec[1]}"
 
 
 class World:
@@ -78,7 +72,7 @@ class World:
 
     @staticmethod
     def spec_of(entry: PortEntry) -> Spec:
-        return None if entry.kind == "empty" else (entry.kind, int(entry.id))
+        return None if entry.id is None else (entry.kind, entry.id)    # no ID: "empty"
 
     def settled_entry(self, port: int, spec: Spec, attempts: int = 8) -> PortEntry:
         """The port's ``list`` entry once it shows ``spec``; R1 shows a passive port as empty
@@ -154,7 +148,7 @@ class World:
                 self._power_if_needed(port, None)
                 self._wait_for(port, None)
             if spec is not None:
-                self.hat.world(f"@plug {port} {_spec_text(spec)}")
+                self.hat.world(f"@plug {port} {format_device_spec(spec)}")
                 self._power_if_needed(port, spec)
                 self._wait_for(port, spec)
             return
@@ -193,7 +187,7 @@ class World:
         if spec is None:
             self.hat.world(f"@unplug {port}")
         else:
-            self.hat.world(f"@plug {port} {_spec_text(spec)}")
+            self.hat.world(f"@plug {port} {format_device_spec(spec)}")
 
     def unplug(self, port: int) -> None:
         self.plug(port, None)

@@ -32,6 +32,9 @@ from .verdict import FAIL, INFO, KNOWN, NOT_RUN, PASS, SKIP, TARGET_FAULT, VERDI
 
 DEFAULT_CASE_TIMEOUT = 120.0
 DEFAULT_MAX_TARGET_FAULTS = 5
+# The exit statuses every command shares (README): 0 conforms, 1 conformance failures, 2 usage
+# error, 3 target unreachable or faulted.
+EXIT_OK, EXIT_FAILED, EXIT_TARGET = 0, 1, 3
 FW_AREA = "Firmware facts (FW-)"
 
 _verdict_key = pytest.StashKey[Verdict]()
@@ -146,7 +149,8 @@ class Run:
             session = Session(self.tee, transcript=None, profile=profile)
             session.open()
         except Exception as exc:  # the message says how to reach the target
-            self.open_error = f"cannot open target {self.url}: {first_line(str(exc)) or type(exc).__name__}"
+            why = first_line(str(exc)) or type(exc).__name__
+            self.open_error = why if self.url in why else f"cannot open target {self.url}: {why}"
             self.stopped = self.open_error
             raise TargetFault("unreachable", self.open_error) from exc
         self.hat = Hat(session, self.tee, self.url)
@@ -177,6 +181,10 @@ class Run:
         outcome = yield
         report = outcome.get_result()
         exc = call.excinfo.value if call.excinfo is not None else None
+        if report.failed and not is_target_fault(exc) and self.hat is not None:
+            # A check that failed while the target flooded the link or spewed garbage failed
+            # because of the link: a target fault, not a protocol failure.
+            exc = self.hat.babble() or exc
         if report.failed and is_target_fault(exc):
             assert exc is not None
             report.user_properties.append(("target_fault", fault_line(exc)))
@@ -292,6 +300,19 @@ class Run:
     def pytest_sessionfinish(self, session: Any, exitstatus: Any) -> None:
         self.close()
         self.junit.write()
+        if int(exitstatus) in (EXIT_OK, EXIT_FAILED):
+            session.exitstatus = self.exit_status()
+
+    def exit_status(self) -> int:
+        """The agreed exit statuses: 1 if any case failed (a finding about the protocol counts
+        even when the target later faulted), else 3 if the target faulted or was not reached,
+        else 0."""
+        verdicts = {cls for cls, _ in self.results.values()}
+        if FAIL in verdicts:
+            return EXIT_FAILED
+        if verdicts & {TARGET_FAULT, NOT_RUN} or self.stopped:
+            return EXIT_TARGET
+        return EXIT_OK
 
     def pytest_terminal_summary(self, terminalreporter: Any) -> None:
         tr = terminalreporter
@@ -358,10 +379,6 @@ def hat(_run: Run) -> Hat:
     return _run.open()
 
 
-class NotRun(pytest.skip.Exception):  # type: ignore[misc, name-defined]
-    """The case was not run: the run had stopped talking to the target."""
-
-
 @pytest.fixture(autouse=True)
 def _conformance_case(request: Any, _run: Run) -> Any:
     """Per case: its own transcript, the resynchronising fence, and its JUnit properties."""
@@ -374,7 +391,7 @@ def _conformance_case(request: Any, _run: Run) -> Any:
         _run.stopped = f"the target went away ({first_line(_run.tee.dead)})"
     if _run.stopped is not None:
         item.stash[_not_run_key] = _run.stopped
-        raise NotRun(f"not run: {_run.stopped}", pytrace=False)
+        pytest.skip(f"not run: {_run.stopped}")
     hat = _run.open()
     assert _run.tee is not None
     verdict = Verdict(hat.profile.name)

@@ -21,7 +21,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="target URL (default: emulator); several: one xdist worker each, one merged "
                              "report (docs/LAB.md; or --inventory FILE)")
     parser.add_argument("--firmware", default=None, help="judge against this release instead of detecting it")
-    parser.add_argument("--junit", default=os.path.join("reports", "junit.xml"), help="JUnit XML output")
+    parser.add_argument("--junit", default=None,
+                        help="JUnit XML output (default: a new run folder reports/runs/<time>-<target>/, "
+                             "with reports/latest, reports/junit.xml and reports/index.html updated when "
+                             "cases ran)")
     parser.add_argument("--transcripts", default=None,
                         help="folder for per-case transcripts (default: beside the JUnit file)")
     parser.add_argument("-k", dest="keyword", default=None, help="only tests matching this pytest expression")
@@ -47,6 +50,7 @@ def pytest_argv(args: argparse.Namespace) -> List[str]:
             # The suite uses no Hypothesis; its pytest plugin imports the library in the terminal
             # summary, two seconds of every run (H10 profile).
             "-p", "no:hypothesispytest"]
+    argv += ["--conformance-html", os.path.join(os.path.dirname(junit), "index.html")]
     if args.firmware:
         argv += ["--firmware", args.firmware]
     if args.keyword:
@@ -57,13 +61,11 @@ def pytest_argv(args: argparse.Namespace) -> List[str]:
 
 
 def build_html_report(junit: str) -> None:
-    """Write ``index.html`` beside the JUnit file (reports/ for `make conformance`)."""
+    """Write ``index.html`` beside the JUnit file; the suite's closing line has named it."""
     from ..harness.report import build_report
 
     try:
-        out = build_report([junit], os.path.join(os.path.dirname(junit), "index.html"))
-        if out:
-            print(f"HTML report: {out}")
+        build_report([junit], os.path.join(os.path.dirname(junit), "index.html"))
     except Exception as exc:  # noqa: BLE001 - the report is extra; the verdict is the exit status
         print(f"buildhat-conformance: HTML report not built: {exc}", file=sys.stderr)
 
@@ -102,11 +104,19 @@ def load_image_first(args: argparse.Namespace) -> int:
 
 
 def main(args: argparse.Namespace) -> int:
+    from ..harness.report import runs
+
+    folder = runs.start_for(args)        # None when --junit names the file explicitly
     if args.image or args.signature:
         status = load_image_first(args)
         if status:
+            if folder is not None:
+                print(runs.finish(folder))   # no case ran: reports/ stays as it was
             return status
     # The suite's own folder is the rootdir; pytest.ini options of the caller's project are not ours.
     code = subprocess.call(pytest_argv(args))
-    build_html_report(os.path.abspath(args.junit))
+    if folder is None or runs.cases_ran(folder.junit):
+        build_html_report(os.path.abspath(args.junit))
+    if folder is not None:
+        print(runs.finish(folder))
     return 0 if code == 0 else (code or 1)

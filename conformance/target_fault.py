@@ -6,9 +6,10 @@ from __future__ import annotations
 
 from typing import Any, Optional, Sequence
 
-from ..harness.errors import NeedsCapability, TargetError
+from ..harness.errors import NeedsCapability, NotReading, TargetError
 
-__all__ = ["TargetFault", "is_target_fault", "fault_line", "describe_silence", "first_line",
+__all__ = ["TargetFault", "is_target_fault", "target_fault_of", "fault_line", "describe_silence",
+           "garbled_reply", "first_line", "binary_count",
            "SILENT", "DEAD", "REBOOTED", "GARBLED", "NOT_READING"]
 
 SILENT, DEAD, REBOOTED, GARBLED, NOT_READING = "silent", "dead", "rebooted", "garbled", "not reading"
@@ -24,10 +25,15 @@ class TargetFault(Exception):
 
 
 def first_line(text: str, limit: int = 300) -> str:
-    for line in str(text).splitlines():
-        if line.strip():
-            return line.strip()[:limit]
-    return ""
+    """The first non-blank line; one that ends in a colon announces the lines after it (a
+    command's last stderr lines), so the last three of those follow on the same line."""
+    lines = [line.strip() for line in str(text).splitlines() if line.strip()]
+    if not lines:
+        return ""
+    out = lines[0]
+    if out.endswith(":") and len(lines) > 1:
+        out += " " + " | ".join(lines[1:][-3:])
+    return out[:limit] if len(out) <= limit else out[:limit - 3] + "..."
 
 
 def is_target_fault(exc: Optional[BaseException]) -> bool:
@@ -40,19 +46,32 @@ def is_target_fault(exc: Optional[BaseException]) -> bool:
     return isinstance(exc, TargetError) and not isinstance(exc, NeedsCapability)
 
 
+def target_fault_of(exc: TargetError) -> TargetFault:
+    """The target fault for a harness TargetError: it stopped reading, or it is gone."""
+    return TargetFault(NOT_READING if isinstance(exc, NotReading) else DEAD, str(exc))
+
+
 def fault_line(exc: BaseException) -> str:
     """The one line for the report: what the target did."""
     if isinstance(exc, TargetFault):
         return str(exc)
-    kind = NOT_READING if "stopped reading" in str(exc) else DEAD
-    return f"target fault ({kind}): {first_line(str(exc))}"
+    if isinstance(exc, TargetError):
+        return str(target_fault_of(exc))
+    return f"target fault ({DEAD}): {first_line(str(exc))}"
+
+
+_TEXT = bytes(range(0x20, 0x7F)) + b"\r\n"
+
+
+def binary_count(data: bytes) -> int:
+    """Bytes that are not the protocol's text (printable ASCII, CR, LF)."""
+    return len(data.translate(None, _TEXT))
 
 
 def _printable_share(data: bytes) -> float:
     if not data:
         return 1.0
-    text = sum(1 for b in data if 0x20 <= b < 0x7F or b in (0x0D, 0x0A))
-    return text / len(data)
+    return 1.0 - binary_count(data) / len(data)
 
 
 def describe_silence(received: bytes, events: Sequence[Any], waited_s: float) -> TargetFault:
@@ -66,3 +85,14 @@ def describe_silence(received: bytes, events: Sequence[Any], waited_s: float) ->
     unknown = sum(1 for e in events if getattr(e, "kind", "") == "unknown")
     return TargetFault(GARBLED, f"{len(events):,} lines ({unknown:,} of them no Build HAT output) but no "
                                 f"answer to `version` in {waited_s:.1f} s")
+
+
+def garbled_reply(received: bytes) -> TargetFault:
+    """The fault for a case whose reply was found only by content: binary garbage on the link,
+    or a line ending lost or added."""
+    binary = binary_count(received)
+    if binary > 16:
+        return TargetFault(GARBLED, f"{binary:,} bytes of binary garbage came during this case; the link "
+                                    "was resynchronised by content")
+    return TargetFault(GARBLED, "the reply to this case's line was garbled on the link (a line ending lost, "
+                                "added or corrupted); the link was resynchronised by content")

@@ -10,7 +10,7 @@ import threading
 import time
 from typing import Optional
 
-from ..harness.targets.base import Target
+from ..harness.targets.base import NotReading, Target
 from ..harness.transcript import TranscriptWriter
 
 __all__ = ["TeeTarget", "VirtualTeeTarget", "tee"]
@@ -67,6 +67,8 @@ class TeeTarget(Target):
                 w.host(self._now_ms(), data)
         try:
             self.inner.write(data)
+        except NotReading:
+            raise       # a target fault, but it may read again: the run's fault count decides
         except Exception as exc:
             self.dead = self.dead or f"{type(exc).__name__}: {exc}"
             raise

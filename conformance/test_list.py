@@ -25,7 +25,7 @@ def test_list_dump_follows_the_grammar_and_the_catalogue(hat: Hat) -> None:
             assert entry.lines == render_active(entry.port, catalogue()[f"0x{entry.id:02X}"]), \
                 f"P{entry.port}: the block differs from the catalogue entry of 0x{entry.id:02X}"
         elif entry.kind == "passive":
-            assert 1 <= entry.id <= 11
+            assert entry.id is not None and 1 <= entry.id <= 11
 
 
 @pytest.mark.req("CMD-LIST-EMPTY")

@@ -8,7 +8,7 @@ ie = clamp(ie + e*0.01), output = -(e*Kp + ie*Ki + de*Kd). The oracle is oracles
 from __future__ import annotations
 
 import struct
-from typing import Dict, List
+from typing import Dict, List, TypedDict
 
 import pytest
 
@@ -32,6 +32,17 @@ def _num(text: str) -> float:
 
 def _le16(value: int) -> str:
     return " ".join(f"{b:02X}" for b in struct.pack("<h", value))
+
+
+class _Gains(TypedDict):
+    """The gain arguments of :func:`_run_pid`, as typed on the command line."""
+    scale: str
+    unwrap: str
+    kp: str
+    ki: str
+    kd: str
+    windup: str
+    deadzone: str
 
 
 def _run_pid(hat: Hat, port: int, *, scale: str, unwrap: str, kp: str, ki: str, kd: str, windup: str,
@@ -64,7 +75,7 @@ def recompute(lines: List[PidLine], pv_of: Dict[str, float], sp: float, model: P
 def test_pid_lines_match_a_float32_recomputation(hat: Hat, world: World, motor_port: int) -> None:
     world.require("data", "control of the motor's reported position (world @data)")
     p = motor_port
-    gains = dict(scale="0.01", unwrap="0", kp="2.5", ki="1.5", kd="0.05", windup="0.1", deadzone="0.05")
+    gains = _Gains(scale="0.01", unwrap="0", kp="2.5", ki="1.5", kd="0.05", windup="0.1", deadzone="0.05")
     sp_text = "0.5"
     raws = [0, 40, -25, 300, 48, 49, 51, -300, 2]       # 48/49/51: errors inside/at the deadzone
     world.action(f"@data {p} 3 {_le16(raws[0])}")

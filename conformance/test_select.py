@@ -41,10 +41,11 @@ def test_select_mode_reports_repeatedly(hat: Hat, verdict: Verdict, motor_port: 
     lines = at_least(hat, p, 3, f"P{p}M1:", reply)
     assert reply.errors == 0 and len(lines) >= 3, f"{len(lines)} reports of mode 1 in 2 s"
     hex_ok = all(HEX_LINE.fullmatch(ln) for ln in lines)
-    decimal_ok = all(MODE_LINE.fullmatch(ln) for ln in lines)
+    decimal = [MODE_LINE.fullmatch(ln) for ln in lines]
+    decimal_ok = all(decimal)
     verdict.document(hex_ok, key="SELECT-PRINTS-DECIMAL", firmware_ok=decimal_ok, seen=repr(lines[:3]))
     # Mode 1 (SPEED) has one int8 value (devices.json): one value per line.
-    assert all(len(MODE_LINE.fullmatch(ln).group(3).replace(" 0", "0").split()) == 1 for ln in lines)
+    assert all(m is not None and len(m.group(3).replace(" 0", "0").split()) == 1 for m in decimal)
 
 
 @pytest.mark.req("CMD-SELECT-OFF")

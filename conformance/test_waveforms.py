@@ -13,7 +13,7 @@ from typing import List, Optional, Tuple
 
 import pytest
 
-from .link import Hat
+from .link import Hat, Reply
 from .oracles.numbers import parse_float
 from .oracles.pid import close_to_printed
 from .oracles.waveform import Generator, ticks_until_done
@@ -29,7 +29,7 @@ def _n(text: str) -> float:
     return value
 
 
-def capture(hat: Hat, port: int, command: str, ticks: int) -> Tuple[List[str], List, float, object]:
+def capture(hat: Hat, port: int, command: str, ticks: int) -> Tuple[List[str], List, float, Reply]:
     """Send ``command`` with the port in quiet PID mode; return the set-points of the first
     ``ticks`` ticks after it, all events, the send time and the reply."""
     start_quiet_pid(hat, port, sp=OLD_SP)

@@ -6,7 +6,10 @@ the process. The API is imported lazily so that ``import buildhat_conformance.em
 """
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:               # for static tools only: at run time __getattr__ imports it
+    from .api import Emulator
 
 __all__ = ["Emulator"]
 

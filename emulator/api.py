@@ -13,15 +13,15 @@ from __future__ import annotations
 
 from typing import Any, Callable, Dict, List, Mapping, Optional, Union
 
-from ..protocol.devices import DEFAULT_LAYOUT, parse_device_spec
+from ..protocol.devices import DEFAULT_LAYOUT, format_device_spec, parse_device_spec
 from ..protocol.profiles import Profile, get_profile, load_profiles
 from .bootloader import Bootloader, bootloader_checksum
-from .hat import Hat
+from .hat import DEFAULT_ADC, Hat
 from .reset_pins import HeldInReset
 from .uart import Uart
 from .world import WorldError, perform_line
 
-__all__ = ["Emulator", "WorldError", "BOOT_LIMIT_MS"]
+__all__ = ["Emulator", "WorldError", "BOOT_LIMIT_MS", "DEFAULT_ADC"]
 
 # boot() gives up (with an error naming the ports) if the layout is not up by then.
 BOOT_LIMIT_MS = 20000
@@ -83,7 +83,7 @@ class Emulator:
                            signature=signature, event_sink=self._sink, now=self._now, seed=self.seed)
         for port, spec in sorted(self.devices.items()):
             if spec is not None:
-                perform_line(self.machine, f"@plug {port} {_spec_text(spec)}")
+                perform_line(self.machine, f"@plug {port} {format_device_spec(spec)}")
 
     def _start_bootloader(self) -> None:
         self.uart.resize(BOOTLOADER_RING, BOOTLOADER_RING)
@@ -165,7 +165,7 @@ class Emulator:
             machine = self.machine
             if isinstance(machine, Hat):
                 due = min(max(machine.idle_until(), machine.now + 1), end)
-                machine.advance(due - machine.now)  # the ticks before `due` only count time
+                machine.advance(int(due) - machine.now)  # the ticks before `due` only count time
             else:
                 machine.tick()                      # the bootloader (it may boot a Hat)
             self._now = self.machine.now
@@ -269,8 +269,3 @@ class Emulator:
             self._start_bootloader()
         else:
             self._start_firmware(self.profile, signature=getattr(self.hat, "signature", None))
-
-
-def _spec_text(spec: tuple) -> str:
-    kind, value = spec
-    return f"0x{value:02X}" if kind == "active" else f"passive {value}"

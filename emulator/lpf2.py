@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import struct
 from dataclasses import dataclass
-from typing import List, Optional, Sequence
+from typing import Iterable, List, Optional, Sequence
 
 __all__ = ["SYS", "CMD", "INFO", "DATA", "SYNC", "NACK", "ACK", "CMD_TYPE", "CMD_MODES",
            "CMD_SPEED", "CMD_SELECT", "CMD_WRITE", "CMD_EXT_MODE", "CMD_VERSION",
@@ -40,7 +40,7 @@ INFO_MODE_PLUS_8 = 0x20   # bit 5 of the INFO command byte adds 8 to the 3-bit m
 MAX_PAYLOAD = 128         # the HAT clamps what it sends; LPF2 itself allows 2^7
 
 
-def checksum(data: bytes) -> int:
+def checksum(data: Iterable[int]) -> int:
     """0xFF XOR every byte: the value that makes the XOR of the whole message 0xFF."""
     c = 0xFF
     for b in data:

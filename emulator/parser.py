@@ -50,7 +50,8 @@ _ACC_LIMIT = 100000000
 _MASK32 = 0xFFFFFFFF
 
 # Runs found with one regex call instead of a Python loop per byte (H10 profile: the parser's
-# per-byte peeks were a large part of what a fuzzed line costs the emulator).
+# per-byte peeks were a large part of what a fuzzed line costs the emulator). All but _FORMAT
+# also match the empty string, so their ``match`` never fails (the ``assert m`` narrowings).
 _SPACES = re.compile(rb" *")
 _SEPARATORS = re.compile(rb"[ ;]*")
 _TOKEN = re.compile(rb"[^ ;]*")
@@ -145,15 +146,21 @@ class Cursor:
         return self.data[self.pos:]
 
     def skip_spaces(self) -> None:
-        self.pos = _SPACES.match(self.data, self.pos).end()
+        m = _SPACES.match(self.data, self.pos)
+        assert m is not None
+        self.pos = m.end()
 
     def skip_separators(self) -> None:
         """Skip a run of spaces and ``;`` (what separates commands)."""
-        self.pos = _SEPARATORS.match(self.data, self.pos).end()
+        m = _SEPARATORS.match(self.data, self.pos)
+        assert m is not None
+        self.pos = m.end()
 
     def token(self) -> bytes:
         """The bytes up to the next space, ``;`` or end (not consumed)."""
-        return _TOKEN.match(self.data, self.pos).group()
+        m = _TOKEN.match(self.data, self.pos)
+        assert m is not None
+        return m.group()
 
     # -- matcher -------------------------------------------------------------------------
     def match(self, names: Sequence[str]) -> Optional[str]:
@@ -173,6 +180,7 @@ class Cursor:
         the end of the line. A named command is consumed like :meth:`match`; an unknown token
         is left in place. One regex call: this runs for every command of every line."""
         m = _COMMAND.match(self.data, self.pos)
+        assert m is not None
         tok = m.group(1)
         name = prefixes.get(tok) if tok else None
         self.pos = m.end() if name is not None else m.start(1)
@@ -184,6 +192,7 @@ class Cursor:
     # probe for optional numbers on every argument.
     def _scan_unsigned(self) -> Optional[int]:
         m = _UNSIGNED.match(self.data, self.pos)
+        assert m is not None
         digits = m.group(1)
         if not digits:
             return None
@@ -192,6 +201,7 @@ class Cursor:
 
     def _scan_signed(self) -> Optional[int]:
         m = _SIGNED.match(self.data, self.pos)
+        assert m is not None
         sign, digits = m.groups()
         if not digits:
             return None
@@ -203,6 +213,7 @@ class Cursor:
 
     def _scan_float(self) -> Optional[float]:
         m = _FLOAT.match(self.data, self.pos)
+        assert m is not None
         sign, whole, fraction = m.groups()
         if not whole and not fraction:
             return None
@@ -214,6 +225,7 @@ class Cursor:
 
     def _scan_hex32(self) -> Optional[int]:
         m = _HEX.match(self.data, self.pos)
+        assert m is not None
         digits = m.group(1)
         if not digits:
             return None

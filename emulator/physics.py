@@ -21,7 +21,7 @@ import math
 import random
 from typing import Optional, Union
 
-__all__ = ["MotorPhysics", "TAU_S", "DEADBAND", "COAST_TAU_S", "DEFAULT_RATED_DEG_S"]
+__all__ = ["MotorPhysics", "TAU_S", "DEADBAND", "COAST_TAU_S", "DEFAULT_RATED_DEG_S", "wrap180"]
 
 TAU_S = 0.05             # mechanical time constant when driven (or braked at duty 0)
 DEADBAND = 0.08          # fraction of full drive that static friction absorbs
@@ -31,7 +31,8 @@ DEFAULT_RATED_DEG_S = 1000.0
 Drive = Union[int, str, None]
 
 
-def _wrap180(deg: int) -> int:
+def wrap180(deg: int) -> int:
+    """An angle in degrees as -180..179 (the motor's absolute position, APOS)."""
     return (deg + 180) % 360 - 180
 
 
@@ -84,7 +85,7 @@ class MotorPhysics:
     @property
     def apos_deg(self) -> int:
         """APOS mode value: the absolute shaft angle, -180..179."""
-        return _wrap180(int(math.floor(self.shaft + 0.5)))
+        return wrap180(int(math.floor(self.shaft + 0.5)))
 
     # -- time ----------------------------------------------------------------------------
     def step(self, dt_ms: int, duty: Drive) -> None:

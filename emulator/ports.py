@@ -2,9 +2,8 @@
 
 ``Hat`` builds ``Port(hat, index)`` and calls ``tick(now)`` every millisecond once the start-up
 is done. The port owns the wire to the plugged-in device model (``emulator/devices/``): bytes
-the device sends arrive at its baud rate (the profile's ``device_setup`` baud during setup,
-then the device's rate), and
-frames the HAT sends reach the device at once. Phases:
+the device sends arrive at its baud rate (the profile's ``device_setup`` baud during setup, then
+the device's rate), and frames the HAT sends reach the device at once. Phases:
 
 - ``scan``: each pass through *state 0* resets the port's controller (``port_initpwm``), prints
   ``P<p>: disconnected`` if something was connected (profile ``disconnected_line``) and starts an
@@ -16,16 +15,13 @@ frames the HAT sends reach the device at once. Phases:
   connected flag cleared during the scan) and the connect line repeats after each scan.
   Button (ID 5, ``button_events``): ``P<p>: button pressed/released`` when the state changes.
 - active: a scan that sees an active device waits 100 ms (RX held low), prints
-  ``P<p>: connecting to active device`` and turns the UART on at the set-up rate. Bytes count only after
-  100 ms of silence. Setup messages fill a :class:`DeviceInfo`; the device's ACK starts the
-  handshake: +10 ms SPEED, +100 ms ACK, +10 ms baud switch (``set baud rate to <baud>``, no
-  prefix), +1 ms the ``list`` dump and ``P<p>: established serial communication with active ID
-  xx``. In the data phase the HAT sends NACK every 100 ms, handles one queued message per pass,
-  and disconnects after more than 500 ms without a message (setup: 2000 ms).
+  ``P<p>: connecting to active device``, turns the UART on at the set-up rate and hands over to an
+  ``ActiveLink`` (``emulator/active_link.py``: setup, handshake, data phase, timeouts). When the
+  link fails the port prints why and disconnects (R2+: ``disconnected`` on the next pass).
 
-The active device's messages queue in a 4-slot queue (``MQ overrun!`` when more than 4 complete
-within one millisecond: the emulated main loop drains the queue once per millisecond).
-Debug bits (§7.4): 1 serial trace, 4 signatures, 8 DATA payloads, 32 unknown messages.
+Beside it: the port's UART (receive sync, LPF2 framing, the 4-slot message queue, debug-1
+trace) is ``emulator/port_uart.py``; the per-mode payload store ``emulator/mode_store.py``.
+Debug bit 4 (§7.4, the scan's signature line) is printed here.
 
 Interfaces other modules use: ``connected``, ``mode_data(mode)``, ``describe()``, ``settled``,
 ``send_to_device(frame)``, ``send_select(mode)``, the world actions ``plug(spec)``, ``unplug()``,
@@ -47,38 +43,27 @@ from typing import Deque, Dict, List, Optional, Tuple
 
 from ..protocol.profiles import passive_signature_ids
 from . import lpf2
-from .devices import ActiveDevice, MotorDevice, PassiveDevice, make_device
+from .active_link import RESTART, ActiveLink, Failure
+from .devices import ActiveDevice, Device, MotorDevice, PassiveDevice, make_device
+from .devices.active import setup_timing
 from .devices.info import DeviceInfo
 from .devices.passive import BUTTON_ID, BUTTON_RELEASED
 from .listing import active_dump, empty_line, passive_line
+from .mode_store import ModeStore
+from .port_uart import PortUart
 from .reporting import Reporter
 from .services import PortServices
 
-__all__ = ["Port", "DETECT_MATCHES", "RESCAN_PAUSE_MS", "ACTIVE_DETECT_MS", "SYNC_GAP_MS",
-           "SETUP_TIMEOUT_MS", "DATA_TIMEOUT_MS", "NACK_PERIOD_MS", "QUEUE_SLOTS",
-           "MAX_ERRORS", "HANDSHAKE_SPEED_MS", "HANDSHAKE_ACK_MS", "HANDSHAKE_SWITCH_MS",
-           "HANDSHAKE_DUMP_MS", "SIGNATURE_EMPTY", "SIGNATURE_ACTIVE"]
+__all__ = ["Port", "DETECT_MATCHES", "RESCAN_PAUSE_MS", "ACTIVE_DETECT_MS", "SIGNATURE_EMPTY",
+           "SIGNATURE_ACTIVE"]
 
 DETECT_MATCHES = 6          # scans in a row that must read the same passive ID
 RESCAN_PAUSE_MS = 100       # pause between rescans of a connected passive device (not ID 5)
 ACTIVE_DETECT_MS = 100      # RX held low this long -> "connecting to active device"
-SYNC_GAP_MS = 100           # receive sync: bytes are ignored until a gap this long
-SETUP_TIMEOUT_MS = 2000
-DATA_TIMEOUT_MS = 500
-NACK_PERIOD_MS = 100
-QUEUE_SLOTS = 4
-MAX_ERRORS = 5              # checksum + framing errors above this disconnect
-HANDSHAKE_SPEED_MS = 10     # after the device's ACK
-HANDSHAKE_ACK_MS = 110
-HANDSHAKE_SWITCH_MS = 120
-HANDSHAKE_DUMP_MS = 121
-MIN_BAUD, MAX_BAUD = 2400, 115200
-SETUP_BAUD = 2400
 # ID-pin signatures the scan reads (debug 4) when nothing, or an active device, is attached.
 SIGNATURE_EMPTY = 0x0CC0
 SIGNATURE_ACTIVE = 0x00CF
 _WAITING = ("scan", "pause", "idle", "detect")   # phases that only wait for ``_next``
-_MODE_BUFFER = 132          # per-mode payload store: offsets up to 127 plus a 4-byte value
 
 
 class Port:
@@ -99,35 +84,25 @@ class Port:
         (self._signature_ids, self._active_mask, self._active_value,
          self._active_id) = passive_signature_ids(f["passive_signature_table"])
         self.rng = random.Random((hat.seed or 0) * 7919 + index)
-        self.device = None                      # what is plugged in (the world)
+        self.device: Optional[Device] = None    # what is plugged in (the world)
         self.reporter = Reporter(self)
         self.info: Optional[DeviceInfo] = None  # the parsed setup of the active device
         self.combis: Dict[int, List[Tuple[int, int]]] = {}
         self.passive_id = 0                     # connected passive ID (0 = none)
         self.established = False
         self.button_pressed = False             # stored button state (kept over disconnects)
-        self._modedata: Dict[int, bytearray] = {}
-        self._modelen: Dict[int, int] = {}
+        self.modes = ModeStore()                # DATA payloads of the active device
+        self.uart = PortUart(hat, index)
         self._phase = "state0"
-        self._next: Optional[int] = None
+        self._next = 0          # when a waiting phase (_WAITING) ends
         self._cycle_start = 0
         self._matches = 0
         self._scan_id = 0
         self._pending_disconnect = False
-        self._uart_on = False
-        self._baud = SETUP_BAUD
+        # The wire from the device: (arrival ms, byte), paced at the device's baud rate.
         self._wire: Deque[Tuple[float, int]] = deque()
         self._wire_free = 0.0
-        self._rx = lpf2.Assembler()
-        self._rx_synced = False
-        self._rx_last = 0.0
-        self._queue: Deque[lpf2.Message] = deque()
-        self._last_msg = 0
-        self._errors = 0
-        self._handshake_at: Optional[int] = None    # when the next handshake step is due
-        self._handshake_step = 0
-        self._next_nack: Optional[int] = None
-        self._dev_rx = lpf2.Assembler(keep_system=True)
+        self.link: Optional[ActiveLink] = None   # the conversation with an active device
         self.due: float = 0     # the Hat ticks the port from this virtual ms on (0: at once)
 
     def wake(self) -> None:
@@ -156,15 +131,11 @@ class Port:
 
     def mode_data(self, mode: int) -> Optional[bytes]:
         """The latest payload stored for ``mode`` (padded store), None if none since connect."""
-        buf = self._modedata.get(mode)
-        return None if buf is None else bytes(buf)
+        return self.modes.latest(mode)
 
     def stored(self, mode: int) -> Tuple[bytes, int]:
         """(payload store, received length) of ``mode``; zeros and 0 when nothing arrived."""
-        buf = self._modedata.get(mode)
-        if buf is None:
-            return bytes(_MODE_BUFFER), 0
-        return bytes(buf), self._modelen.get(mode, 0)
+        return self.modes.stored(mode)
 
     def describe(self) -> List[str]:
         """The lines ``list`` prints for this port."""
@@ -177,15 +148,13 @@ class Port:
     # -- sending to the device -------------------------------------------------------------------
     def send_to_device(self, frame: bytes) -> None:
         """A framed message from the HAT; silently dropped while the port UART is off."""
-        if not self._uart_on:
+        if not self.uart.on:
             return
         self.wake()
         self.hat.event("dev", port=self.index, hex=frame.hex(" ").upper())
         dev = self.device
-        self._dev_rx.reset()
-        for b in frame:
-            msg = self._dev_rx.feed(b)
-            if msg is not None and isinstance(dev, ActiveDevice):
+        for msg in self.uart.transmit(frame):
+            if isinstance(dev, ActiveDevice):
                 dev.receive(msg, self.hat.now)
 
     def send_select(self, mode: int) -> None:
@@ -199,12 +168,13 @@ class Port:
         self.unplug()
         if device is None:
             return
-        device.port = self
+        if isinstance(device, ActiveDevice):
+            device.port = self         # it reads the motor drive and notes through its port
         self.device = device
         self.wake()
 
     def unplug(self) -> None:
-        if self.device is not None:
+        if isinstance(self.device, ActiveDevice):
             self.device.port = None
         self.device = None
         self._wire.clear()
@@ -263,18 +233,17 @@ class Port:
                 return now + 1             # e.g. a moving motor: no need to look further
         else:
             dev_due = math.inf
-        if self._pending_disconnect or self._queue:
+        if self._pending_disconnect or self.uart.queue:
             return now + 1
         phase = self._phase
         if phase in _WAITING:
             due = self._next
-        elif phase == "data":
-            due = min(self.reporter.next_due(now), self._next_nack,
-                      self._last_msg + DATA_TIMEOUT_MS + 1)
+        elif phase == "active" and self.link is not None:
+            due = self.link.next_due(now)
         elif phase == "gone":
             due = math.inf                 # only waits for the pending disconnect
         else:
-            return now + 1                 # state 0, setup and handshake: every millisecond
+            return now + 1                 # state 0: every millisecond
         if self._wire:
             due = min(due, math.ceil(self._wire[0][0]))   # the next byte's arrival
         return min(due, dev_due)
@@ -284,7 +253,7 @@ class Port:
         if isinstance(dev, ActiveDevice):
             frames = dev.tick(now)
             if frames:
-                self._from_device(frames, now)
+                self._from_device(frames, now, dev.baud)
         if self._wire:
             self._receive(now)
         if self._pending_disconnect:
@@ -304,10 +273,8 @@ class Port:
                 self._connecting(now)
         elif phase == "state0":
             self._state0(now)
-        elif phase in ("setup", "handshake"):
-            self._setup_tick(now)
-        elif phase == "data":
-            self._data_tick(now)
+        elif phase == "active" and self.link is not None:
+            self._link_tick(self.link, now)
 
     # -- scanning ----------------------------------------------------------------------------------
     def _state0(self, now: int) -> None:
@@ -404,29 +371,36 @@ class Port:
             self.button_pressed = pressed
             self._line("button pressed" if pressed else "button released")
 
-    # -- active setup ------------------------------------------------------------------------------
+    # -- active device -----------------------------------------------------------------------------
     def _connecting(self, now: int) -> None:
         dev = self.device
         if not (isinstance(dev, ActiveDevice) and dev.talking):
             self._state0(now)
             return
         self._line("connecting to active device")
-        self.info = DeviceInfo()
+        self.link = ActiveLink(self.hat, self.index, self.uart, self.modes, self.reporter,
+                               self.send_to_device, now)
+        self.info = self.link.info
         self.combis = {}
-        self._modedata.clear()
-        self._modelen.clear()
+        self.modes.clear()
         self.reporter.connection_changed()
-        self._uart_on = True
-        self._baud = SETUP_BAUD
-        self._rx.reset()
-        self._rx_synced = False
-        self._rx_last = float(now)
-        self._queue.clear()
-        self._last_msg = now
-        self._errors = 0
-        self._handshake_at = None
-        self._phase = "setup"
+        self.uart.start(now, setup_timing(self.hat.profile.features)[1])
+        self._phase = "active"
         dev.begin_setup(now)
+
+    def _link_tick(self, link: ActiveLink, now: int) -> None:
+        outcome = link.tick(now)
+        if outcome is None:
+            return
+        if isinstance(outcome, Failure):
+            self._fail(now, outcome.text)
+        elif outcome == RESTART:
+            self._state0(now)          # no TYPE seen: restart silently
+        else:                          # ESTABLISHED
+            self.established = True
+            dev = self.device
+            if self.matrix_autopower and dev is not None and dev.entry.get("category") == "light":
+                self.hat.controllers[self.index].autopower()   # constant 1.0, coast cleared (§7.1)
 
     def _fail(self, now: int, text: str) -> None:
         """A setup or data-phase failure: print, reset the select state, rescan."""
@@ -445,109 +419,10 @@ class Port:
         else:
             self._state0(now)
 
-    def _setup_tick(self, now: int) -> None:
-        if self._phase == "setup":
-            while self._queue:
-                msg = self._queue.popleft()
-                self._last_msg = now
-                if not msg.ok:
-                    self._fail(now, "checksum error: disconnecting")
-                    return
-                if msg.header == lpf2.ACK:
-                    if self.info is None or self.info.type_id is None:
-                        self._state0(now)          # no TYPE seen: restart silently
-                        return
-                    self._phase = "handshake"
-                    self._handshake_at = now + HANDSHAKE_SPEED_MS
-                    self._handshake_step = 0
-                    break
-                self._setup_message(msg)
-            if self._phase == "setup":
-                if now - self._last_msg > SETUP_TIMEOUT_MS:
-                    self._fail(now, "timeout during setup phase: disconnecting")
-                return
-        # Each step waits its delay from the step before (the firmware's per-port `delay`: a
-        # step that ran late, e.g. after a main-loop stall, shifts the ones after it).
-        if self._handshake_at is None or now < self._handshake_at:
-            return
-        info = self.info
-        step = self._handshake_step
-        self._handshake_step += 1
-        if step == 0:
-            self.send_to_device(lpf2.speed_frame(info.baud))
-            self._handshake_at = now + HANDSHAKE_ACK_MS - HANDSHAKE_SPEED_MS
-        elif step == 1:
-            self.send_to_device(bytes([lpf2.ACK]))
-            self._handshake_at = now + HANDSHAKE_SWITCH_MS - HANDSHAKE_ACK_MS
-        elif step == 2:
-            self._baud = max(MIN_BAUD, min(MAX_BAUD, info.baud))
-            self.hat.emit(f"set baud rate to {info.baud}")
-            self._handshake_at = now + HANDSHAKE_DUMP_MS - HANDSHAKE_SWITCH_MS
-        else:
-            self._establish(now)
-
-    def _setup_message(self, msg: lpf2.Message) -> None:
-        if self.info.apply(msg) or not self.hat.debug & 32:
-            return
-        if msg.msg_class == lpf2.INFO:
-            self._line(f"type=80 cmd={msg.cmd:02X}  payload={_payload_hex(msg.payload)}")
-        else:
-            self.hat.emit(f"P{self.index:X} message type={msg.header:02X}")
-
-    def _establish(self, now: int) -> None:
-        for line in active_dump(self.index, self.info):
-            self.hat.emit(line)
-        type_id = self.info.type_id
-        self._line(f"established serial communication with active ID {type_id:02X}")
-        self.established = True
-        self._phase = "data"
-        self._last_msg = now
-        self._next_nack = now + NACK_PERIOD_MS
-        dev = self.device
-        if self.matrix_autopower and dev is not None and dev.entry.get("category") == "light":
-            self.hat.controllers[self.index].autopower()   # constant 1.0, coast cleared (§7.1)
-
-    # -- data phase --------------------------------------------------------------------------------
-    def _data_tick(self, now: int) -> None:
-        # The main loop makes many passes per millisecond; each pass handles one queued
-        # message and then runs the report engine (so rate 0 reports once per message).
-        if not self._queue:
-            self.reporter.tick(now)
-        while self._queue:
-            self._data_message(self._queue.popleft(), now)
-            if self._phase != "data":
-                return
-            self.reporter.tick(now)
-        if now >= self._next_nack:
-            self._next_nack += NACK_PERIOD_MS
-            self.send_to_device(bytes([lpf2.NACK]))
-        if now - self._last_msg > DATA_TIMEOUT_MS:
-            self._fail(now, "timeout during data phase: disconnecting")
-
-    def _data_message(self, msg: lpf2.Message, now: int) -> None:
-        self._last_msg = now
-        if not msg.ok:
-            self._errors += 1
-            if self._errors > MAX_ERRORS:
-                self._fail(now, f"too many errors (0+{self._errors}): disconnecting")
-            return
-        if msg.msg_class == lpf2.DATA:
-            mode = msg.code
-            buf = self._modedata.setdefault(mode, bytearray(_MODE_BUFFER))
-            buf[:len(msg.payload)] = msg.payload
-            self._modelen[mode] = len(msg.payload)
-            if self.hat.debug & 8:
-                self._line(f"DATA mode={mode:X} payload={_payload_hex(msg.payload)}")
-            self.reporter.on_data(mode)
-        elif self.hat.debug & 32:
-            self._line(f"data-phase message type {msg.header:02X} payload={_payload_hex(msg.payload)}")
-
     # -- the wire from the device ------------------------------------------------------------------
-    def _from_device(self, frames: List[bytes], now: int) -> None:
-        if not frames:
-            return
-        dev = self.device
-        byte_ms = 10000.0 / (dev.baud if dev is not None else SETUP_BAUD)
+    def _from_device(self, frames: List[bytes], now: int, baud: int) -> None:
+        """The device's frames as bytes on the wire, each arriving 10 bit times after the last."""
+        byte_ms = 10000.0 / baud
         t = max(float(now), self._wire_free)
         for frame in frames:
             for b in frame:
@@ -556,42 +431,16 @@ class Port:
         self._wire_free = t
 
     def _receive(self, now: int) -> None:
-        """The port UART interrupt: bytes that arrived by ``now`` become queued messages."""
-        while self._wire and self._wire[0][0] <= now:
-            t, b = self._wire.popleft()
-            if not self._uart_on:
-                continue
-            if not self._rx_synced:
-                gap = t - self._rx_last
-                self._rx_last = t
-                if gap < SYNC_GAP_MS:
-                    self._trace(b, "n")
-                    continue
-                self._rx_synced = True
-            self._rx_last = t
-            state = self._rx.state
-            msg = self._rx.feed(b)
-            self._trace(b, "ACK" if msg is not None and msg.header == lpf2.ACK else state)
-            if msg is None:
-                continue
-            self.hat.event("devrx", port=self.index, hex=msg.hex())
-            if len(self._queue) >= QUEUE_SLOTS:
-                self.hat.emit("MQ overrun!")
-                continue
-            self._queue.append(msg)
-
-    def _trace(self, b: int, state: str) -> None:
-        if self.hat.debug & 1:
-            self.hat.write_out(f"{b:02X}{state}".encode("ascii"))
+        """Bytes that arrived by ``now`` go to the port UART (which may queue messages)."""
+        wire, uart = self._wire, self.uart
+        while wire and wire[0][0] <= now:
+            t, b = wire.popleft()
+            uart.receive(t, b)
 
     def _uart_off(self) -> None:
-        self._uart_on = False
-        self._queue.clear()
-        self._next_nack = None
+        self.uart.stop()
+        self.link = None
 
     def _line(self, text: str) -> None:
         self.hat.emit(f"P{self.index:X}: {text}")
 
-
-def _payload_hex(payload: bytes) -> str:
-    return " ".join(f"{b:02x}" for b in payload)

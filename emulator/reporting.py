@@ -24,12 +24,12 @@ from __future__ import annotations
 
 import math
 import struct
-from typing import List, Optional
+from typing import Dict, List, Optional, Protocol, Tuple
 
-from .devices.info import FORMAT_SIZES
+from .devices.info import FORMAT_SIZES, DeviceInfo
 from .parser import format_is_float, format_is_signed, format_size
 from .printers import format_float, format_int
-from .services import ReporterPort
+from .services import PortServices, Wakeable
 
 __all__ = ["Reporter", "FIXED_PERIOD_MS", "DEFAULT_RATE_MS", "TX_THROTTLE_BYTES", "RATE_OFF",
            "RATE_ONCE", "MAX_RATE_MS", "read_value", "decode_values"]
@@ -63,6 +63,26 @@ def decode_values(buf: bytes, length: int, count: int, ftype: int) -> List[str]:
     size = FORMAT_SIZES.get(ftype, 1)
     n = min(count, length // size)
     return [_int_at(buf, i * size, ftype)[0] for i in range(n)]
+
+
+class ReporterPort(Wakeable, Protocol):
+    """A port as its ``Reporter`` sees it."""
+
+    @property
+    def hat(self) -> PortServices: ...
+
+    @property
+    def index(self) -> int: ...
+
+    @property
+    def info(self) -> Optional[DeviceInfo]: ...
+
+    @property
+    def combis(self) -> Dict[int, List[Tuple[int, int]]]: ...
+
+    def send_select(self, mode: int) -> None: ...
+
+    def stored(self, mode: int) -> Tuple[bytes, int]: ...
 
 
 class Reporter:

@@ -6,7 +6,9 @@ part declares (``Port(hat: PortServices, index)``). A part may touch only what i
 names, and no part imports hat.py, not even for typing (tests/test_emulator_layering.py keeps it
 so): a part can be built and ticked with a small fake instead of a whole HAT
 (tests/test_emulator_services.py). The command modules see the HAT through ``CommandContext``
-(emulator/command_context.py), which needs the concrete part classes and so lives beside them.
+(emulator/command_context.py), which needs the concrete part classes and so lives beside them;
+a ``Reporter`` sees its port as ``reporting.ReporterPort``. This module imports no part of the
+emulator (only ``drive.Duty``), so any part may import it.
 
 The services, by job:
 
@@ -18,15 +20,14 @@ The services, by job:
 """
 from __future__ import annotations
 
-from typing import Any, Dict, List, Optional, Protocol, Sequence, Tuple, Union
+from typing import Any, Optional, Protocol, Sequence, Union
 
 from ..protocol.profiles import Profile
-from .devices.info import DeviceInfo
 from .drive import Duty
 
 __all__ = ["Duty", "Output", "EventLog", "Scheduler", "Clock", "Firmware", "DebugBits", "Wakeable",
-           "PortLink", "ControllerLink", "FaultLink", "InputRing", "PortServices", "ControllerServices",
-           "FaultServices", "StartupServices", "ReporterPort"]
+           "PortLink", "ControllerLink", "FaultLink", "InputRing", "PortServices", "LinkServices",
+           "UartServices", "ControllerServices", "FaultServices", "StartupServices", "DevicePort"]
 
 
 # -- the services, by job --------------------------------------------------------------------
@@ -126,6 +127,14 @@ class PortServices(Output, EventLog, Scheduler, Clock, Firmware, DebugBits, Prot
     def controllers(self) -> Sequence[ControllerLink]: ...
 
 
+class LinkServices(Output, DebugBits, Protocol):
+    """``ActiveLink`` (emulator/active_link.py)."""
+
+
+class UartServices(Output, EventLog, DebugBits, Protocol):
+    """``PortUart`` (emulator/port_uart.py)."""
+
+
 class ControllerServices(Output, Firmware, DebugBits, Protocol):
     """``PortController`` (emulator/controller.py)."""
 
@@ -154,21 +163,11 @@ class StartupServices(Output, Clock, Protocol):
     def uart(self) -> InputRing: ...
 
 
-class ReporterPort(Wakeable, Protocol):
-    """A port as its ``Reporter`` (emulator/reporting.py) sees it."""
+class DevicePort(Protocol):
+    """A port as the device model plugged into it (emulator/devices/) sees it."""
 
     @property
     def hat(self) -> PortServices: ...
 
     @property
     def index(self) -> int: ...
-
-    @property
-    def info(self) -> Optional[DeviceInfo]: ...
-
-    @property
-    def combis(self) -> Dict[int, List[Tuple[int, int]]]: ...
-
-    def send_select(self, mode: int) -> None: ...
-
-    def stored(self, mode: int) -> Tuple[bytes, int]: ...

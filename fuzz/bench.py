@@ -37,8 +37,9 @@ def input_pool(profile: Profile, n: int = 400, seed_value: int = 0,
     """``n`` generated inputs, the same for the same seed."""
     pool: List[FuzzInput] = []
 
+    # HealthCheck iterates via an untyped metaclass __iter__: pyright cannot see its members
     @settings(max_examples=n, database=None, phases=[Phase.generate], deadline=None,
-              suppress_health_check=list(HealthCheck))
+              suppress_health_check=list(HealthCheck))  # pyright: ignore[reportArgumentType]
     @given(fuzz_input(grammar_for(profile), families))
     def collect(inp: FuzzInput) -> None:
         pool.append(inp)

@@ -106,7 +106,9 @@ def run_campaign(config: FuzzConfig, budget: Budget, seed: Optional[int] = None,
             n = max(1, min(chunk, int(left / max(per_example, 1e-3))))
         test = get_state_machine_test(machine, settings=settings(
             max_examples=n, stateful_step_count=steps, deadline=None, database=db,
-            suppress_health_check=list(HealthCheck), verbosity=Verbosity.quiet, report_multiple_bugs=True,
+            # HealthCheck iterates via an untyped metaclass __iter__: pyright cannot see its members
+            suppress_health_check=list(HealthCheck),  # pyright: ignore[reportArgumentType]
+            verbosity=Verbosity.quiet, report_multiple_bugs=True,
             print_blob=False))
         # One key per target kind, release and input families: examples saved for one campaign
         # are replayed by the next campaign of the same kind.

@@ -85,9 +85,10 @@ def detect_profile(open_target: Callable[[], Target], timeout: float = 2.0) -> P
     session = Session(open_target())
     try:
         session.open(timeout=timeout)
-        if session.in_bootloader:
+        profile = session.profile
+        if session.in_bootloader or profile is None:
             raise TargetError("the target is in its bootloader; the fuzzer needs the firmware running")
-        return session.profile
+        return profile
     finally:
         session.close()
 
@@ -168,7 +169,8 @@ def run(args: argparse.Namespace, primary: Optional[Callable[[], Target]] = None
               f"replay: buildhat-conformance script --target {args.target} <this file>"]
     meta = {"firmware": profile.version_string, "target": args.target, "tool": "buildhat-conformance fuzz",
             "seed": args.seed}
-    against = (open_secondary, secondary_profile) if open_secondary is not None else None
+    against = (open_secondary, secondary_profile) \
+        if open_secondary is not None and secondary_profile is not None else None
     for i, f in enumerate(result.findings):
         files[f.oracle] = write_finding(f, args.out, header + [f"finding: {f.message[:300]}"], meta, devices)
         if fresh and "script" in files[f.oracle]:

@@ -42,9 +42,12 @@ def _close(a: Event, b: Event) -> bool:
     if a.kind != b.kind:
         return False
     if a.kind == "vin":
-        return abs(float(a.fields["volts"]) - float(b.fields["volts"])) <= VIN_TOLERANCE_V + 1e-9
+        va, vb = a.fields["volts"], b.fields["volts"]
+        assert isinstance(va, float) and isinstance(vb, float)      # the vin row's parser
+        return abs(va - vb) <= VIN_TOLERANCE_V + 1e-9
     if a.kind in ("mode_data", "combi_data"):
         va, vb = a.fields.get("values", []), b.fields.get("values", [])
+        assert isinstance(va, list) and isinstance(vb, list)        # the data rows' parser
         return len(va) == len(vb) and all(_num_close(x, y) for x, y in zip(va, vb))
     return a.raw == b.raw
 

@@ -53,6 +53,7 @@ def script_text(finding: Finding, trace: Trace, header: Sequence[str] = (),
     last_t: Optional[float] = None
     for kind, t, value in trace.entries:
         if kind == "wait":
+            assert isinstance(value, (int, float))      # ('wait', t_ms, ms)
             lines.append(format_action(Action("wait", (float(value),))))
             last_t = t + float(value)
             continue

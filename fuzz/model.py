@@ -175,6 +175,7 @@ _HEX = re.compile(rb"([0-9a-fA-F]*) *")
 _SIGNED = re.compile(rb"([+-]?)([0-9]*) *")
 _FLOAT = re.compile(rb"([+-]?)([0-9]*)(?:\.([0-9]*))? *")
 _FORMAT = re.compile(rb"(u1|s1|u2|s2|u4|s4|f4) *")   # exactly two characters; what follows is not checked
+# All but _FORMAT also match the empty string: their ``match`` never fails (``assert m``).
 
 
 @lru_cache(maxsize=64)
@@ -217,6 +218,7 @@ class _Cursor:
         """Past the separators, (the token, the command it names or None); the token is empty
         at the end of the line. A command is consumed like :meth:`word` consumes a name."""
         m = _COMMAND.match(self.s, self.pos)
+        assert m is not None
         tok = m.group(1)
         name = prefixes.get(tok) if tok else None
         if name is not None:
@@ -227,6 +229,7 @@ class _Cursor:
     # starts here, and skips the spaces (not ';') after a number it read.
     def unsigned(self) -> Optional[int]:
         m = _UNSIGNED.match(self.s, self.pos)
+        assert m is not None
         digits = m.group(1)
         if not digits:
             return None
@@ -235,6 +238,7 @@ class _Cursor:
 
     def signed(self) -> Optional[int]:
         m = _SIGNED.match(self.s, self.pos)
+        assert m is not None
         sign, digits = m.groups()
         if not digits:
             return None
@@ -246,6 +250,7 @@ class _Cursor:
 
     def float(self) -> Optional[float]:
         m = _FLOAT.match(self.s, self.pos)
+        assert m is not None
         sign, whole, fraction = m.groups()
         if not whole and not fraction:
             return None
@@ -255,6 +260,7 @@ class _Cursor:
 
     def hex32(self) -> Optional[int]:
         m = _HEX.match(self.s, self.pos)
+        assert m is not None
         digits = m.group(1)
         if not digits:
             return None
@@ -272,6 +278,7 @@ class _Cursor:
         """The matcher (§2): first name the token is a non-empty prefix of (``prefixes`` from
         :func:`_prefixes`)."""
         m = _WORD.match(self.s, self.pos)
+        assert m is not None
         tok = m.group(1)
         name = prefixes.get(tok) if tok else None
         if name is not None:

@@ -334,9 +334,10 @@ class Runner:
                     s[port].combi.clear()
                     s[port].known = False
                     s[port].device_modes = 0
-                if ev.kind == "established" and isinstance(ev.fields.get("id"), int):
+                ident = ev.fields.get("id")
+                if ev.kind == "established" and isinstance(ident, int):
                     for p in [model.ports[port]] + [s[port] for s in states]:
-                        established(p, int(ev.fields["id"]))
+                        established(p, ident)
                 continue
             form_of = _REPORT_FORMS.get(ev.kind)
             if form_of is None:

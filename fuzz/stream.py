@@ -82,7 +82,7 @@ def _match_item(item: Expect, actual: bytes, pos: int) -> Optional[int]:
     for port in range(4):
         line = _line_at(actual, pos)
         m = _LIST_HEADER.fullmatch(line) if line is not None else None
-        if m is None or int(m.group(1)) != port:
+        if line is None or m is None or int(m.group(1)) != port:
             return None
         pos += len(line) + 2
         if b"active" in m.group(2):
@@ -137,7 +137,7 @@ def match_stream(expected: List[Expect], actual: bytes, allowed: frozenset) -> M
         if nxt is None:
             line = _line_at(actual, pos)
             kind = classify(line).kind if line is not None else None
-            if kind == "unknown" and not line.startswith(b"P"):
+            if kind == "unknown" and line is not None and not line.startswith(b"P"):
                 oracle = "hygiene"
                 what = f"an output line of no known class {line!r}"
             elif item.oracle == "state" and kind not in (None, "unknown"):

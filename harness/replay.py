@@ -94,7 +94,7 @@ def plan_replay(transcript: Transcript, transcript_path: Optional[str] = None,
         else:
             remarks.append(f"the recording names script {ref!r}, which is not found; "
                            "world actions come from the notes, if any")
-    layout = None
+    layout: Optional[Dict[int, Optional[tuple]]] = None
     devices = transcript.meta.get("devices")
     if isinstance(devices, dict):
         from ..protocol.devices import parse_device_spec

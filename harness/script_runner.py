@@ -15,7 +15,7 @@ import time
 from dataclasses import dataclass, field
 from typing import Dict, List, Optional
 
-from ..protocol.devices import DEFAULT_LAYOUT
+from ..protocol.devices import DEFAULT_LAYOUT, format_device_spec
 from .errors import NeedsCapability, TargetError
 from .events import Event
 from .script import Script
@@ -48,11 +48,7 @@ class ScriptResult:
 
 
 def format_layout(layout: Dict[int, Optional[tuple]]) -> str:
-    def one(spec: Optional[tuple]) -> str:
-        if spec is None:
-            return "none"
-        return f"0x{spec[1]:02X}" if spec[0] == "active" else f"passive {spec[1]}"
-    return ", ".join(f"P{p} {one(layout.get(p))}" for p in range(4))
+    return ", ".join(f"P{p} {format_device_spec(layout.get(p))}" for p in range(4))
 
 
 def target_layout(target: Target) -> Optional[Dict[int, Optional[tuple]]]:
@@ -107,8 +103,8 @@ def _live_layout(session: Session, want: Dict[int, Optional[tuple]],
         layout: Dict[int, Optional[tuple]] = {}
         for e in session.command("list"):
             if e.is_port_status and e.port is not None:
-                state = e.fields.get("state")
-                layout[e.port] = None if state == "none" else (str(state), int(e.fields["id"]))
+                state, ident = e.fields.get("state"), e.fields.get("id")   # no id: state "none"
+                layout[e.port] = (str(state), ident) if isinstance(ident, int) else None
         polls_left -= 1
         if all(layout.get(p) == s for p, s in want.items()) or time.monotonic() >= deadline \
                 or polls_left <= 0:

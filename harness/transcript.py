@@ -68,23 +68,24 @@ class TranscriptWriter:
         self._write(dict({"dir": "meta"}, **meta))
 
     # -- low level ---------------------------------------------------------------------
-    def _write(self, obj: dict) -> None:
+    def _write(self, obj: dict, flush: bool = True) -> None:
         if self._fh.closed:
             return
         self._fh.write(json.dumps(obj, ensure_ascii=True, separators=(",", ":")) + "\n")
-        self._fh.flush()
+        if flush:
+            self._fh.flush()
 
     @staticmethod
     def _t(t: float) -> Union[int, float]:
         r = round(float(t), 3)
         return int(r) if r == int(r) else r
 
-    def _text_event(self, t: float, key: str, data: bytes, kind: str = "hat") -> None:
+    def _text_event(self, t: float, key: str, data: bytes, kind: str = "hat", flush: bool = True) -> None:
         text, hx = text_field(data)
         obj = {"t": self._t(t), "dir": kind, key: text}
         if hx is not None:
             obj["hex"] = hx
-        self._write(obj)
+        self._write(obj, flush)
 
     # -- public ------------------------------------------------------------------------
     def host(self, t: float, data: bytes) -> None:
@@ -99,13 +100,18 @@ class TranscriptWriter:
         if not self._pending:
             self._pending_since = time.monotonic()
         self._pending += data
+        lines = 0
         while True:
             i = self._pending.find(CRLF)
             if i < 0:
                 break
             line = bytes(self._pending[:i])
             del self._pending[: i + 2]
-            self._text_event(t, "line", line)
+            # One flush for the chunk, not one per line (a flood is thousands of lines a second).
+            self._text_event(t, "line", line, flush=False)
+            lines += 1
+        if lines and not self._fh.closed:
+            self._fh.flush()
         # A partial is stamped with the time its last byte arrived, not when it is flushed.
         self._pending_t = t
         if self._pending:

@@ -4,6 +4,7 @@ from __future__ import annotations
 import json
 from functools import lru_cache
 from importlib import resources
+from typing import Optional
 
 __all__ = ["catalogue", "active_device", "active_type_ids", "passive_ids", "passive_device",
            "parse_device_spec", "DEFAULT_LAYOUT"]
@@ -14,7 +15,8 @@ DEFAULT_LAYOUT = {0: ("active", 0x30), 1: ("active", 0x40), 2: ("passive", 8), 3
 
 @lru_cache(maxsize=1)
 def catalogue() -> dict:
-    text = resources.files(__package__).joinpath("devices.json").read_text(encoding="utf-8")
+    data = resources.files(__name__.rpartition(".")[0]).joinpath("devices.json")   # in this package
+    text = data.read_text(encoding="utf-8")
     return json.loads(text)
 
 
@@ -37,6 +39,15 @@ def passive_ids() -> list:
 
 def passive_device(pid: int) -> dict:
     return catalogue()["passive"][str(pid)]
+
+
+def format_device_spec(spec: Optional[tuple]) -> str:
+    """The SPEC text (as in a script's ``@device``) of a parsed spec: the inverse of
+    :func:`parse_device_spec`."""
+    if spec is None:
+        return "none"
+    kind, ident = spec
+    return f"0x{ident:02X}" if kind == "active" else f"passive {ident}"
 
 
 def parse_device_spec(spec: str):

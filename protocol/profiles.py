@@ -17,7 +17,8 @@ __all__ = ["Profile", "load_profiles", "get_profile", "resolve_version", "profil
 
 @lru_cache(maxsize=1)
 def _raw() -> dict:
-    text = resources.files(__package__).joinpath("profiles.json").read_text(encoding="utf-8")
+    data = resources.files(__name__.rpartition(".")[0]).joinpath("profiles.json")   # in this package
+    text = data.read_text(encoding="utf-8")
     return json.loads(text)
 
 

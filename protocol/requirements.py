@@ -20,7 +20,8 @@ class Requirement:
 
 @lru_cache(maxsize=1)
 def requirements() -> List[Requirement]:
-    text = resources.files(__package__).joinpath("REQUIREMENTS.md").read_text(encoding="utf-8")
+    data = resources.files(__name__.rpartition(".")[0]).joinpath("REQUIREMENTS.md")   # in this package
+    text = data.read_text(encoding="utf-8")
     out, area = [], ""
     for line in text.splitlines():
         if line.startswith("## "):

@@ -40,8 +40,13 @@ def _imports(name: str, path: Path, known: Set[str]) -> Set[str]:
         for alias in names or [""]:
             full = f"{target}.{alias}" if alias else target
             mod = full if full in known else target
-            if mod in known and mod != name:
-                found.add(mod)
+            # Importing a.b.c runs the package a.b first (emulator/ itself imports nothing
+            # at load time: its ``Emulator`` attribute is looked up lazily).
+            parts = mod.split(".")
+            for i in range(2, len(parts) + 1):
+                step = ".".join(parts[:i])
+                if step in known and step != name and not name.startswith(step + "."):
+                    found.add(step)
 
     for node in ast.walk(tree):
         if isinstance(node, ast.ImportFrom):
@@ -98,7 +103,23 @@ def test_the_graph_sees_the_known_imports():
     assert "emulator.hat" in graph["emulator.api"]
     assert {"emulator.ports", "emulator.controller", "emulator.commands"} <= graph["emulator.hat"]
     assert "emulator.services" in graph["emulator.ports"]
+    assert {"emulator.active_link", "emulator.port_uart", "emulator.mode_store"} <= graph["emulator.ports"]
     assert "emulator.lpf2" in graph["emulator.devices.active"]       # from .. import lpf2
+    assert "emulator.devices" in graph["emulator.listing"]      # .devices.info runs devices/
+
+
+def test_a_typing_only_import_of_hat_counts(tmp_path):
+    # The rule covers imports under TYPE_CHECKING and inside functions, relative and absolute.
+    planted = tmp_path / "part.py"
+    planted.write_text(
+        "from typing import TYPE_CHECKING\n"
+        "if TYPE_CHECKING:\n"
+        "    from .hat import Hat\n"
+        "def f():\n"
+        "    from buildhat_conformance.emulator import ports\n",
+        encoding="utf-8")
+    known = {"emulator", "emulator.hat", "emulator.ports", "emulator.part"}
+    assert _imports("emulator.part", planted, known) == {"emulator.hat", "emulator.ports"}
 
 
 def test_cycle_finder_finds_a_planted_circle():

@@ -12,8 +12,9 @@ from typing import Any, Dict, List, Tuple, Union
 
 from buildhat_conformance.emulator.drive import Duty
 from buildhat_conformance.emulator.faults import FaultMonitor
+from buildhat_conformance.emulator.port_uart import PortUart
 from buildhat_conformance.emulator.ports import Port
-from buildhat_conformance.emulator.services import FaultServices, PortServices, Wakeable
+from buildhat_conformance.emulator.services import FaultServices, PortServices, UartServices, Wakeable
 from buildhat_conformance.protocol.profiles import Profile, get_profile
 
 CRLF = b"\r\n"
@@ -92,6 +93,16 @@ class FakeFaultServices(_Output):
         self.wakes += 1
 
 
+class FakeUartServices(_Output):
+    def __init__(self, debug: int = 0) -> None:
+        super().__init__()
+        self.debug = debug
+        self.events: List[Tuple[str, Dict[str, Any]]] = []
+
+    def event(self, kind: str, **fields: Any) -> None:
+        self.events.append((kind, fields))
+
+
 def _run(services: _Output, part: Any, until: int) -> None:
     for now in range(1, until + 1):
         services.now = now
@@ -131,3 +142,25 @@ def test_the_fault_monitor_reports_through_a_fake_of_its_services():
     monitor.motor_fault(True, 1)
     assert fake.ports[1].wakes >= 1        # a latched driver changes what port 1's motor sees
     assert monitor.output_disabled(1) and not monitor.output_disabled(0)
+
+
+def test_a_port_uart_syncs_on_silence_and_overruns_its_queue_through_a_fake():
+    # §10: parsing starts after 100 ms of silence; §5 item 6: "MQ overrun!" when a port's 4-slot
+    # queue is full; §7.4 debug 1: each byte as 2 hex digits and the receiver state (n: waiting
+    # for sync), ACK after an ACK type byte, no separators.
+    fake = FakeUartServices(debug=1)
+    services: UartServices = fake
+    uart = PortUart(services, 1)
+    uart.receive(500.0, 0x04)
+    assert fake.out == b"" and not uart.queue           # UART off: the byte is lost
+    uart.start(1000)
+    uart.receive(1050.0, 0x04)                           # 50 ms after switching on: no sync yet
+    uart.receive(1140.0, 0x04)                           # 90 ms after that byte: still none
+    assert not uart.queue and fake.out == b"04n04n"
+    uart.receive(1240.5, 0x04)                           # 100.5 ms of silence: synced, parsed
+    assert [m.header for m in uart.queue] == [0x04] and fake.out.endswith(b"04ACK")
+    for i in range(1, 5):
+        uart.receive(1240.5 + i / 10, 0x04)
+    assert len(uart.queue) == 4                          # the fifth found the queue full
+    assert fake.lines_at == [(0, b"MQ overrun!")]
+    assert [k for k, _ in fake.events] == ["devrx"] * 5

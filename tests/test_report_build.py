@@ -1,10 +1,8 @@
 """The HTML report (harness/report/) from hand-written JUnit files and transcripts."""
 from __future__ import annotations
 
-import base64
 import json
 import re
-import struct
 import xml.etree.ElementTree as ET
 
 import pytest
@@ -120,7 +118,8 @@ def test_junit_cases_carry_verdict_class_and_requirements(sample):
     assert by["test_ledmode_rig"].verdict == "skip"
     assert by["test_bias"].transcript == str(sample / "bias.jsonl")
     assert run.target == "emulator:1737564117" and run.profile == "R7"
-    assert run.counts() == {"pass": 2, "fail": 1, "skip": 1, "known_deviation": 1, "informational": 1}
+    assert run.counts() == {"pass": 2, "fail": 1, "skip": 1, "known_deviation": 1, "informational": 1,
+                            "target_fault": 0, "not_run": 0}
     assert run.problems == []
 
 
@@ -155,8 +154,8 @@ def test_coverage_has_every_requirement_and_marks_holes(sample):
     assert vin.counts["pass"] == 2   # once per run
 
 
-def _pngs(text):
-    return [base64.b64decode(m) for m in re.findall(r'src="data:image/png;base64,([A-Za-z0-9+/=]+)"', text)]
+def _charts(text):
+    return re.findall(r"<svg class=chart .*?</svg>", text)
 
 
 def test_html_report_is_self_contained_and_complete(sample, monkeypatch):
@@ -180,33 +179,30 @@ def test_html_report_is_self_contained_and_complete(sample, monkeypatch):
     dev = text[text.index('id=deviations'):text.index('id=plots')]
     assert "test_abbrev_c" in dev and "test_bias" not in dev
     assert "<code>ABBREV-AMBIGUOUS-RUNS</code>" in dev and "1 kind(s)" in dev
-    pngs = _pngs(text)
-    pytest.importorskip("matplotlib")
-    assert len(pngs) == 3   # square-wave timing, PID on P0, PID on P1
-    for png in pngs:
-        assert png[:8] == b"\x89PNG\r\n\x1a\n"
-        width, height = struct.unpack(">II", png[16:24])
-        assert width > 200 and height > 100
+    charts = _charts(text)
+    assert len(charts) == 3   # square wave against its oracle, PID on P0, PID on P1
+    [wave] = [c for c in charts if "set square" in c]
+    [pid0] = [c for c in charts if "PID on P0" in c]
+    assert "P1 set square 0 1 0.1 0" in wave and "oracle" in wave
+    assert wave.count("<circle") == 20 + 1      # the 20 samples, and the legend's mark
+    # PID: set-point and pv over cv, the ±1 clamp dashed; one path point per sample
+    assert "PID on P0" in pid0 and pid0.count('stroke-dasharray') == 2
+    paths = re.findall(r'<path d="([^"]*)"', pid0)
+    assert len(paths) == 3 and all(p.count("M") == 1 for p in paths)
+    assert len(re.findall(r"[MLHV]", paths[1])) == 5      # pv: 5 samples, straight segments
 
 
-def test_report_without_matplotlib_still_has_the_numbers(sample, monkeypatch):
+def test_plots_carry_their_numbers_in_words(sample, monkeypatch):
     import buildhat_conformance.harness.report as report
-    from buildhat_conformance.harness.report import plots
 
-    monkeypatch.setattr(plots, "have_matplotlib", lambda: False)
     monkeypatch.setattr(report, "MIN_SAMPLES", 1)
     out = sample / "plain.html"
     report.build_report([str(sample / "r7.xml")], str(out))
     text = out.read_text(encoding="utf-8")
-    assert not _pngs(text)
-    assert "matplotlib is not installed" in text
     assert "5 samples on P0" in text and "cv -4.98425 .. 15.005" in text
 
 
-def test_runs_too_short_to_show_anything_are_not_plotted(sample, monkeypatch):
-    from buildhat_conformance.harness.report import plots
-
-    monkeypatch.setattr(plots, "have_matplotlib", lambda: False)   # captions suffice here; faster
+def test_runs_too_short_to_show_anything_are_not_plotted(sample):
     out = sample / "short.html"
     build_report([str(sample / "r7.xml")], str(out))   # default minimum: 10 samples
     text = out.read_text(encoding="utf-8")
@@ -249,10 +245,7 @@ def test_ideal_shapes_follow_the_document():
     assert ideal_setpoint(sine, 0) == pytest.approx(1) and ideal_setpoint(sine, 250) == pytest.approx(2)
 
 
-def test_report_command_line(sample, capsys, monkeypatch):
-    from buildhat_conformance.harness.report import plots
-
-    monkeypatch.setattr(plots, "have_matplotlib", lambda: False)   # the pictures are tested above
+def test_report_command_line(sample, capsys):
     out = sample / "cli.html"
     assert cli_main(["report", str(sample / "r7.xml"), "-o", str(out)]) == 0
     assert out.is_file() and "wrote" in capsys.readouterr().out
@@ -261,10 +254,17 @@ def test_report_command_line(sample, capsys, monkeypatch):
     bad.write_text(junit_xml([{"name": "a"}], counts={"tests": "9"}), encoding="utf-8")
     assert cli_main(["report", str(bad), "-o", str(out)]) == 0
     assert cli_main(["report", str(bad), "-o", str(out), "--check"]) == 1
+    broken = sample / "broken.xml"
+    broken.write_text("<testsuites><testsuite", encoding="utf-8")
+    capsys.readouterr()
+    assert cli_main(["report", str(broken), "-o", str(out)]) == 2      # a bad file: one line, no traceback
+    err = capsys.readouterr().err
+    want = f"report: {broken}: not well-formed XML: unclosed token: line 1, column 12"
+    assert err.splitlines() == [want], err
 
 
 def test_html_escapes_what_tests_print(sample):
     run = read_junit(str(sample / "r7.xml"))
     run.cases[2].message = "<script>alert(1)</script>"
-    text = report_html.render_html([run], coverage([run]), {}, [], False, "0")
+    text = report_html.render_html([run], coverage([run]), {}, [], "0")
     assert "<script>" not in text and "&lt;script&gt;" in text

@@ -117,8 +117,7 @@ def _parse_active(lines: List[str], i: int, entry: PortEntry) -> int:
         else:
             setattr(entry, name, int(value))
         i += 1
-    while _MODE.fullmatch(line(i)):
-        m = _MODE.fullmatch(line(i))
+    while (m := _MODE.fullmatch(line(i))) is not None:
         f = _full(_FORMAT, line(i + 1), f"line {i + 2} (format)")
         r = _full(_RANGE, line(i + 2), f"line {i + 3} (ranges)")
         vals = [int(x, 16) for x in r.groups()]
@@ -129,8 +128,8 @@ def _parse_active(lines: List[str], i: int, entry: PortEntry) -> int:
     indexes = [mode.index for mode in entry.modes]
     if indexes != sorted(set(indexes)):
         raise ListError(f"P{entry.port}: modes not in ascending order: {indexes}")
-    while _COMBI.fullmatch(line(i)):
-        bits = [int(x) for x in _COMBI.fullmatch(line(i)).group(2).replace("M", "").split("+")]
+    while (combi := _COMBI.fullmatch(line(i))) is not None:
+        bits = [int(x) for x in combi.group(2).replace("M", "").split("+")]
         if bits != sorted(set(bits)):
             raise ListError(f"line {i + 1}: combi modes not ascending: {line(i)!r}")
         entry.combis.append(bits)

@@ -37,6 +37,7 @@ import struct
 from typing import Dict, List, Optional, Sequence
 
 from .. import lpf2
+from ..services import DevicePort
 from .setup_stream import setup_messages
 
 __all__ = ["ActiveDevice", "SETUP_START_MS", "DATA_START_MS", "SETUP_BAUD", "pack_values",
@@ -88,7 +89,7 @@ class ActiveDevice:
         self.type_id: int = entry["type_id"]
         self.rng = rng or random.Random(0)
         self.modes: Dict[int, dict] = {m["index"]: m for m in entry["modes"]}
-        self.port = None              # the emulator Port it is plugged into (set by the port)
+        self.port: Optional[DevicePort] = None   # the port it is plugged into (set by the port)
         self.dead = False             # stopped talking for good (until unplugged)
         self.world: Dict[int, bytes] = {}
         self.rate_ms = 0

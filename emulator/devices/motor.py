@@ -13,7 +13,7 @@ import math
 import random
 from typing import List, Optional
 
-from ..physics import MotorPhysics
+from ..physics import MotorPhysics, wrap180
 from .active import ActiveDevice
 
 __all__ = ["MotorDevice", "JITTER_MIN_MS", "JITTER_MAX_MS"]
@@ -21,10 +21,6 @@ __all__ = ["MotorDevice", "JITTER_MIN_MS", "JITTER_MAX_MS"]
 JITTER_MIN_MS = 5
 JITTER_MAX_MS = 25
 _ENCODER_MODES = ("APOS", "CALIB")    # the modes whose values include the jitter
-
-
-def _wrap180(deg: int) -> int:
-    return (deg + 180) % 360 - 180
 
 
 class MotorDevice(ActiveDevice):
@@ -92,7 +88,7 @@ class MotorDevice(ActiveDevice):
 
     @property
     def apos(self) -> int:
-        return _wrap180(self.physics.apos_deg + self._jitter)
+        return wrap180(self.physics.apos_deg + self._jitter)
 
     def model_values(self, mode: int, now: int) -> List[float]:
         name = self.modes[mode]["name"]

@@ -181,12 +181,13 @@ class StdioLink(_Buffered):
 
     def __init__(self) -> None:
         super().__init__()
-        self.in_fd, self.out_fd = sys.stdin.fileno(), sys.stdout.fileno()
+        self.in_fd, self.stdout_fd = sys.stdin.fileno(), sys.stdout.fileno()
+        self.out_fd = self.stdout_fd
         self._saved = None
         if os.isatty(self.in_fd):
             self._saved = termios.tcgetattr(self.in_fd)
             tty.setraw(self.in_fd, termios.TCSANOW)
-        os.set_blocking(self.out_fd, False)
+        os.set_blocking(self.stdout_fd, False)
 
     def readables(self, data: bool = True) -> List[Any]:
         return [self.in_fd] if data else []
@@ -202,9 +203,9 @@ class StdioLink(_Buffered):
 
     def close(self) -> None:
         try:
-            os.set_blocking(self.out_fd, True)
+            os.set_blocking(self.stdout_fd, True)
             while self._out:
-                n = os.write(self.out_fd, self._out)
+                n = os.write(self.stdout_fd, self._out)
                 del self._out[:n]
         except OSError:
             pass

@@ -14,6 +14,7 @@ from typing import IO, Any, Dict, List, Optional, Tuple
 
 from ...harness.script import Script
 from ...harness.transcript import TranscriptWriter
+from ...protocol.devices import format_device_spec
 from ..api import Emulator
 from ..world import WorldError
 
@@ -24,13 +25,6 @@ TAIL_MS = 20
 
 class ScriptRunError(RuntimeError):
     """A script action the emulator could not perform (the message names the line)."""
-
-
-def _spec_text(spec: Optional[tuple]) -> str:
-    if spec is None:
-        return "none"
-    kind, value = spec
-    return f"0x{value:02X}" if kind == "active" else f"passive {value}"
 
 
 class _Recorder:
@@ -60,14 +54,16 @@ class _Recorder:
             self._write(t, kind, payload)
 
     def _write(self, t: int, kind: str, payload: Any) -> None:
+        writer = self.writer
+        assert writer is not None            # _put keeps a backlog until start()
         rel = t - self.t0
         if kind == "hat":
-            self.writer.hat(rel, payload)
+            writer.hat(rel, payload)
         elif kind == "host":
-            self.writer.host(rel, payload)
+            writer.host(rel, payload)
         else:
-            self.writer.flush_partial()      # keep the file in time order
-            self.writer.event(kind, rel, **payload)
+            writer.flush_partial()           # keep the file in time order
+            writer.event(kind, rel, **payload)
 
     def start(self, writer: TranscriptWriter, t0: int) -> None:
         self.writer, self.t0 = writer, t0
@@ -93,10 +89,12 @@ def run_script(script: Script, out: IO[str], *, firmware: Any = None,
     emu.step()                      # one more ms, so all start-up output is at t < 0
     rec.pump()
     prelude = emu.now
+    hat = emu.hat
+    assert hat is not None          # built without the bootloader: the firmware runs
     meta = {
-        "firmware": emu.hat.version_string, "profile": emu.profile.name,
+        "firmware": hat.version_string, "profile": emu.profile.name,
         "target": "emulator", "script": script.source, "name": script.name,
-        "devices": {str(p): _spec_text(s) for p, s in sorted(layout.items())},
+        "devices": {str(p): format_device_spec(s) for p, s in sorted(layout.items())},
         "prelude_ms": prelude, "tool": "buildhat-emulator", "version": tool_version,
     }
     if baud:

@@ -4,7 +4,13 @@ conformance runner calls after a run; ``buildhat-conformance report`` is its com
 from __future__ import annotations
 
 import os
-from typing import Dict, List, Optional, Sequence
+from typing import TYPE_CHECKING, Dict, List, Optional, Sequence, Tuple
+
+if TYPE_CHECKING:     # the report's modules load on first use: a run imports this package early
+    from .html import Triage
+    from .junit import Case, Run
+    from .plots import Plot
+    from .triage import Change
 
 __all__ = ["build_report"]
 
@@ -42,6 +48,41 @@ def _plots(runs, max_plots: int) -> list:  # type: ignore[no-untyped-def]
     return out
 
 
+def _triage(all_runs: List[Run], failures: List[Tuple[Run, Case]]) -> Triage:
+    """The first screen's data: failure groups, changes since each run's previous run of the
+    same target (when it lives in a run folder), deviation explanations, requirement statements."""
+    from ...conformance.deviations import deviations
+    from ...protocol.requirements import requirements
+    from .html import Triage
+    from .junit import read_junit
+    from .runs import previous_junit
+    from .triage import changes_since, group_failures
+
+    changes: Dict[str, Optional[Tuple[str, List[Change]]]] = {}
+    for run in all_runs:
+        prev = previous_junit(run.path)
+        if prev:
+            try:
+                changes[run.path] = (os.path.basename(os.path.dirname(prev)),
+                                     changes_since(read_junit(prev), run))
+            except (OSError, ValueError, SyntaxError):   # ElementTree's ParseError is a SyntaxError
+                changes[run.path] = None
+        else:
+            changes[run.path] = None
+    explained = {k: (d.explain, d.facts) for k, d in deviations().items()}
+    statements = {r.id: r.statement for r in requirements()}
+    return Triage(group_failures(failures), changes, explained, statements)
+
+
+def _timing_plots(runs: List[Run]) -> List[Plot]:
+    from .plots import timing_plots
+    from .timing import collect_timing
+
+    paths = [(c.transcript, c.name) for run in runs for c in run.cases
+             if c.transcript and os.path.isfile(c.transcript)]
+    return timing_plots(collect_timing(paths))
+
+
 def build_report(junit_paths: Sequence[str], out_path: str, max_plots: int = MAX_PLOTS) -> str:
     """Write the HTML report for one or more JUnit files; returns ``out_path``."""
     from ..version import __version__
@@ -49,7 +90,6 @@ def build_report(junit_paths: Sequence[str], out_path: str, max_plots: int = MAX
     from .excerpt import excerpt_lines
     from .html import render_html
     from .junit import read_junit
-    from .plots import have_matplotlib
 
     if not junit_paths:
         raise ValueError("build_report needs at least one JUnit file")
@@ -58,7 +98,7 @@ def build_report(junit_paths: Sequence[str], out_path: str, max_plots: int = MAX
     for run in runs:
         for case in run.cases:
             path = case.transcript
-            if case.verdict in ("fail", "known_deviation") and path and os.path.isfile(path):
+            if case.verdict in ("fail", "known_deviation", "target_fault") and path and os.path.isfile(path):
                 t: Optional[float] = None
                 raw_t = case.prop("transcript_t") or case.prop("fail_t")
                 if raw_t:
@@ -70,8 +110,10 @@ def build_report(junit_paths: Sequence[str], out_path: str, max_plots: int = MAX
                     excerpts[id(case)] = excerpt_lines(path, around_t=t)
                 except (OSError, ValueError):
                     pass
-    plots = _plots(runs, max_plots)
-    text = render_html(runs, coverage(runs), excerpts, plots, have_matplotlib(), __version__)
+    failures = [(r, c) for r in runs for c in r.cases if c.verdict == "fail"]
+    plots = _timing_plots(runs) + _plots(runs, max_plots)
+    text = render_html(runs, coverage(runs), excerpts, plots, __version__,
+                       _triage(runs, failures))
     os.makedirs(os.path.dirname(os.path.abspath(out_path)), exist_ok=True)
     with open(out_path, "w", encoding="utf-8") as fh:
         fh.write(text)

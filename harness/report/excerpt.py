@@ -5,7 +5,7 @@ is its tail; a ``t`` (ms) given by the case centres it instead.
 """
 from __future__ import annotations
 
-from typing import List, Optional
+from typing import List, Optional, Union
 
 from ..transcript import field_bytes, iter_events
 
@@ -39,13 +39,13 @@ def _printable(text: str) -> str:
     return "".join(c if c.isprintable() or c == " " else f"\\x{ord(c):02X}" for c in text)
 
 
-def _compress(events: List[dict], keep: int = 2) -> List[object]:
+def _compress(events: List[dict], keep: int = 2) -> List[Union[str, dict]]:
     """Runs of more than ``keep`` + 1 asynchronous lines (data streams, debug 16, in any mix)
     become their first ``keep`` lines and a count per class, so the commands stay in view."""
     from ..compare import ASYNC_CLASSES, default_classifier
 
     classify = default_classifier()
-    out: List[object] = []
+    out: List[Union[str, dict]] = []   # events, and one summary line per compressed run
     run: List[dict] = []
     kinds: List[str] = []
 
@@ -85,7 +85,8 @@ def excerpt_lines(path: str, around_t: Optional[float] = None, before: int = 25,
         idx = next((i for i, e in enumerate(items)
                     if isinstance(e, dict) and float(e.get("t", 0)) >= around_t), len(items))
         chosen = items[max(0, idx - before):idx + after]
-    lines = [s for s in (e if isinstance(e, str) else format_event(e) for e in chosen) if s is not None]
+    shown = (e if isinstance(e, str) else format_event(e) for e in chosen if isinstance(e, (str, dict)))
+    lines = [s for s in shown if s is not None]
     if len(chosen) < len(items):
         lines.insert(0, f"{'':>13}  … {len(items) - len(chosen)} earlier/later item(s) not shown")
     return lines

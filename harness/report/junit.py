@@ -18,7 +18,7 @@ from typing import Dict, List, Optional, Tuple
 __all__ = ["Case", "Run", "read_junit", "check_junit", "VERDICTS", "normalise_verdict"]
 
 #: The verdict classes, in the order reports show them.
-VERDICTS = ("pass", "fail", "skip", "known_deviation", "informational")
+VERDICTS = ("pass", "fail", "target_fault", "not_run", "skip", "known_deviation", "informational")
 
 _VERDICT_WORDS = {
     "pass": "pass", "passed": "pass", "ok": "pass", "success": "pass",
@@ -27,6 +27,9 @@ _VERDICT_WORDS = {
     "known_deviation": "known_deviation", "deviation": "known_deviation", "xfail": "known_deviation",
     "xfailed": "known_deviation", "known": "known_deviation",
     "informational": "informational", "info": "informational", "information": "informational",
+    # The target's fault (silent, dead, rebooted, garbled), never the target failing the protocol;
+    # and cases a run could not get to (the target went away before them).
+    "target_fault": "target_fault", "fault": "target_fault", "not_run": "not_run", "notrun": "not_run",
 }
 
 _REQ_KEYS = ("req", "reqs", "requirement", "requirements", "requirement_id", "requirement_ids", "ids")

@@ -1,92 +1,47 @@
-"""PNG plots for the report (matplotlib, the optional ``plots`` extra).
-
-Every function returns PNG bytes, or None when matplotlib is not installed; the report then
-shows the same numbers as a short table, so it stays complete without the extra.
-"""
+"""The report's plots as inline SVG (svg.py): PID runs, waveforms against the oracle, and the
+run's timing histograms. Each comes with its numbers in words, which stay readable where a
+picture does not (a text browser, a diff of two reports)."""
 from __future__ import annotations
 
-import io
 from dataclasses import dataclass
-from typing import List, Optional
+from typing import List
 
 from ..transcript import iter_events
 from .series import PidSeries, WaveRun, ideal_setpoint, pid_series, wave_runs
+from .svg import Panel, Series, chart, histogram
+from .timing import Timing
 
-__all__ = ["Plot", "have_matplotlib", "plot_pid", "plot_wave", "plots_for_transcript"]
+__all__ = ["Plot", "plot_pid", "plot_wave", "plots_for_transcript", "timing_plots"]
 
 
 @dataclass
 class Plot:
     title: str
-    kind: str                 # pid | waveform
-    png: Optional[bytes]      # None without matplotlib
-    summary: List[str]        # the numbers in words, shown with or without the picture
+    kind: str                 # pid | waveform | periods | lateness
+    svg: str                  # an <svg> element
+    summary: List[str]        # the numbers in words
 
 
-def have_matplotlib() -> bool:
-    try:
-        import matplotlib  # noqa: F401
-    except ImportError:
-        return False
-    return True
-
-
-def _figure(rows: int):
-    import matplotlib
-
-    matplotlib.use("Agg")  # no display here, and never a network or GUI toolkit
-    import matplotlib.pyplot as plt
-
-    fig, axes = plt.subplots(rows, 1, figsize=(8, 2.6 * rows), sharex=True, squeeze=False)
-    return plt, fig, [a[0] for a in axes]
-
-
-def _png(plt, fig, rows: int) -> bytes:
-    buf = io.BytesIO()
-    # Fixed margins (tight_layout measures every label and costs more than the drawing); the
-    # x label needs the same inches whatever the figure's height.
-    fig.subplots_adjust(left=0.1, right=0.98, top=1 - 0.3 / (2.6 * rows), bottom=0.5 / (2.6 * rows),
-                        hspace=0.12)
-    fig.savefig(buf, format="png", dpi=80)
-    plt.close(fig)
-    return buf.getvalue()
-
-
-def plot_pid(s: PidSeries, title: str) -> Optional[bytes]:
+def plot_pid(s: PidSeries, title: str) -> str:
     """Process variable and set-point (top), controller output before the ±1 clamp (bottom)."""
-    if not have_matplotlib():
-        return None
-    plt, fig, (top, bottom) = _figure(2)
-    top.plot(s.t, s.sp, label="set-point (sp)", color="#d62728", drawstyle="steps-post")
-    top.plot(s.t, s.pv, label="process variable (pv)", color="#1f77b4")
-    top.set_ylabel("pv, sp")
-    top.legend(loc="best", fontsize=8)
-    top.set_title(title, fontsize=10)
-    bottom.plot(s.t, s.cv, label="output (cv)", color="#2ca02c")
-    for y in (-1.0, 1.0):
-        bottom.axhline(y, color="#999999", linewidth=0.8, linestyle="--")
-    bottom.set_ylabel("cv (±1 = full drive)")
-    bottom.set_xlabel("time (ms)")
-    bottom.legend(loc="best", fontsize=8)
-    return _png(plt, fig, 2)
+    return chart([
+        Panel([Series(s.t, s.sp, "set-point (sp)", "#d62728", "step"),
+               Series(s.t, s.pv, "process variable (pv)", "#1f77b4")], "pv, sp"),
+        Panel([Series(s.t, s.cv, "output (cv)", "#2ca02c")], "cv (±1 = full drive)", hlines=(-1.0, 1.0)),
+    ], title, "time (ms)")
 
 
-def plot_wave(run: WaveRun, title: str) -> Optional[bytes]:
-    """Measured set-point (debug 16 ``sp``) as points over the ideal continuous waveform."""
-    if not have_matplotlib():
-        return None
-    plt, fig, (ax,) = _figure(1)
+def plot_wave(run: WaveRun, title: str) -> str:
+    """Measured set-point (debug 16 ``sp``) as points over the oracle: the continuous shape the
+    command asks for."""
     end = run.measured_t[-1] if run.measured_t else run.t0 + 2000 * run.period
     n = 400
     ts = [run.t0 + (end - run.t0) * i / n for i in range(n + 1)]
-    ax.plot(ts, [ideal_setpoint(run, t) for t in ts], color="#999999", label="ideal (from the command)")
-    ax.plot(run.measured_t, run.measured_sp, ".", color="#d62728", markersize=3,
-            label="measured sp (debug 16)")
-    ax.set_xlabel("time (ms)")
-    ax.set_ylabel("set-point")
-    ax.set_title(title, fontsize=10)
-    ax.legend(loc="best", fontsize=8)
-    return _png(plt, fig, 1)
+    return chart([Panel([Series(ts, [ideal_setpoint(run, t) for t in ts], "oracle: the shape asked for",
+                                "#999999"),
+                         Series(run.measured_t, run.measured_sp, "measured sp (debug 16)", "#d62728",
+                                "points")], "set-point")],
+                 title, "time (ms)")
 
 
 def _varies(s: PidSeries) -> bool:
@@ -130,3 +85,23 @@ def plots_for_transcript(path: str, label: str = "", min_samples: int = 1) -> Li
         title = f"{name}: PID on P{port}"
         plots.append(Plot(title, "pid", plot_pid(s, title), _pid_summary(s)))
     return plots
+
+
+def timing_plots(timing: Timing) -> List[Plot]:
+    """The run's report-period histogram and done-lateness histogram, each with its numbers."""
+    out: List[Plot] = []
+    if timing.periods:
+        p = sorted(timing.periods)
+        title = "Report period: time between data lines of one port"
+        out.append(Plot(title, "periods", histogram(p, title, "ms between lines"), [
+            f"{len(p)} intervals; median {p[len(p) // 2]:g} ms, min {p[0]:g} ms, max {p[-1]:g} ms "
+            "(FIRMWARE-FACTS §6.2: the reporting engine's period)"]))
+    if timing.lateness:
+        late = timing.lateness
+        worst = max(range(len(late)), key=lambda i: abs(late[i]))
+        title = "pulse/ramp done: lateness after the requested period"
+        out.append(Plot(title, "lateness", histogram(late, title, "ms after t0 + period"), [
+            f"{len(late)} done line(s); lateness {min(late):g} .. {max(late):g} ms "
+            f"(worst: {timing.lateness_labels[worst]}); FIRMWARE-FACTS §7.1: the end comes after the "
+            "period's ticks, the first 0-10 ms after the command"]))
+    return out

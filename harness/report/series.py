@@ -151,7 +151,9 @@ def wave_runs(events: Iterable[dict]) -> List[WaveRun]:
         if s is None:
             continue
         for t, sp in zip(s.t, s.sp):
-            if t >= run.t0 and (run.t_end is None or t < run.t_end):
+            # A debug line stamped with the command's own millisecond was computed before the
+            # command took effect (it shows the set-point before): not a sample of this wave.
+            if t > run.t0 and (run.t_end is None or t < run.t_end):
                 run.measured_t.append(t)
                 run.measured_sp.append(sp)
     return runs

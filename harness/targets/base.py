@@ -9,11 +9,20 @@ from __future__ import annotations
 import abc
 from typing import FrozenSet, Optional
 
-__all__ = ["Target", "Control", "TargetError", "NeedsCapability"]
+__all__ = ["Target", "Control", "TargetError", "NeedsCapability", "NotReading", "WRITE_DEADLINE_S"]
+
+#: How long a write may wait for the target to take the bytes. A HAT reads its UART all the time
+#: (115200 baud moves a command line in milliseconds); one that has not taken a line in this
+#: long has stopped reading, and waiting longer would only hang the host (issue 13).
+WRITE_DEADLINE_S = 5.0
 
 
 class TargetError(RuntimeError):
     """A target could not be opened or used. The message says what to do about it."""
+
+
+class NotReading(TargetError):
+    """The target stopped reading: a write did not complete within its deadline."""
 
 
 class NeedsCapability(TargetError):
@@ -68,9 +77,13 @@ class Target(abc.ABC):
     def open(self) -> None:
         """Open the link. Raises TargetError with an actionable message on failure."""
 
+    #: Seconds a write may wait for the target to take its bytes before it raises NotReading.
+    write_deadline: float = WRITE_DEADLINE_S
+
     @abc.abstractmethod
     def write(self, data: bytes) -> None:
-        """Send bytes exactly as given (no line-ending translation)."""
+        """Send bytes exactly as given (no line-ending translation). Raises NotReading when the
+        target does not take them within ``write_deadline`` seconds (never blocks longer)."""
 
     @abc.abstractmethod
     def read(self, timeout: float) -> bytes:

@@ -13,9 +13,10 @@ import shlex
 import signal
 import subprocess
 import threading
+import time
 from typing import Deque, List, Optional
 
-from .base import Target, TargetError
+from .base import NotReading, Target, TargetError
 
 __all__ = ["CommandTarget", "from_url", "stop_process_group"]
 
@@ -69,6 +70,9 @@ class CommandTarget(Target):
             raise TargetError(f"{self.url}: not executable: {self.argv[0]!r}") from None
         except OSError as exc:
             raise TargetError(f"{self.url}: cannot start the command: {exc}") from exc
+        # Writes never block: a child that stops reading is found out at the write deadline.
+        assert self.proc.stdin is not None
+        os.set_blocking(self.proc.stdin.fileno(), False)
         self._stderr_thread = threading.Thread(target=self._keep_stderr, name="cmd-target stderr",
                                                daemon=True)
         self._stderr_thread.start()
@@ -102,11 +106,26 @@ class CommandTarget(Target):
                            (f"; its last stderr lines:\n{tail}" if tail else "; it wrote nothing on stderr"))
 
     def write(self, data: bytes) -> None:
+        """Write all of ``data`` to the child's stdin, or raise NotReading when it has not taken
+        them within ``write_deadline`` seconds (its pipe full: it stopped reading)."""
         if self.proc is None or self.proc.stdin is None:
             raise TargetError(f"{self.url} is not open")
+        fd = self.proc.stdin.fileno()
+        view = memoryview(data)
+        deadline = time.monotonic() + self.write_deadline
         try:
-            self.proc.stdin.write(data)
-            self.proc.stdin.flush()
+            while view:
+                left = deadline - time.monotonic()
+                _, ready, _ = select.select([], [fd], [], max(0.0, left))
+                if not ready:
+                    if self.proc.poll() is not None:
+                        raise self._gone("while the host was writing")
+                    raise NotReading(f"{self.url} stopped reading its input: {len(view):,} of {len(data):,} "
+                                     f"bytes not taken in {self.write_deadline:g} s")
+                try:
+                    view = view[os.write(fd, view):]
+                except BlockingIOError:
+                    continue
         except (BrokenPipeError, ValueError, OSError):
             raise self._gone("while the host was writing") from None
 

@@ -26,10 +26,10 @@ from urllib.parse import parse_qs, urlsplit
 import pexpect
 import serial
 
-from ...protocol.devices import DEFAULT_LAYOUT, parse_device_spec
+from ...protocol.devices import DEFAULT_LAYOUT, format_device_spec, parse_device_spec
 from ..script import WORLD_ACTIONS
 from .base import Control, TargetError
-from .pyserial_base import PyserialTarget
+from .pyserial_base import PyserialTarget, SerialPort
 
 __all__ = ["EmulatorTarget", "EmulatorControl", "from_url", "emulator_command", "format_device_spec"]
 
@@ -56,14 +56,6 @@ def emulator_command(command: Union[str, Sequence[str], None] = None) -> List[st
         return [found]
     raise TargetError("buildhat-emulator not found: install this package ('pip install -e .' in the "
                       "checkout) or set BUILDHAT_EMULATOR to the command that starts it")
-
-
-def format_device_spec(spec: Optional[tuple]) -> str:
-    """The SPEC text (as in a script's @device) for a parsed spec."""
-    if spec is None:
-        return "none"
-    kind, ident = spec
-    return f"0x{ident:02X}" if kind == "active" else f"passive {ident}"
 
 
 class EmulatorControl(Control):
@@ -216,11 +208,12 @@ class EmulatorTarget(PyserialTarget):
             lines = fh.read().splitlines()
         return "\n".join(lines[-last:])
 
-    def _make_port(self) -> serial.SerialBase:
+    def _make_port(self) -> SerialPort:
         self._stop_drain.clear()
         self._tmp = tempfile.mkdtemp(prefix="buildhat-emu-")
         control_path = os.path.join(self._tmp, "control.sock")
         stderr_path = self.stderr_path
+        assert stderr_path is not None            # _tmp is set
         argv = self.argv(control_path)
 
         def send_stderr_to_file() -> None:  # runs in the child: keep stderr apart from the pty
@@ -241,7 +234,8 @@ class EmulatorTarget(PyserialTarget):
         except pexpect.TIMEOUT:
             raise TargetError(self._failed(f"printed no pty path within {self.startup_timeout:g} s", argv)) \
                 from None
-        first = self.child.before.decode("utf-8", "replace").strip()
+        before = self.child.before
+        first = before.decode("utf-8", "replace").strip() if isinstance(before, bytes) else ""
         if not first or not os.path.exists(first):
             raise TargetError(self._failed(f"printed {first!r} where its pty path belongs", argv))
         self.pty_path = first
@@ -323,7 +317,7 @@ class EmulatorTarget(PyserialTarget):
             self.control.close()
         self._stop_drain.set()
         child, self.child = self.child, None
-        if child is not None:
+        if child is not None and child.pid is not None:
             for sig in (signal.SIGTERM, signal.SIGKILL):
                 try:
                     os.killpg(child.pid, sig)  # the emulator leads its own session (pty fork)

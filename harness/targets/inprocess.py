@@ -24,14 +24,39 @@ import copy
 import math
 import threading
 import types
-from typing import Callable, Dict, List, Optional, Tuple
+from typing import Any, Callable, Dict, List, Mapping, Optional, Protocol, Tuple, Union
 from urllib.parse import parse_qs
 
 from .base import Control, Target, TargetError
 
-__all__ = ["InProcessTarget", "InProcessControl", "from_url"]
+__all__ = ["InProcessTarget", "InProcessControl", "HatModel", "from_url"]
 
-_BOOTED: Dict[Tuple, object] = {}
+DeviceSpec = Union[None, str, tuple]      # as the script's ``@device`` (protocol/devices.py)
+
+
+class HatModel(Protocol):
+    """What this target uses of its emulator: ``Emulator`` (emulator/api.py), or what a
+    ``factory`` returns instead (e.g. a planted fault wrapping it, tests/planted/)."""
+
+    @property
+    def now(self) -> int: ...
+
+    def boot(self) -> int: ...
+
+    def write(self, data: bytes) -> None: ...
+
+    def read(self) -> bytes: ...
+
+    def step(self) -> None: ...
+
+    def advance(self, ms: int) -> None: ...
+
+    def world(self, line: str) -> str: ...
+
+    def on_event(self, callback: Callable[[Dict[str, Any]], None]) -> None: ...
+
+
+_BOOTED: Dict[Tuple, HatModel] = {}
 
 
 class InProcessControl(Control):
@@ -59,9 +84,9 @@ class InProcessControl(Control):
 
 
 class InProcessTarget(Target):
-    def __init__(self, firmware: Optional[str] = None, devices: Optional[Dict[int, object]] = None,
+    def __init__(self, firmware: Optional[str] = None, devices: Optional[Mapping[int, DeviceSpec]] = None,
                  seed: int = 0, baud: Optional[int] = None, scale: float = 1.0, boot: bool = True,
-                 factory: Optional[Callable[..., object]] = None, url: str = "inprocess"):
+                 factory: Optional[Callable[..., HatModel]] = None, url: str = "inprocess"):
         if scale <= 0:
             raise TargetError(f"inprocess: scale must be positive, got {scale}")
         self.url = url
@@ -69,7 +94,7 @@ class InProcessTarget(Target):
         self.scale = float(scale)
         self.boot = boot
         self.factory = factory
-        self.emulator = None
+        self.emulator: Optional[HatModel] = None
         self.control = InProcessControl(self)
         self.capabilities = frozenset({"control", "virtual_time", "drive_events", "line_records"})
         self.drive_events: List[dict] = []
@@ -89,7 +114,7 @@ class InProcessTarget(Target):
         if hat is not None:
             hat.line_observers.append(self.line_records.append)
 
-    def _new(self):  # type: ignore[no-untyped-def]
+    def _new(self) -> HatModel:
         if self.factory is not None:
             return self.factory(firmware=self.firmware, devices=self.devices, seed=self.seed, baud=self.baud)
         from ...emulator import Emulator
@@ -98,7 +123,7 @@ class InProcessTarget(Target):
         except KeyError as exc:
             raise TargetError(f"inprocess: {exc.args[0]}") from None
 
-    def _booted_copy(self):  # type: ignore[no-untyped-def]
+    def _booted_copy(self) -> HatModel:
         if not self.boot:
             return self._new()
         key = (self.factory, self.firmware, tuple(sorted(self.devices.items())), self.seed, self.baud)
@@ -150,7 +175,7 @@ class InProcessTarget(Target):
         if event.get("dir") in ("pwm", "led"):
             self.drive_events.append(event)
 
-    def _need_open(self):  # type: ignore[no-untyped-def]
+    def _need_open(self) -> HatModel:
         if self.emulator is None:
             raise TargetError("the in-process target is not open (call open() first)")
         return self.emulator
@@ -200,9 +225,9 @@ def _independent_copy(obj):  # type: ignore[no-untyped-def]
     return dup
 
 
-def _parse_devices(values: List[str]) -> Dict[int, object]:
+def _parse_devices(values: List[str]) -> Dict[int, DeviceSpec]:
     from ...protocol.devices import parse_device_spec
-    out: Dict[int, object] = {}
+    out: Dict[int, DeviceSpec] = {}
     for v in values:
         port, sep, spec = v.partition("=")
         if not sep or not port.strip().isdigit():
@@ -227,7 +252,7 @@ def from_url(url: str, **options) -> InProcessTarget:
         raise TargetError(f"inprocess: unknown option(s) {sorted(unknown)} "
                           "(known: device, seed, baud, scale, boot)")
     try:
-        kwargs = dict(
+        kwargs: Dict[str, Any] = dict(
             firmware=release or None,
             devices=_parse_devices(q.get("device", [])),
             seed=int(q["seed"][-1]) if "seed" in q else 0,

@@ -8,16 +8,37 @@ from __future__ import annotations
 
 import abc
 import time
-from typing import Optional
+from typing import Optional, Protocol
 
 import serial
 
-from .base import Target, TargetError
+from .base import NotReading, Target, TargetError
 
-__all__ = ["PyserialTarget", "BAUD"]
+__all__ = ["PyserialTarget", "SerialPort", "BAUD"]
 
 BAUD = 115200            # FIRMWARE-FACTS §1: UART0 at 115200 baud, 8N1, no flow control
 _SLICE = 0.05            # the port's own read timeout; read() loops slices up to its timeout
+
+
+class SerialPort(Protocol):
+    """What a target uses of a pyserial port: ``serial.Serial`` and the URL handlers' classes
+    have it (``serial.SerialBase`` alone does not: it leaves open/in_waiting to them)."""
+
+    @property
+    def is_open(self) -> bool: ...
+
+    @property
+    def in_waiting(self) -> int: ...
+
+    def open(self) -> None: ...
+
+    def close(self) -> None: ...
+
+    def read(self, size: int = 1, /) -> bytes: ...
+
+    def write(self, data: bytes, /) -> Optional[int]: ...
+
+    def flush(self) -> None: ...
 
 
 class PyserialTarget(Target):
@@ -26,10 +47,10 @@ class PyserialTarget(Target):
     def __init__(self, url: str, baudrate: int = BAUD):
         self.url = url
         self.baudrate = int(baudrate)
-        self.port: Optional[serial.SerialBase] = None
+        self.port: Optional[SerialPort] = None
 
     @abc.abstractmethod
-    def _make_port(self) -> serial.SerialBase:
+    def _make_port(self) -> SerialPort:
         """A configured but not yet opened port."""
 
     def _explain(self, exc: BaseException) -> str:
@@ -51,8 +72,13 @@ class PyserialTarget(Target):
     def write(self, data: bytes) -> None:
         port = self._require_port()
         try:
+            # The port's write_timeout is the write deadline (port_settings): pyserial raises
+            # SerialTimeoutException when the bytes were not taken in time.
             port.write(data)
             port.flush()
+        except serial.SerialTimeoutException:
+            raise NotReading(f"{self.url} stopped reading: {len(data):,} bytes not taken in "
+                             f"{self.write_deadline:g} s") from None
         except (serial.SerialException, OSError) as exc:
             raise TargetError(f"writing to {self.url} failed: {exc}") from exc
 
@@ -94,14 +120,13 @@ class PyserialTarget(Target):
             except (serial.SerialException, OSError):
                 pass
 
-    def _require_port(self) -> serial.SerialBase:
+    def _require_port(self) -> SerialPort:
         if self.port is None:
             raise TargetError(f"{self.url} is not open")
         return self.port
 
-    @staticmethod
-    def port_settings() -> dict:
-        """115200 8N1, no flow control, short read timeout."""
+    def port_settings(self) -> dict:
+        """115200 8N1, no flow control, short read timeout, the write deadline."""
         return dict(baudrate=BAUD, bytesize=serial.EIGHTBITS, parity=serial.PARITY_NONE,
                     stopbits=serial.STOPBITS_ONE, xonxoff=False, rtscts=False, dsrdtr=False,
-                    timeout=_SLICE, write_timeout=5.0)
+                    timeout=_SLICE, write_timeout=self.write_deadline)

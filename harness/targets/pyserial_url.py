@@ -11,7 +11,7 @@ from urllib.parse import urlsplit
 import serial
 
 from .base import TargetError
-from .pyserial_base import BAUD, PyserialTarget
+from .pyserial_base import BAUD, PyserialTarget, SerialPort
 
 __all__ = ["PyserialUrlTarget", "from_url", "SCHEMES"]
 
@@ -20,7 +20,7 @@ SCHEMES = ("socket", "rfc2217", "loop", "spy", "hwgrep", "alt", "cp2110")
 
 
 class PyserialUrlTarget(PyserialTarget):
-    def _make_port(self) -> serial.SerialBase:
+    def _make_port(self) -> SerialPort:
         settings = self.port_settings()
         settings["baudrate"] = self.baudrate
         return serial.serial_for_url(self.url, do_not_open=True, **settings)

@@ -3,7 +3,9 @@
 Same design as tests/planted/faults.py (a filter on host lines and HAT output, knowing nothing
 of the emulator), for the faults a release engineer meets on hardware: one byte lost or corrupted
 (a line ending), a restart, silence, a HAT that stops reading, a flood of lines, binary garbage,
-an exit. Each fires once the host has sent ``after`` lines (CRs), i.e. mid-run. The program
+an exit. Each fires once the host has sent ``after`` lines (CRs), i.e. mid-run, at the first
+host line from there on that starts with ``on`` when that is given (a line of a test case,
+not of the harness's own set-up between cases). The program
 around it is faulty_hat.py.
 """
 from __future__ import annotations
@@ -19,11 +21,12 @@ KINDS = ("drop", "corrupt", "reboot", "silent", "deaf", "flood", "garbage", "exi
 class LinkFault:
     """When the fault fires and what it does to the HAT's output bytes."""
 
-    def __init__(self, kind: str, after: int = 40, seed: int = 13):
+    def __init__(self, kind: str, after: int = 40, seed: int = 13, on: Optional[bytes] = None):
         if kind not in KINDS:
             raise ValueError(f"unknown link fault {kind!r} ({', '.join(KINDS)})")
         self.kind = kind
         self.after = after
+        self.on = on               # fire at the first host line (after ``after``) starting so
         self.host_lines = 0
         self.fired = False
         self.done = False          # a one-shot fault (drop, corrupt, reboot, garbage) has happened
@@ -33,10 +36,11 @@ class LinkFault:
         """Count host lines; True the moment the fault fires."""
         if self.fired:
             return False
-        self.host_lines += data.count(b"\r")
-        if self.host_lines >= self.after:
-            self.fired = True
-            return True
+        for line in data.split(b"\r")[:-1]:
+            self.host_lines += 1
+            if self.host_lines >= self.after and (self.on is None or line.startswith(self.on)):
+                self.fired = True
+                return True
         return False
 
     def output(self, data: bytes) -> bytes:

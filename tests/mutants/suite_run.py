@@ -5,6 +5,7 @@ Shared by the project's tests of the suite itself (tests/test_conformance_*.py).
 from __future__ import annotations
 
 import os
+import re
 import subprocess
 import sys
 import xml.etree.ElementTree as ET
@@ -51,3 +52,18 @@ def run_suite(tmp: str, target: str, cases: Sequence[str] = (), keyword: Optiona
         env["BUILDHAT_EMULATOR"] = f"{sys.executable} {MUTANT} {mutation}"
     subprocess.run(argv, cwd=REPO, env=env, timeout=timeout, stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
     return read_junit(junit)
+
+
+# pytest's own closing line ("2 passed, 1 target-fault, 15 not-run in 15.81s"), whatever the
+# suite's own summary prints after it.
+_PYTEST_SUMMARY = re.compile(r"^(?:\d+ [a-z -]+, )*\d+ [a-z -]+ in [\d.]+s(?: \([\d:]+\))?$")
+_COUNTED = re.compile(r"(\d+) (?:passed|failed|errors?|skipped|target-fault|not-run|known deviation|"
+                      r"informational)")
+
+
+def reported_case_count(output: str) -> int:
+    """How many cases pytest itself says it ran (its summary line), 0 if it printed none."""
+    for line in reversed(output.strip().splitlines()):
+        if _PYTEST_SUMMARY.match(line.strip()):
+            return sum(int(n) for n in _COUNTED.findall(line))
+    return 0

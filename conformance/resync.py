@@ -1,0 +1,236 @@
+"""Between cases and after a glitch: putting the link and the HAT back in step.
+
+The counted fence (conformance/link.py) is fast and exact on a sound link. When it finds no
+answer, or a case begins, the link is found again *by content* (harness/sync.py): a token only
+its own reply can contain, whatever came before it (half a line, a lost or extra line ending,
+garbage, a restart). A start-up banner seen mid-run is a restart: the case in flight is a target
+fault, and the next case's set-up waits for the HAT to finish starting and restores the suite's
+preconditions (echo and debug off, ports quiet, powered ports found again). Whatever the target
+did is said in one line (conformance/target_fault.py).
+"""
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any, List, Optional
+
+from ..harness.errors import ExpectTimeout, TargetError
+from .target_fault import (
+    GARBLED,
+    REBOOTED,
+    TargetFault,
+    binary_count,
+    describe_silence,
+    garbled_reply,
+    target_fault_of,
+)
+
+__all__ = ["Resync", "BABBLE_LINES", "BABBLE_BINARY", "QUIET_S"]
+
+#: Lines no Build HAT prints (event kind ``unknown``), in one case and again in QUIET_S seconds of
+#: the host asking nothing, that make the target a babbler (a flood): a HAT prints nothing unasked
+#: but its reports, and those are known kinds.
+BABBLE_LINES = 10
+QUIET_S = 0.5
+#: Binary bytes (not printable text, CR or LF) in one case's output above which it is garbage;
+#: a test's own control bytes echoed back are a few dozen at most.
+BABBLE_BINARY = 1024
+
+
+class Resync:
+    """The link-recovery half of :class:`conformance.link.Hat` (a mixin: it uses the Hat's
+    session, event cursor and ``exchange``)."""
+
+    if TYPE_CHECKING:   # provided by Hat
+        session: Any
+        _next: int
+        _fence_own: set
+
+        def exchange(self, text: Any, timeout_ms: float = ...) -> Any: ...
+        def seconds(self, hat_ms: float) -> float: ...
+        def has(self, command: str) -> bool: ...
+
+    def _init_resync(self) -> None:
+        self._powered_checked = False
+        #: Ports whose drive the fence leaves alone (devices that need power to stay connected).
+        self.powered_ports: tuple[int, ...] = ()
+        self._scanned = self.session.mark()  # events before this were looked at for a start-up banner
+        self._case_bytes = 0            # byte offset where the current case's traffic began
+        self._case_events = 0           # event index where the current case's traffic began
+        self._cases = 0                 # cases begun (resyncs)
+        self._babbled_in = -2           # the case in which the target was last heard babbling
+        #: The HAT restarted; the next resync puts the suite's preconditions back.
+        self.rebooted = False
+        self.restarts = 0               # restarts seen (and recovered from) in this run
+        self._restart_asked = False     # the case reset the HAT itself (a world action)
+        self._restart_at: Optional[int] = None
+
+    def _recover(self, start: int, start_byte: int, waited: float) -> TargetFault:
+        """The counted fence found no answer: sync by content to put the link back in step, and
+        say what the target did."""
+        s = self.session
+        try:
+            sync = s.sync(1.0)
+        except ExpectTimeout:
+            return describe_silence(bytes(s.received[start_byte:]), s.events[start:], waited + 3.0)
+        except TargetError as exc:
+            return target_fault_of(exc)
+        self._next = sync.answer + 1
+        self._fence_own.clear()
+        banner = self._banner_since(start)
+        self._scanned = self._next
+        if banner is not None and not self._restart_asked:
+            self.rebooted = True
+            self._restart_at = banner
+            return TargetFault(REBOOTED, "the HAT printed its start-up banner again during this case "
+                                         f"({s.events[banner].text!r})")
+        return self.babble() or garbled_reply(bytes(s.received[self._case_bytes:]))
+
+    def _banner_since(self, start: int) -> Optional[int]:
+        # The banner's first line marks a restart (FACTS §5; the bootloader prints it too).
+        return self.session.events.scan(lambda e: e.kind == "banner" and e.fields.get("stage") == "help_hint",
+                                        max(start, self._scanned))
+
+    def check_reboot(self, upto: Optional[int] = None) -> None:
+        """Raise TargetFault(rebooted) if a start-up banner arrived since the last look."""
+        banner = self._banner_since(self._scanned)
+        self._scanned = self.session.mark() if upto is None else max(self._scanned, upto)
+        if banner is not None and self._restart_asked:
+            self.rebooted, self._restart_at = True, banner
+            return
+        if banner is not None:
+            self.rebooted = True
+            self._restart_at = banner
+            raise TargetFault(REBOOTED, "the HAT restarted during this case (its start-up banner came: "
+                                        f"{self.session.events[banner].text!r})")
+
+    def babble(self) -> Optional[TargetFault]:
+        """A target fault if the target babbled during this case: binary garbage, or a flood of
+        lines no Build HAT prints that goes on while the host asks nothing. A check that failed
+        in such a case failed because of the link, not of the protocol."""
+        s = self.session
+        received = bytes(s.received[self._case_bytes:])
+        if binary_count(received) > BABBLE_BINARY:
+            return garbled_reply(received)
+        unknown = sum(1 for e in s.events[self._case_events:] if e.kind == "unknown")
+        if unknown < BABBLE_LINES:
+            return None
+        # Many unknown lines: a firmware answering wrongly, or something babbling? Listen a
+        # moment without asking anything; a HAT (even a buggy one) prints no such lines unasked.
+        mark, deadline = s.mark(), s.clock() + QUIET_S
+        unasked: List[Any] = []
+        while len(unasked) < BABBLE_LINES and s.clock() < deadline:
+            s.wait_new(s.mark(), deadline - s.clock())
+            unasked = [e for e in s.events[mark:] if e.kind == "unknown"]
+        if len(unasked) >= BABBLE_LINES:
+            self._babbled_in = self._cases
+            return TargetFault(GARBLED, f"a flood of lines no Build HAT prints: {len(unasked):,} more came "
+                                        f"while the host asked nothing (the first: {unasked[0].text[:60]!r})")
+        if self._babbled_in >= self._cases - 1:
+            # The flood heard in the last case ended during this one.
+            return TargetFault(GARBLED, f"{unknown:,} lines no Build HAT prints came during this case, the "
+                                        "end of the flood heard in the case before")
+        return None
+
+    def cleanup_lines(self, powered: tuple[int, ...] = ()) -> List[str]:
+        """What the fence between test cases sends: echo/debug off, every port quiet and in
+        direct-PWM mode with a zero constant setpoint and the default limit. Ports in
+        ``powered`` keep their drive: a light matrix disconnects when its power goes."""
+        parts = ["echo 0", "debug 0"]
+        for p in range(4):
+            parts += [f"port {p}", "select"] + ([] if p in powered else ["pwm", "off"])
+            if self.has("bias"):
+                parts.append("bias 0")
+        if self.has("pwmparams"):
+            parts = parts + [f"port {p} ; pwmparams 0 0" for p in range(4)]
+        # plimit is left alone: a powered light matrix needs it, and tests that depend on the
+        # default limit set it themselves.
+        parts += ["port 0"]
+        # One line per 200 bytes at most: the line buffer holds 256 (FACTS §1).
+        lines, line = [], ""
+        for part in parts:
+            if len(line) + len(part) + 3 > 200:
+                lines.append(line)
+                line = ""
+            line = f"{line} ; {part}" if line else part
+        return lines + [line]
+
+    def resync(self) -> None:
+        """Between cases: end any half-typed line, put the HAT back in a known state and find
+        the link's place by content (harness/sync.py), whatever the last case left behind:
+        half a line, a lost or extra line ending, garbage, a restart. After a restart (a
+        start-up banner) the HAT is let finish starting and set up again. Reports queued before
+        ``select`` took effect arrive before the sync's answer, so no drain is needed."""
+        s = self.session
+        self._case_bytes = len(s.received)
+        self._case_events = s.mark()
+        self._cases += 1
+        for _round in range(3):
+            start = s.mark()
+            try:
+                if not self._powered_checked:
+                    s.sync(self._sync_wait())          # in step before asking `list`
+                    self._powered_checked = True
+                    self.powered_ports = self._ports_needing_power()
+                # The lines go back to back under one sync (H10: a fence each made three round
+                # trips per case); they fit the 8192-byte receive ring many times over (FACTS §1).
+                lines = self.cleanup_lines(self.powered_ports)
+                before = b"\r" + b"".join(line.encode() + b"\r" for line in lines)
+                sync = s.sync(self._sync_wait(), before=before)
+            except ExpectTimeout:
+                raise describe_silence(bytes(s.received[self._case_bytes:]), s.events[start:],
+                                       3 * self._sync_wait()) from None
+            except TargetError as exc:
+                raise target_fault_of(exc) from None
+            banner = self._banner_since(self._scanned)
+            self._next = sync.answer + 1
+            self._fence_own.clear()
+            self._scanned = self._next
+            if banner is None and not self.rebooted:
+                self._restart_asked = False
+                return
+            # The HAT restarted (now, or during the last case): its state is the power-on state
+            # (echo off, ports idle), but the devices connect again and the powered ports are
+            # found again; then the set-up above runs once more.
+            self.rebooted = False
+            self._powered_checked = False
+            self.restarts += 0 if self._restart_asked else 1
+            self._restart_asked = False
+            self._await_started(banner if banner is not None else self._restart_at)
+            self._restart_at = banner if banner is not None else self._restart_at
+        raise TargetFault(REBOOTED, "the HAT restarted again each time it was set up (3 times in a row)")
+
+    def _sync_wait(self) -> float:
+        """Seconds one sync waits for its answer: a round trip with the set-up lines, at most
+        ~60 ms at 115200 baud, with a wide margin (a slow link, a loaded machine)."""
+        return 1.0
+
+    def _await_started(self, banner: Optional[int]) -> None:
+        """Wait (at most 3 s of HAT time) for `Done initialising ports` after the banner at
+        index ``banner`` (FACTS §5: the host waits for it)."""
+        s = self.session
+
+        def started(e: Any) -> bool:
+            """`Done initialising ports`"""
+            return e.kind == "banner" and e.fields.get("stage") == "done"
+
+        since = banner if banner is not None else s.mark()
+        if s.events.scan(started, since) is None:
+            try:
+                s.expect(started, timeout=max(1.0, self.seconds(3000)), since=since)
+            except ExpectTimeout:
+                pass   # the sync that follows says whether the HAT answers
+
+    def _ports_needing_power(self) -> tuple[int, ...]:
+        """Ports with a device that disconnects without motor power (the light matrix, per
+        devices.json): the fence must not switch their drive off."""
+        from ..protocol.devices import catalogue
+        from .oracles.listing import parse_list
+        try:
+            entries = parse_list(self.exchange("list").list_lines())
+        except ValueError:
+            return ()
+        ports = []
+        for e in entries:
+            power = (catalogue().get(f"0x{e.id:02X}", {}).get("power") or {}) if e.kind == "active" else {}
+            if power.get("needs_port_power_at_connect") and "disconnect" in power.get("note", ""):
+                ports.append(e.port)
+        return tuple(ports)
