@@ -66,3 +66,31 @@ def test_the_stalled_pass_delays_the_next_line_and_the_reports():
     assert t_stall == t + 3                          # in virtual time: 3 ms later
     reports = [tt for tt, line in after if line.startswith("P0M1:")]
     assert reports and not [tt for tt in reports if t < tt < t_stall]
+
+
+def test_a_handshake_survives_stalled_passes():
+    # §5: a stalled pass delays what was due; the timers lose nothing, so every handshake step
+    # still comes, in order, no earlier than §10's delays (ACK -> +10 SPEED -> +100 ACK -> +10
+    # switch -> +1 established).
+    tap = booted(THREE)
+    tap.emu.world("@plug 3 0x30")
+
+    def acked() -> bool:
+        return any(e["dir"] == "devrx" and e.get("port") == 3 and e["hex"] == "04"
+                   for e in tap.emu.events)
+    while not acked():                                # the device's set-up stream
+        tap.run(1)
+    for _ in range(100):                              # a `list` (>= 3 ms) every 4 ms meanwhile
+        tap.send("list")
+        tap.run(4)
+        if tap.times("P3: established serial communication with active ID 30"):
+            break
+    (t_est,) = tap.times("P3: established serial communication with active ID 30")
+    rx = [e for e in tap.emu.events if e["dir"] == "devrx" and e.get("port") == 3]
+    t_ack = [e["t"] for e in rx if e["hex"] == "04"][0]
+    tx = [e for e in tap.emu.events if e["dir"] == "dev" and e.get("port") == 3 and e["t"] >= t_ack]
+    assert tx[0]["hex"].startswith("52") and tx[1]["hex"] == "04"     # SPEED, then ACK
+    (t_baud,) = tap.times("set baud rate to 115200")
+    assert tx[0]["t"] - t_ack >= 10 and tx[1]["t"] - tx[0]["t"] >= 100
+    assert t_baud - tx[1]["t"] >= 10 and t_est - t_baud >= 1
+    assert [line for _, line in tap.lines if line.startswith("deltat=")]   # the passes did stall
