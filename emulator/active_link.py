@@ -72,7 +72,8 @@ class ActiveLink:
         self.phase = "setup"    # then "handshake", "data"
         self._last_msg = now
         self._errors = 0
-        self._handshake_at = now
+        self._handshake_at = now    # when the next handshake step is due
+        self._handshake_step = 0
         self._next_nack = now
 
     def tick(self, now: int) -> Outcome:
@@ -108,23 +109,32 @@ class ActiveLink:
                     if self.info.type_id is None:
                         return RESTART
                     self.phase = "handshake"
-                    self._handshake_at = now
+                    self._handshake_at = now + HANDSHAKE_SPEED_MS
+                    self._handshake_step = 0
                     break
                 self._setup_message(msg)
             if self.phase == "setup":
                 if now - self._last_msg > SETUP_TIMEOUT_MS:
                     return Failure("timeout during setup phase: disconnecting")
                 return None
-        t = now - self._handshake_at
+        # Each step waits its delay from the step before (the firmware's per-port delay): a step
+        # that runs late, e.g. after a main-loop stall (§5 `deltat=`), shifts the ones after it.
+        if now < self._handshake_at:
+            return None
         baud = self.info.baud
-        if t == HANDSHAKE_SPEED_MS:
+        step = self._handshake_step
+        self._handshake_step += 1
+        if step == 0:
             self._send(lpf2.speed_frame(baud))
-        elif t == HANDSHAKE_ACK_MS:
+            self._handshake_at = now + HANDSHAKE_ACK_MS - HANDSHAKE_SPEED_MS
+        elif step == 1:
             self._send(bytes([lpf2.ACK]))
-        elif t == HANDSHAKE_SWITCH_MS:
+            self._handshake_at = now + HANDSHAKE_SWITCH_MS - HANDSHAKE_ACK_MS
+        elif step == 2:
             self.uart.switch_baud(baud)
             self.hat.emit(f"set baud rate to {baud}")
-        elif t >= HANDSHAKE_DUMP_MS:
+            self._handshake_at = now + HANDSHAKE_DUMP_MS - HANDSHAKE_SWITCH_MS
+        else:
             self._establish(now)
             return ESTABLISHED
         return None

@@ -191,16 +191,29 @@ class Emulator:
 
     def boot(self, limit_ms: int = BOOT_LIMIT_MS, each_ms: Optional[Callable[[], None]] = None) -> int:
         """Run the start-up until the layout's devices are established; returns the time taken.
-        ``each_ms`` is called after every millisecond (e.g. to record output with its time)."""
+        ``each_ms`` is called after every millisecond (e.g. to record output with its time).
+        An unpowered LED matrix's grace (``matrix_power_grace_ms``) starts when this returns."""
         start = self._now
         while not self.settled():
             if self._now - start >= limit_ms:
                 raise RuntimeError(f"start-up not finished after {limit_ms} ms "
                                    f"(ports not settled: {self._unsettled()})")
             self.step()
+            self._restart_power_grace()
             if each_ms is not None:
                 each_ms()
         return self._now - start
+
+    def _restart_power_grace(self) -> None:
+        """A booted HAT is what a host finds when it opens the port: a device that needs power
+        from the host (the LED matrix) counts its grace from then, not from its set-up."""
+        hat = self.hat
+        if hat is None:
+            return
+        for port in hat.ports:
+            restart = getattr(port.device, "restart_grace", None)
+            if restart is not None:
+                restart(self._now)
 
     def settled(self) -> bool:
         """Start-up finished and every port with a device has it connected/established."""

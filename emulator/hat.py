@@ -29,6 +29,7 @@ from .commands import run_line
 from .controller import PortController
 from .faults import FaultMonitor
 from .lineeditor import CRLF, LineEditor
+from .pass_cost import PassCost, stall_line
 from .ports import Port
 from .startup import Startup
 from .uart import Uart
@@ -85,7 +86,8 @@ class Hat:
         self.echo = 0
         self.debug = 0
         self.ledmode = -1
-        self.adc = DEFAULT_ADC
+        self.adc = DEFAULT_ADC           # the firmware's sample of the input-voltage pin
+        self._adc_pin = DEFAULT_ADC      # the pin itself (`@adc`); sampled every 1 ms tick
         self.leds = 0
         self._led_mode: Any = None       # ledmode and adc the LED code was last computed from
         self._led_adc: Any = None
@@ -95,6 +97,12 @@ class Hat:
         # HAT) re-binds methods to the copy but keeps a lambda pointing at the original.
         self.editor = LineEditor(self.write_out, self.echo_enabled)
         self._early_bytes = 0    # bytes received before the main loop started, not yet consumed
+        # Main-loop stalls (§5 `deltat=`): a line whose pass costs >= 1 ms keeps the loop busy
+        # until ``_busy_until``; the pass that starts then prints the stall line if > 2 ms.
+        self.pass_cost = PassCost(self.profile.features)
+        self.tx_written = 0      # bytes the firmware has written to the TX ring (costs lines)
+        self._busy_until = 0
+        self._stall_ms = 0
         self._line_early = False
         self.ports = [Port(self, i) for i in range(NPORTS)]
         self.controllers = [PortController(self, i) for i in range(NPORTS)]
@@ -114,9 +122,16 @@ class Hat:
         return ((self.adc * 57) // 10) * 3300 // 4096
 
     def set_adc(self, raw: int) -> None:
+        """The input-voltage pin now reads ``raw``; the firmware samples it on its next 1 ms
+        tick (§4.4, §10), so a `vin` in the same millisecond still shows the previous sample."""
         if not 0 <= raw <= 4095:
             raise ValueError(f"ADC reading must be 0..4095, got {raw}")
-        self.adc = raw
+        self._adc_pin = raw
+
+    @property
+    def busy(self) -> bool:
+        """True while a stalled main-loop pass runs (nothing else of the loop happens)."""
+        return self._busy_until > self.now
 
     # -- output ----------------------------------------------------------------------------
     def echo_enabled(self) -> bool:
@@ -124,12 +139,14 @@ class Hat:
 
     def write_out(self, data: bytes) -> None:
         """Raw output (echo, prompts, partial lines) into the TX ring."""
+        self.tx_written += len(data)
         self.uart.write(bytes(data))
 
     def emit(self, line: bytes | str) -> None:
         """One output line; CRLF is added."""
         if isinstance(line, str):
             line = line.encode("utf-8")
+        self.tx_written += len(line) + 2
         self.uart.write(bytes(line) + CRLF)
 
     def tx_pending(self) -> int:
@@ -161,6 +178,7 @@ class Hat:
         uart = self.uart
         if uart.baud is not None:
             uart.tick()
+        self.adc = self._adc_pin                 # the 1 ms ADC sample (§10)
         if self.ledmode != self._led_mode or self.adc != self._led_adc:
             self._refresh_leds()
         startup = self.startup
@@ -169,10 +187,22 @@ class Hat:
             if startup.done:
                 self._early_bytes = uart.rx_available()
             return
+        if self._busy_until:
+            if now < self._busy_until:
+                return                           # the stalled pass is still running
+            self._end_stall()
         if uart.rx:
             self.poll()
+            if self._busy_until:
+                return                           # a line stalled the loop: the rest waits
         if now >= self._next_due:
             self._run_due(now)
+
+    def _end_stall(self) -> None:
+        """The first pass after a stall: the firmware prints ``deltat=`` when it was > 2 ms."""
+        deltat, self._busy_until, self._stall_ms = self._stall_ms, 0, 0
+        if self.pass_cost.prints_stall(deltat):
+            self.emit(stall_line(deltat))
 
     def _run_due(self, now: int) -> None:
         """Tick what is due (in the firmware's order), then note when the next thing is."""
@@ -198,8 +228,12 @@ class Hat:
     def idle_until(self) -> float:
         """The first millisecond whose tick may do anything; every tick before it only counts
         time. ``now + 1`` while anything else is pending (start-up, input, the paced wire, LEDs)."""
-        if (not self.startup.done or self.uart.rx or not self.uart.quiet()
-                or self.ledmode != self._led_mode or self.adc != self._led_adc):
+        if (not self.uart.quiet() or self.ledmode != self._led_mode or self.adc != self._led_adc
+                or self._adc_pin != self.adc):
+            return self.now + 1
+        if self._busy_until:
+            return max(self._busy_until, self.now + 1)
+        if not self.startup.done or self.uart.rx:
             return self.now + 1
         return max(self._next_due, self.now + 1)
 
@@ -216,7 +250,7 @@ class Hat:
 
     def poll(self) -> None:
         """Process the received bytes now (the main loop runs far faster than 1 kHz)."""
-        if not self.startup.done:
+        if not self.startup.done or self._busy_until:
             return
         rx = self.uart.rx
         if not rx:
@@ -241,9 +275,19 @@ class Hat:
                     # also write port state directly: every port looks again (costs one tick).
                     for port in self.ports:
                         port.wake()
+                    if self._busy_until:
+                        break            # the stalled pass: the next line waits for its end
         finally:
             if pos < len(data):
                 rx.extendleft(reversed(data[pos:]))
+
+    def _charge(self, commands: List[str], written: int) -> None:
+        """The pass that ran this line lasts its cost (§5): a stall of whole milliseconds."""
+        cost_us = self.pass_cost.line_cost_us(commands, written, self.ports)
+        stall = int(cost_us // 1000)
+        if stall >= 1:
+            self._stall_ms = stall
+            self._busy_until = self.now + stall
 
     def _refresh_leds(self) -> None:
         # tick() calls this only when ledmode or the ADC reading changed (H10: it ran every ms).
@@ -260,9 +304,11 @@ class Hat:
         if line[:1] == bytes((_HASH,)) and self.profile.features.get("hash_comments"):
             record.comment = True        # R6+: ignored, and no prompt either
         else:
+            written = self.tx_written
             record.error, record.commands, record.unknown = run_line(self, line)
             if self.echo:
                 self.write_out(b"P%d>" % self.port)
+            self._charge(record.commands, self.tx_written - written)
         for observer in list(self.line_observers):
             observer(record)
         return record

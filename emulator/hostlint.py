@@ -126,6 +126,7 @@ class HostLint:
     _intake: IntakeModel = field(default_factory=IntakeModel)
     _episodes: Dict[str, Optional[_Episode]] = field(default_factory=lambda: {"rx": None, "tx": None})
     _tx_dropped: int = 0
+    _rx_dropped: int = 0
     _hat: Any = None
     _finished: bool = False
 
@@ -141,6 +142,7 @@ class HostLint:
         """(Re-)register on a Hat, e.g. the new firmware instance after the bootloader's reboot."""
         self._hat = hat
         self._tx_dropped = int(getattr(getattr(hat, "uart", None), "tx_dropped", 0) or 0)
+        self._rx_dropped = int(getattr(getattr(hat, "uart", None), "rx_dropped", 0) or 0)
         self.profile_of = lambda: getattr(hat, "profile", None)
         if self not in hat.line_observers:
             hat.line_observers.append(self)
@@ -235,9 +237,17 @@ class HostLint:
     def _check_intake(self, now: int, text: str, commands: List[str], raw: bytes,
                       profile: Optional[Profile]) -> None:
         fill = self._intake.line(now, len(raw) + 1, line_cost_ms(profile, raw, commands, self._hat))
-        if fill > self._intake.ring:
-            self._grow("rx", now, text, fill)
-        elif fill <= self._intake.ring // 2:
+        # The emulator's main loop stalls as a HAT's does (§5 `deltat=`), so input also waits in its
+        # own RX ring behind a long pass; what that ring holds or had to drop counts too.
+        uart = getattr(self._hat, "uart", None)
+        held = int(uart.rx_available()) if uart is not None and hasattr(uart, "rx_available") else 0
+        dropped = int(getattr(uart, "rx_dropped", 0) or 0)
+        if dropped > self._rx_dropped:
+            held = max(held, self._intake.ring + dropped - self._rx_dropped)
+        self._rx_dropped = dropped
+        if max(fill, held) > self._intake.ring:
+            self._grow("rx", now, text, max(fill, held))
+        elif max(fill, held) <= self._intake.ring // 2:
             self._close_episode("rx")
 
     def _check_tx_drops(self, now: int, text: str) -> None:

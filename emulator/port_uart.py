@@ -39,10 +39,11 @@ class PortUart:
         self._last = 0.0        # arrival time of the last byte seen
         self._tx = lpf2.Assembler(keep_system=True)
 
-    def start(self, now: int) -> None:
-        """Switch on at the setup baud rate, waiting for sync again."""
+    def start(self, now: int, baud: int = SETUP_BAUD) -> None:
+        """Switch on at the setup baud rate (the profile's ``device_setup`` baud: the facts do
+        not give it), waiting for sync again."""
         self.on = True
-        self.baud = SETUP_BAUD
+        self.baud = baud
         self._rx.reset()
         self._synced = False
         self._last = float(now)

@@ -2,8 +2,8 @@
 
 ``Hat`` builds ``Port(hat, index)`` and calls ``tick(now)`` every millisecond once the start-up
 is done. The port owns the wire to the plugged-in device model (``emulator/devices/``): bytes
-the device sends arrive at its baud rate (2400 during setup, then the device's rate), and
-frames the HAT sends reach the device at once. Phases:
+the device sends arrive at its baud rate (the profile's ``device_setup`` baud during setup, then
+the device's rate), and frames the HAT sends reach the device at once. Phases:
 
 - ``scan``: each pass through *state 0* resets the port's controller (``port_initpwm``), prints
   ``P<p>: disconnected`` if something was connected (profile ``disconnected_line``) and starts an
@@ -15,7 +15,7 @@ frames the HAT sends reach the device at once. Phases:
   connected flag cleared during the scan) and the connect line repeats after each scan.
   Button (ID 5, ``button_events``): ``P<p>: button pressed/released`` when the state changes.
 - active: a scan that sees an active device waits 100 ms (RX held low), prints
-  ``P<p>: connecting to active device``, turns the UART on at 2400 baud and hands over to an
+  ``P<p>: connecting to active device``, turns the UART on at the set-up rate and hands over to an
   ``ActiveLink`` (``emulator/active_link.py``: setup, handshake, data phase, timeouts). When the
   link fails the port prints why and disconnects (R2+: ``disconnected`` on the next pass).
 
@@ -41,9 +41,11 @@ import random
 from collections import deque
 from typing import Deque, Dict, List, Optional, Tuple
 
+from ..protocol.profiles import passive_signature_ids
 from . import lpf2
 from .active_link import RESTART, ActiveLink, Failure
 from .devices import ActiveDevice, Device, MotorDevice, PassiveDevice, make_device
+from .devices.active import setup_timing
 from .devices.info import DeviceInfo
 from .devices.passive import BUTTON_ID, BUTTON_RELEASED
 from .listing import active_dump, empty_line, passive_line
@@ -78,6 +80,9 @@ class Port:
         self.repeat_connect = bool(f["passive_connect_repeats"])
         self.button_events = bool(f["button_events"])
         self.matrix_autopower = bool(f["matrix_autopower"])
+        # §7.4: the release's signature -> ID table, and the "possibly active" rule (id 99).
+        (self._signature_ids, self._active_mask, self._active_value,
+         self._active_id) = passive_signature_ids(f["passive_signature_table"])
         self.rng = random.Random((hat.seed or 0) * 7919 + index)
         self.device: Optional[Device] = None    # what is plugged in (the world)
         self.reporter = Reporter(self)
@@ -297,19 +302,26 @@ class Port:
             self._cycle_start = now
         self._begin_scan(now)
 
-    def _read_pins(self) -> Tuple[int, int, bool]:
-        """(signature, passive ID, active device present) as the scan reads them."""
+    def _read_pins(self) -> Tuple[int, int]:
+        """(signature, table ID) as the scan reads them: the ID from the release's table,
+        ``_active_id`` (99) for a possible active device, 0 for unknown codes (§7.4)."""
         dev = self.device
         if isinstance(dev, PassiveDevice):
-            return dev.signature, dev.passive_id, False
-        if isinstance(dev, ActiveDevice) and dev.talking:
-            return SIGNATURE_ACTIVE, 0, True
-        return SIGNATURE_EMPTY, 0, False
+            signature = dev.signature_in(self._signature_ids)
+        elif isinstance(dev, ActiveDevice) and dev.talking:
+            signature = SIGNATURE_ACTIVE
+        else:
+            signature = SIGNATURE_EMPTY
+        if signature & self._active_mask == self._active_value:
+            return signature, self._active_id
+        return signature, self._signature_ids.get(signature, 0)
 
     def _scan_done(self, now: int) -> None:
-        signature, pid, active = self._read_pins()
+        signature, table_id = self._read_pins()
         if self.hat.debug & 4:
-            self._line(f"D5 signature={signature:04X} id={pid}")
+            self._line(f"D5 signature={signature:04X} id={table_id}")
+        active = table_id == self._active_id
+        pid = 0 if active else table_id
         was = self.passive_id
         if active or pid == 0 or (was and pid != was):
             self._matches = self._scan_id = 0
@@ -372,7 +384,7 @@ class Port:
         self.combis = {}
         self.modes.clear()
         self.reporter.connection_changed()
-        self.uart.start(now)
+        self.uart.start(now, setup_timing(self.hat.profile.features)[1])
         self._phase = "active"
         dev.begin_setup(now)
 

@@ -10,7 +10,11 @@ Two engines, chosen by ``Profile.features["report_engine"]``:
 - ``selrate`` (R5+): rate -2 off, -1 once, 0 every message, N every N ms (timer reset to 0 at
   each report); SELECT only when the mode changes; ``combi`` deselects; once = immediately on
   the first matching message, then rate -2 with the mode kept; no report while the TX ring
-  holds 4096 bytes or more (``tx_throttle_reports``).
+  holds 4096 bytes or more (``tx_throttle_reports``). The per-pass check is §6.2's, in its
+  order: no mode -> nothing (the timer runs on); no matching message since the select or the
+  last direct (rate 0) report -> timer held at 0; throttle; -2; -1; 0 (report, clear the
+  count); N (report when the timer reaches N, timer 0). So ``selrate 0`` reports the stored
+  data on the next pass, and ``selrate N`` after a direct report counts from the next message.
 
 Common: nothing prints until a DATA message for the selected mode arrived after the select;
 reports use the latest stored payload; DATA messages carry a 3-bit mode, so a selected mode
@@ -98,10 +102,10 @@ class Reporter:
         self.fmt: Optional[int] = None     # parser format code of the variable form
         self.rate = RATE_OFF               # R5+ selreprate
         self.once = False                  # R1-R4 selonce flag
-        self._seen = 0                     # matching DATA messages since the select
-        self._fresh = False                # a matching message arrived in this pass
+        self._seen = 0                     # matching DATA messages since the select (R5+: or
+        #                                    since the last direct report: `selrxcount`)
         self._due: Optional[int] = None    # R1-R4: when the next report is due
-        self._origin: Optional[int] = None  # R5+: where the report timer counts from
+        self._origin = port.hat.now        # R5+: the report timer is `now - _origin`
 
     # -- commands --------------------------------------------------------------------------
     # Each command changes what the report engine does next: the port must tick again (wake).
@@ -116,8 +120,7 @@ class Reporter:
         self.once = once
         self.rate = RATE_ONCE if once else DEFAULT_RATE_MS
         self._seen = 0
-        self._fresh = False
-        self._due = self._origin = None
+        self._due = None
         self.port.wake()
         if send:
             self.port.send_select(mode)
@@ -155,15 +158,17 @@ class Reporter:
             self.mode = -1
             self.rate = RATE_OFF
         self._seen = 0
-        self._fresh = False
-        self._due = self._origin = None
+        self._due = None
+        self._origin = self.port.hat.now     # the firmware zeroes the report timer (state 105)
 
     # -- data ------------------------------------------------------------------------------
     def on_data(self, mode: int) -> None:
         """A DATA message for (3-bit) ``mode`` was stored."""
         if mode == self.mode:
+            if self._seen == 0:
+                # Every pass before this one held the timer at 0 (no message yet).
+                self._origin = self.port.hat.now
             self._seen += 1
-            self._fresh = True
 
     def next_due(self, now: int) -> float:
         """The first millisecond after ``now`` in which :meth:`tick` can print or change state
@@ -172,20 +177,22 @@ class Reporter:
             return math.inf
         if self.fixed:
             return now + 1 if self._due is None else self._due
-        if self.rate in (RATE_OFF, RATE_ONCE, 0):
-            return math.inf                # these only report a fresh message
-        if self._origin is None:
-            return now + 1
+        if self.rate == RATE_OFF:
+            return math.inf
+        if self.rate in (RATE_ONCE, 0):
+            return now + 1                 # a message is waiting to be reported
         return self._origin + self.rate    # when past (throttled): every millisecond
 
     def tick(self, now: int) -> None:
-        fresh, self._fresh = self._fresh, False
-        if self.mode < 0 or self._seen == 0:
+        if self.mode < 0:
+            return                         # R5+: the timer runs on
+        if self._seen == 0:
+            self._origin = now             # R5+: timer held at 0 until a message arrives
             return
         if self.fixed:
             self._tick_fixed(now)
         else:
-            self._tick_rate(now, fresh)
+            self._tick_rate(now)
 
     def _tick_fixed(self, now: int) -> None:
         if self._due is None:
@@ -199,27 +206,24 @@ class Reporter:
         if self.once and (mode_form or not self.var_once_repeats):
             self.mode = -1
 
-    def _tick_rate(self, now: int, fresh: bool) -> None:
+    def _tick_rate(self, now: int) -> None:
+        if self.throttle and self.port.hat.tx_pending() >= TX_THROTTLE_BYTES:
+            return
         if self.rate == RATE_OFF:
             return
-        throttled = self.throttle and self.port.hat.tx_pending() >= TX_THROTTLE_BYTES
         if self.rate == RATE_ONCE:
-            if fresh and not throttled:
-                self._print()
-                self.rate = RATE_OFF
-                if not self.once_keeps_mode:
-                    self.mode = -1
+            self._print()
+            self.rate = RATE_OFF
+            if not self.once_keeps_mode:
+                self.mode = -1
             return
         if self.rate == 0:
-            if fresh and not throttled:
-                self._print()
+            self._print()
+            self._seen = 0                 # the next direct report needs a new message
             return
         # The timer counts from the first matching message, then from each report (the
         # firmware resets it to 0), so ``selrate`` changes only the threshold.
-        if self._origin is None:
-            self._origin = now
-            return
-        if now - self._origin >= self.rate and not throttled:
+        if now - self._origin >= self.rate:
             self._print()
             self._origin = now
 

@@ -12,7 +12,7 @@ from importlib import resources
 from typing import Any, Optional
 
 __all__ = ["Profile", "load_profiles", "get_profile", "resolve_version", "neighbours", "undecided_features",
-           "profile_numbers", "bootloader_data", "DEFAULT_FIRMWARE"]
+           "profile_numbers", "bootloader_data", "passive_signature_ids", "DEFAULT_FIRMWARE"]
 
 
 @lru_cache(maxsize=1)
@@ -70,6 +70,8 @@ def load_profiles() -> dict:
     """All known profiles, keyed by release number, in release order."""
     raw = _raw()
     out = {}
+    # Model values every profile gets unless it sets its own (cost model, device timing ...).
+    defaults = {k: v for k, v in raw.get("model_defaults", {}).items() if not k.startswith("_")}
     for num, p in raw["profiles"].items():
         sig = bytes.fromhex(p["signature"]) if p.get("signature") else None
         out[int(num)] = Profile(
@@ -77,7 +79,7 @@ def load_profiles() -> dict:
             commands=tuple(p["commands"]), set_keywords=tuple(p["set_keywords"]),
             help_lines=tuple(raw["help_texts"][p["help_text"]]), signature=sig,
             image_size=p["image_size"], image_checksum=p["image_checksum"],
-            features={k: v for k, v in p.items() if k not in _CORE_KEYS},
+            features={**defaults, **{k: v for k, v in p.items() if k not in _CORE_KEYS}},
         )
     return dict(sorted(out.items()))
 
@@ -117,6 +119,15 @@ def resolve_version(number: int) -> tuple[Profile, bool]:
         return profiles[number], True
     earlier = [n for n in profiles if n < number]
     return profiles[max(earlier) if earlier else min(profiles)], False
+
+
+@cache
+def passive_signature_ids(table: str) -> tuple[dict, int, int, int]:
+    """FIRMWARE-FACTS §7.4: (signature -> passive ID, active mask, active value, active ID) of
+    the passive-ID scan's table ``table`` (a profile's ``passive_signature_table``)."""
+    raw = _raw()["passive_signature_tables"]
+    ids = {int(sig, 16): pid for sig, pid in raw[table].items()}
+    return ids, int(raw["active_mask"], 16), int(raw["active_value"], 16), int(raw["active_id"])
 
 
 def neighbours(number: int) -> Optional[tuple[Profile, Profile]]:

@@ -112,7 +112,9 @@ def test_when_the_values_cannot_tell_the_probe_moves_the_motor(monkeypatch):
         hat.resync()
         assert probe(hat, 0, "pid", "pid").ran
         assert len(looks) == 2
-        assert all(abs(p) <= 1 for p in looks[0]), looks
+        # _put_apos leaves the reading within 1 of 0 and the encoder flickers +-1 around the true
+        # angle (emulator/devices/motor.py): a resting motor reads at most 2 from 0.
+        assert all(abs(p) <= 2 for p in looks[0]), looks
         assert all(abs(p) > 5 for p in looks[1]), f"the motor did not move: {looks}"
     finally:
         session.close()

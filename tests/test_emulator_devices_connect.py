@@ -15,7 +15,9 @@ from buildhat_conformance.protocol.profiles import get_profile
 from .emulator_tap import Tap
 
 EMPTY = {0: "none", 1: "none", 2: "none", 3: "none"}
-BYTE_MS_2400 = 10 * 1000 / 2400          # 8N1: 10 bits per byte
+# The device side of the set-up is the emulator model (the facts give only the HAT side): the
+# profile value device_setup.baud (docs/EMULATOR-MODELS.md). 8N1: 10 bits per byte.
+SETUP_BYTE_MS = 10 * 1000 / get_profile("R7").feature("device_setup")["baud"]
 
 
 def booted(firmware: str, **ports) -> Tap:
@@ -46,10 +48,10 @@ def test_active_connect_sequence_and_handshake_timing():
     ack = [e for e in rx if e["hex"] == "04"]
     assert len(ack) == 1
     t_ack = ack[0]["t"]
-    # The whole setup stream travels at 2400 baud after the HAT's 100 ms sync gap.
+    # The whole setup stream travels at the model's set-up baud after the HAT's 100 ms sync gap.
     setup_bytes = sum(len(e["hex"].split()) for e in rx if e["t"] <= t_ack)
     travel = t_ack - t_conn
-    assert setup_bytes * BYTE_MS_2400 + 100 <= travel <= setup_bytes * BYTE_MS_2400 + 100 + 50
+    assert setup_bytes * SETUP_BYTE_MS + 100 <= travel <= setup_bytes * SETUP_BYTE_MS + 100 + 50
     tx = events(emu, "dev", 3)
     # §8 / §10: ACK -> +10 ms SPEED `52 00 C2 01 00 6E` -> +100 ms ACK `04` -> +10 ms switch.
     assert (tx[0]["t"] - t_ack, tx[0]["hex"]) == (10, "52 00 C2 01 00 6E")

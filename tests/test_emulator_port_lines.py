@@ -17,6 +17,7 @@ def booted(firmware: str = "R7", adc: int = ADC_7200, **kw) -> Emulator:
     emu = Emulator(firmware=firmware, devices=EMPTY, **kw)
     emu.boot()
     emu.world(f"@adc {adc}")
+    emu.advance(1)               # the firmware samples the ADC once per 1 ms tick (§4.4, §10)
     emu.read()
     return emu
 

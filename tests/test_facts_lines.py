@@ -40,6 +40,7 @@ class Hat:
         self.emu = Emulator(firmware=profile, devices=EMPTY)
         self.emu.boot()
         self.emu.world(f"@adc {ADC_7200}")
+        self.emu.advance(1)      # the ADC is sampled once per 1 ms tick (§4.4, §10)
         self.records: List = []
         self.emu.hat.line_observers.append(self.records.append)
         if echo:

@@ -37,6 +37,7 @@ def empty(profile: str, adc: int = 1568) -> Emulator:
     emu = Emulator(firmware=profile, devices=EMPTY)
     emu.boot()
     emu.world(f"@adc {adc}")
+    emu.advance(1)               # the ADC is sampled once per 1 ms tick (§4.4, §10)
     emu.read()
     return emu
 
@@ -129,6 +130,7 @@ def test_vin_on_the_wire_for_adc_readings(profile):
     step = 1 if profile == "R7" else 61
     for adc in list(range(0, 4096, step)) + [4095]:
         emu.world(f"@adc {adc}")
+        emu.advance(1)                                  # vin "is refreshed every 1 ms" (§4.4)
         assert send(emu, b"vin\r") == b"\r\n" + _vin_text(_mv(adc)) + b"\r\n", (profile, adc)
     assert _vin_text(_mv(4095)) == b"18.80 V"            # "The maximum (ADC 4095) is 18805 mV"
 

@@ -3,11 +3,13 @@
 The device model is built from its devices.json entry; subclasses (motor, sensors, matrix)
 only say what values each mode holds. Behaviour modelled here (DEVICES.md "Mode data"):
 
-- Handshake: when the HAT starts listening (``begin_setup``), the device waits
-  ``SETUP_START_MS`` (so the HAT sees the 100 ms quiet gap it needs before it parses), then sends
-  its setup stream at 2400 baud and waits. After the HAT's SPEED and ACK it switches to the
-  baud rate and starts its data phase ``DATA_START_MS`` later (after the HAT's own switch,
-  which comes 10 ms after its ACK).
+- Handshake: when the HAT starts listening (``begin_setup``), the device waits ``start_ms``
+  (so the HAT sees the 100 ms quiet gap it needs before it parses), then sends its setup stream
+  at the set-up ``baud`` and waits. After the HAT's SPEED and ACK it switches to the baud rate
+  and starts its data phase ``data_start_ms`` later (after the HAT's own switch, which comes
+  10 ms after its ACK). The three values are the profile's ``device_setup`` (the facts give only
+  the HAT's side; docs/EMULATOR-MODELS.md explains the choice); the constants below are used
+  for a device on no port.
 - Data phase: mode 0 is selected at first. SELECT (with the EXT_MODE bit 3) changes the mode,
   and the device answers with data at once. A CMD WRITE ``0x20+n, i, (m<<4)|d ...`` configures
   combi index i (n = 0 removes it); while mode i is selected and combi i is configured, the DATA
@@ -38,11 +40,20 @@ from .. import lpf2
 from ..services import DevicePort
 from .setup_stream import setup_messages
 
-__all__ = ["ActiveDevice", "SETUP_START_MS", "DATA_START_MS", "SETUP_BAUD", "pack_values"]
+__all__ = ["ActiveDevice", "SETUP_START_MS", "DATA_START_MS", "SETUP_BAUD", "pack_values",
+           "setup_timing"]
 
-SETUP_BAUD = 2400
+SETUP_BAUD = 9600
 SETUP_START_MS = 110     # > the HAT's 100 ms receive-sync gap (FIRMWARE-FACTS §8 "Receiving")
 DATA_START_MS = 20       # after the HAT's ACK; the HAT switches its baud rate at +10 ms (§5)
+
+
+def setup_timing(features: Optional[dict]) -> tuple[int, int, int]:
+    """(start_ms, baud, data_start_ms) of the device side of the set-up: the profile's
+    ``device_setup``, else the module's constants."""
+    given = (features or {}).get("device_setup") or {}
+    return (int(given.get("start_ms", SETUP_START_MS)), int(given.get("baud", SETUP_BAUD)),
+            int(given.get("data_start_ms", DATA_START_MS)))
 
 _PACK = {0: ("<b", 0xFF, 1), 1: ("<h", 0xFFFF, 2), 2: ("<i", 0xFFFFFFFF, 4)}
 
@@ -85,9 +96,13 @@ class ActiveDevice:
         self._reset_link()
 
     # -- link state ------------------------------------------------------------------------
+    def _timing(self) -> tuple[int, int, int]:
+        port = self.port
+        return setup_timing(port.hat.profile.features if port is not None else None)
+
     def _reset_link(self) -> None:
         self.state = "idle"           # idle -> setup -> wait_ack -> data_wait -> data
-        self.baud = SETUP_BAUD
+        self.baud = self._timing()[1]
         self.mode = 0
         self._ext = 0
         self.combis: Dict[int, List[tuple[int, int]]] = {}
@@ -119,7 +134,7 @@ class ActiveDevice:
             return
         self._reset_link()
         self.state = "setup"
-        self._setup_at = now + SETUP_START_MS
+        self._setup_at = now + self._timing()[0]
 
     # -- messages from the HAT ---------------------------------------------------------------
     def receive(self, msg: lpf2.Message, now: int) -> None:
@@ -128,7 +143,7 @@ class ActiveDevice:
         if msg.header == lpf2.ACK and msg.msg_class == lpf2.SYS:
             if self.state == "wait_ack" and self._speed_seen:
                 self.baud = self.entry["baud"]
-                self._data_at = now + DATA_START_MS
+                self._data_at = now + self._timing()[2]
                 self.state = "data_wait"
             return
         if msg.header == lpf2.NACK:

@@ -1,5 +1,12 @@
-"""Passive devices (IDs 1..11): what the HAT's ID scan reads on the port's ID pins."""
+"""Passive devices (IDs 1..11): what the HAT's ID scan reads on the port's ID pins.
+
+The raw signature a scan reads depends on the scan (FIRMWARE-FACTS §7.4: R1/R2 and R3+ sample
+differently and use different tables), so the device gives the signature of its ID in the
+release's table (:meth:`PassiveDevice.signature_in`); ``signature`` is the catalogue's
+(devices.json lists the R3+ codes)."""
 from __future__ import annotations
+
+from typing import Mapping
 
 from ...protocol.devices import passive_device, passive_ids
 
@@ -26,6 +33,16 @@ class PassiveDevice:
         if self.passive_id == BUTTON_ID:
             return _BUTTON_PRESSED if self.pressed else BUTTON_RELEASED
         return int(self.entry["signatures"][0], 16)
+
+    def signature_in(self, ids: Mapping[int, int]) -> int:
+        """The signature a scan using the table ``ids`` (signature -> ID) reads: the table's
+        first code for this ID; for the button, 0xCCCC released and another code pressed."""
+        codes = [sig for sig, pid in ids.items() if pid == self.passive_id]
+        if self.passive_id == BUTTON_ID:
+            if not self.pressed:
+                return BUTTON_RELEASED
+            codes = [sig for sig in codes if sig != BUTTON_RELEASED]
+        return codes[0] if codes else self.signature
 
     def press(self, pressed: bool) -> None:
         if self.passive_id != BUTTON_ID:
