@@ -11,6 +11,7 @@ around it is faulty_hat.py.
 from __future__ import annotations
 
 import random
+from typing import Optional
 
 __all__ = ["LinkFault", "KINDS"]
 
