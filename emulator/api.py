@@ -16,12 +16,12 @@ from typing import Any, Callable, Dict, List, Mapping, Optional, Union
 from ..protocol.devices import DEFAULT_LAYOUT, format_device_spec, parse_device_spec
 from ..protocol.profiles import Profile, get_profile, load_profiles
 from .bootloader import Bootloader, bootloader_checksum
-from .hat import Hat
+from .hat import DEFAULT_ADC, Hat
 from .reset_pins import HeldInReset
 from .uart import Uart
 from .world import WorldError, perform_line
 
-__all__ = ["Emulator", "WorldError", "BOOT_LIMIT_MS"]
+__all__ = ["Emulator", "WorldError", "BOOT_LIMIT_MS", "DEFAULT_ADC"]
 
 # boot() gives up (with an error naming the ports) if the layout is not up by then.
 BOOT_LIMIT_MS = 20000

@@ -14,6 +14,10 @@ from typing import Dict, List, Optional, Sequence
 
 __all__ = ["main", "build_parser"]
 
+# --booted --baud: at most this long (virtual ms) for the start-up's output to leave the TX ring (8 KB at
+# 9600 baud takes about 8.5 s).
+BOOT_DRAIN_LIMIT_MS = 20000
+
 CONTROL_HELP = """\
 control channel (--control PATH for a Unix socket, or --control tcp:HOST:PORT):
   at start stderr shows "buildhat-emulator: BUILDHAT_EMULATOR_CONTROL=<address>" (on TCP also
@@ -184,6 +188,12 @@ def _run_realtime(args: argparse.Namespace, devices: Dict[int, Optional[tuple]])
             except RuntimeError as exc:         # the layout never came up
                 print(f"buildhat-emulator: --booted: {exc}", file=sys.stderr)
                 return 2
+            # With --baud the last device dumps still wait in the TX ring for the wire: they too went
+            # out to nobody (a host that connects then must not read seconds-old start-up lines).
+            for _ in range(BOOT_DRAIN_LIMIT_MS):
+                if not emulator.uart.tx_pending():
+                    break
+                emulator.step()
             emulator.read()
         lint.follow(emulator)
         clock = RealTimeClock(args.speed)
@@ -225,7 +235,7 @@ def _run_realtime(args: argparse.Namespace, devices: Dict[int, Optional[tuple]])
             link.close()
         _report(lint)
         if recorder is not None:
-            lint.finish()       # open chatty bursts become findings (notes) before the end event
+            lint.finish()       # an open overrun episode becomes a finding (a note) before the end event
             recorder.close(status)
 
 

@@ -1,4 +1,6 @@
-"""pytest plugin for host libraries' own tests: the ``buildhat_emulator`` fixture.
+"""pytest plugin for host libraries' own tests: the ``buildhat_emulator`` fixtures.
+
+One emulator per test (a fresh HAT each time)::
 
     def test_motor_runs(buildhat_emulator):
         ser = serial.Serial(buildhat_emulator.path, 115200)     # a real pty in raw mode
@@ -7,143 +9,50 @@
     @pytest.mark.buildhat_emulator(firmware="R5", devices={3: "0x30", 1: None}, speed=1)
     def test_old_firmware(buildhat_emulator): ...
 
-The fixture starts ``buildhat-emulator --pty --control <socket>`` as a child process, waits
-until its control channel answers (and, unless ``settle=False``, until the start-up is done
-and the devices are up), yields a :class:`EmulatorProcess`, and always stops the process
-and removes its files. Marker arguments: ``firmware``, ``devices`` (port -> SPEC or None,
-over the default layout), ``version_string``, ``speed``, ``baud``, ``bootloader``,
-``settle``, ``args`` (extra command-line arguments).
+One emulator for the whole session, for libraries that keep one connection per process (python-build-hat
+opens the serial port once and keeps it until the interpreter exits)::
 
-The plugin adds no command-line options and imports only the standard library at load time.
+    @pytest.fixture(scope="session")
+    def buildhat_emulator_options():                 # optional: the session emulator's options
+        return {"firmware": "1737564117", "devices": {1: "0x3E"}, "baud": 115200}
+
+    def test_distance(buildhat_emulator_shared):
+        buildhat.Hat(device=buildhat_emulator_shared.path)     # the same pty path for every test
+        buildhat_emulator_shared.control("@data 1 0 E8 03")    # undone after the test
+
+The shared emulator stays powered across tests, as a HAT on a bench does; after each test, what the test
+changed through ``.control()`` is undone (readings back to the device models, shafts released, faults
+cleared, devices re-plugged as in the layout, Vin back to 8.00 V). The emulator is stopped at interpreter
+exit, after the library's own exit handler has sent its last lines (no traceback from a closed pty), and
+``BUILDHAT_EMULATOR_CONTROL`` is exported so that ``GPIOZERO_PIN_FACTORY=buildhat_emulator`` works in-process.
+
+Both fixtures start ``buildhat-emulator --pty --control <socket> --transcript <file>`` (emulator/
+fixture_process.py), wait until it has settled (not with ``bootloader=True``), and yield an
+:class:`EmulatorProcess`. When a test fails, its failure message gets the host-lint findings of that test,
+the emulator's stderr (a ``--strict-host`` stop names the offending line) and the path of the transcript,
+which is kept. Marker / options: ``firmware``, ``devices`` (port -> SPEC or None, over the default layout),
+``version_string``, ``speed``, ``baud``, ``bootloader``, ``settle``, ``args`` (extra arguments).
+
+The plugin adds no command-line options and imports only the standard library and pytest at load time.
 """
 from __future__ import annotations
 
 import os
-import shutil
-import socket
-import subprocess
-import sys
-import tempfile
-import time
-from typing import Any, Dict, List, Optional
+import re
+import weakref
+from typing import Any, Dict, Iterator, Optional, Tuple
 
 import pytest
 
-__all__ = ["EmulatorProcess", "buildhat_emulator", "START_TIMEOUT"]
+from .fixture_process import START_TIMEOUT, EmulatorProcess
 
-START_TIMEOUT = 30.0     # wall seconds for the child to come up (slow CI machines)
+__all__ = ["EmulatorProcess", "buildhat_emulator", "buildhat_emulator_shared", "buildhat_emulator_session",
+           "buildhat_emulator_options", "START_TIMEOUT"]
+
 MARKER = "buildhat_emulator"
-
-
-class EmulatorProcess:
-    """A running ``buildhat-emulator --pty`` child: its pty path and its control channel."""
-
-    def __init__(self, firmware: Optional[str] = None, devices: Optional[Dict[int, Any]] = None,
-                 version_string: Optional[str] = None, speed: float = 1.0, baud: Optional[int] = None,
-                 bootloader: bool = False, args: Optional[List[str]] = None):
-        self._dir = tempfile.mkdtemp(prefix="bhemu-")
-        self.control_path = os.path.join(self._dir, "control.sock")
-        cmd = [sys.executable, "-m", "buildhat_conformance.emulator.cli", "--pty",
-               "--control", self.control_path, "--speed", str(speed)]
-        if firmware is not None:
-            cmd += ["--firmware", str(firmware)]
-        for port, spec in (devices or {}).items():
-            cmd += ["--device", f"{int(port)}={'none' if spec is None else spec}"]
-        if version_string is not None:
-            cmd += ["--version-string", version_string]
-        if baud is not None:
-            cmd += ["--baud", str(baud)]
-        if bootloader:
-            cmd.append("--bootloader")
-        cmd += list(args or [])
-        self.command = cmd
-        self._stderr = open(os.path.join(self._dir, "stderr.txt"), "w+b")
-        self.process = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=self._stderr,
-                                        stdin=subprocess.DEVNULL)
-        self._sock: Optional[socket.socket] = None
-        self._reply = b""
-        try:
-            self.path = self._first_line()
-            self._connect()
-            self.firmware = self.control("@firmware")[3:]
-        except BaseException:
-            self.close()
-            raise
-
-    def _failure(self, what: str) -> RuntimeError:
-        self._stderr.seek(0)
-        err = self._stderr.read().decode("utf-8", "replace").strip()
-        return RuntimeError(f"buildhat-emulator {what} ({' '.join(self.command)})"
-                            + (f":\n{err}" if err else ""))
-
-    def _first_line(self) -> str:
-        stdout = self.process.stdout
-        assert stdout is not None          # Popen(stdout=PIPE)
-        line = stdout.readline().decode("utf-8", "replace").strip()
-        if not line:
-            self.process.wait(5)
-            raise self._failure(f"exited with status {self.process.returncode} before printing the pty path")
-        return line
-
-    def _connect(self) -> None:
-        deadline = time.monotonic() + START_TIMEOUT
-        while True:
-            if self.process.poll() is not None:
-                raise self._failure(f"exited with status {self.process.returncode}")
-            try:
-                sock = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
-                sock.settimeout(START_TIMEOUT)
-                sock.connect(self.control_path)
-                self._sock = sock
-                return
-            except OSError:
-                sock.close()
-                if time.monotonic() > deadline:
-                    raise self._failure("control channel did not come up") from None
-                time.sleep(0.02)
-
-    def control(self, line: str) -> str:
-        """Send one control request (e.g. ``@plug 1 0x30``); returns the reply line (``ok ...``)."""
-        if self._sock is None:
-            raise RuntimeError("the emulator is not running")
-        self._sock.sendall(line.strip().encode("utf-8") + b"\n")
-        while b"\n" not in self._reply:
-            chunk = self._sock.recv(4096)
-            if not chunk:
-                raise self._failure("closed the control channel")
-            self._reply += chunk
-        reply, _, self._reply = self._reply.partition(b"\n")
-        return reply.decode("utf-8")
-
-    def wait_settled(self, timeout: float = START_TIMEOUT) -> None:
-        """Wait (wall time) until the start-up is done and the devices are up."""
-        deadline = time.monotonic() + timeout
-        while self.control("@settled") != "ok 1":
-            if time.monotonic() > deadline:
-                raise self._failure("did not finish starting up")
-            time.sleep(0.02)
-
-    def close(self) -> None:
-        if self._sock is not None:
-            self._sock.close()
-            self._sock = None
-        if self.process.poll() is None:
-            self.process.terminate()
-            try:
-                self.process.wait(5)
-            except subprocess.TimeoutExpired:
-                self.process.kill()
-                self.process.wait(5)
-        if self.process.stdout is not None:
-            self.process.stdout.close()
-        self._stderr.close()
-        shutil.rmtree(self._dir, ignore_errors=True)
-
-    def __enter__(self) -> EmulatorProcess:
-        return self
-
-    def __exit__(self, *exc: Any) -> None:
-        self.close()
+# item.stash keys: the emulator a test ran on and the host lines before it; whether the test failed.
+_RUN = pytest.StashKey[Tuple[EmulatorProcess, int]]()
+_FAILED = pytest.StashKey[bool]()
 
 
 def pytest_configure(config: Any) -> None:
@@ -152,16 +61,101 @@ def pytest_configure(config: Any) -> None:
         "buildhat_emulator fixture (see buildhat_conformance.emulator.pytest_fixture)")
 
 
-@pytest.fixture
-def buildhat_emulator(request: Any):
-    """A ``buildhat-emulator --pty`` child process (see the module docstring)."""
-    marker = request.node.get_closest_marker(MARKER)
-    options = dict(marker.kwargs) if marker else {}
+@pytest.hookimpl(hookwrapper=True)
+def pytest_runtest_makereport(item: Any, call: Any) -> Iterator[None]:
+    outcome = yield
+    report = outcome.get_result()
+    run = item.stash.get(_RUN, None)
+    if run is None or not report.failed:
+        return
+    item.stash[_FAILED] = True
+    emulator, since = run
+    text = emulator.details(since_line=since)
+    longrepr = report.longrepr
+    if hasattr(longrepr, "addsection"):
+        longrepr.addsection("buildhat-emulator", text)      # printed with the failure itself
+    else:
+        report.sections.append(("buildhat-emulator", text))
+
+
+def _start(options: Dict[str, Any], keep_dir: str, link: Optional[str] = None) -> EmulatorProcess:
+    options = dict(options)
     settle = options.pop("settle", True)
-    emulator = EmulatorProcess(**options)
+    emulator = EmulatorProcess(keep_dir=keep_dir, link=link, **options)
     try:
         if settle and not options.get("bootloader"):
             emulator.wait_settled()
+    except BaseException:
+        emulator.close(keep=True)
+        raise
+    return emulator
+
+
+def _lines_so_far(emulator: EmulatorProcess) -> int:
+    summary = emulator.lint()
+    return int(summary.get("lines", 0)) if summary else 0
+
+
+def _dir_name(nodeid: str) -> str:
+    return re.sub(r"[^A-Za-z0-9_.-]+", "_", nodeid)[-60:] or "test"
+
+
+@pytest.fixture
+def buildhat_emulator(request: Any, tmp_path_factory: Any) -> Iterator[EmulatorProcess]:
+    """A fresh ``buildhat-emulator --pty`` child for this test (see the module docstring)."""
+    marker = request.node.get_closest_marker(MARKER)
+    keep_dir = str(tmp_path_factory.mktemp("buildhat-emulator-" + _dir_name(request.node.name)))
+    emulator = _start(dict(marker.kwargs) if marker else {}, keep_dir)
+    request.node.stash[_RUN] = (emulator, 0)
+    try:
         yield emulator
     finally:
-        emulator.close()
+        emulator.close(keep=request.node.stash.get(_FAILED, False))
+
+
+@pytest.fixture(scope="session")
+def buildhat_emulator_options() -> Dict[str, Any]:
+    """Options of the session's shared emulator (override this fixture in a conftest.py)."""
+    return {}
+
+
+class _Shared:
+    """The session's emulator and whether any test on it failed (then its files are kept)."""
+
+    def __init__(self, emulator: EmulatorProcess):
+        self.emulator = emulator
+        self.failed = False
+
+    def stop(self) -> None:
+        self.emulator.close(keep=self.failed)
+
+
+@pytest.fixture(scope="session")
+def buildhat_emulator_session(buildhat_emulator_options: Dict[str, Any], tmp_path_factory: Any) -> Any:
+    """The session's emulator (use ``buildhat_emulator_shared`` in tests: it also restores the world)."""
+    keep_dir = str(tmp_path_factory.mktemp("buildhat-emulator-session"))
+    emulator = _start(buildhat_emulator_options, keep_dir, link=os.path.join(keep_dir, "serial"))
+    os.environ.update(emulator.environment())
+    shared = _Shared(emulator)
+    # Stopped at interpreter exit, not at session teardown: a library still holds the pty, and its exit
+    # handler writes its last lines to it. python-build-hat's is a weakref.finalize; finalizers run at exit
+    # newest first, so one made now (before any test connected the library) runs after it. The bound
+    # method keeps ``shared`` alive until then.
+    weakref.finalize(shared, shared.stop)
+    return shared
+
+
+@pytest.fixture
+def buildhat_emulator_shared(request: Any, buildhat_emulator_session: Any) -> Iterator[EmulatorProcess]:
+    """The session's emulator for this test; what the test changed through ``.control()`` is undone after."""
+    shared = buildhat_emulator_session
+    emulator = shared.emulator
+    if not emulator.alive():
+        raise emulator.failure(f"(the session's emulator) exited with status {emulator.process.poll()}")
+    request.node.stash[_RUN] = (emulator, _lines_so_far(emulator))
+    try:
+        yield emulator
+    finally:
+        if request.node.stash.get(_FAILED, False):
+            shared.failed = True
+        emulator.restore()

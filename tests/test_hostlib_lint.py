@@ -10,7 +10,8 @@ from typing import Dict, List
 import pytest
 
 from buildhat_conformance.emulator import Emulator
-from buildhat_conformance.emulator.hostlint import CHATTY_LINES, CHATTY_POLLS, HostLint
+from buildhat_conformance.emulator.hostlint import HostLint
+from buildhat_conformance.emulator.hostlint_intake import IntakeModel
 
 EMPTY = {0: "none", 1: "none", 2: "none", 3: "none"}
 
@@ -81,22 +82,60 @@ def test_input_sent_during_start_up_is_flagged() -> None:
     assert nonzero(lint) == {"before_ready": 1}, lint.report()
 
 
-@pytest.mark.parametrize("per_second, chatty", [(CHATTY_POLLS + 10, True), (10, False)])
-def test_chatty_polling_threshold(per_second: int, chatty: bool) -> None:
-    emu, lint = booted("1737564117")
-    gap = 1000 // per_second
-    send(emu, [b"vin\r"] * (per_second * 3), gap_ms=gap)
-    counts = nonzero(lint)
-    assert counts == ({"chatty": 1} if chatty else {}), lint.report()
-    if chatty:
-        (finding,) = [f for f in lint.summary()["findings"] if f["kind"] == "chatty"]
-        assert f"threshold {CHATTY_POLLS}" in finding["detail"]
+# What python-build-hat 0.9.0 sends for Motor.start() (its motor line) and a short one; its upstream stress
+# tests (test_continuous_start / _degrees) run such lines at about 768 and 112 lines/s against a real HAT.
+MOTOR_LINE = (b"port 0; select 0 ; selrate 10; pid 0 0 1 s4 0.0027777778 0 5 0 .1 3 0.01; "
+              b"set ramp 0.0 0.25 0.1 0\r")
 
 
-def test_too_many_lines_of_any_kind_are_chatty() -> None:
+def send_at_rate(emu: Emulator, line: bytes, per_second: int, seconds: int) -> None:
+    start = emu.now
+    for i in range(per_second * seconds):
+        due = start + (i * 1000) // per_second
+        if due > emu.now:
+            emu.advance(due - emu.now)
+        emu.write(line)
+    emu.advance(50)
+    emu.read()
+
+
+@pytest.mark.parametrize("per_second", [112, 768])
+@pytest.mark.parametrize("line", [MOTOR_LINE, b"port 0 ; set 0\r"], ids=["motor_line", "short_line"])
+def test_the_official_librarys_stress_rates_are_no_finding(per_second: int, line: bytes) -> None:
+    # FIRMWARE-FACTS §1: the wire carries 11.52 bytes/ms into an 8192-byte ring and a short line costs the
+    # main loop far less than its bytes take to arrive, so no rate of such lines loses input on a HAT.
     emu, lint = booted("1737564117")
-    send(emu, [b"port 0\r"] * (CHATTY_LINES + 50), gap_ms=2)   # 500 lines/s, no one-shot queries
-    assert nonzero(lint) == {"chatty": 1}, lint.report()
+    send_at_rate(emu, line, per_second, 3)
+    assert lint.lines == per_second * 3
+    assert nonzero(lint) == {}, lint.report()
+
+
+def test_a_list_storm_overruns_the_receive_ring_and_lint_says_so_while_it_lasts() -> None:
+    # Three active motors: each `list` costs the main loop milliseconds (§5's stall line) but takes 0.43 ms
+    # on the wire, so back-to-back lists pile up in the ring until it would drop input.
+    emu = Emulator(firmware="1737564117", devices={0: "0x30", 1: "0x30", 2: "0x30", 3: "none"})
+    emu.boot()
+    lint = HostLint.for_hat(emu.hat)
+    for _ in range(20):
+        emu.write(b"list\r" * 100)
+        emu.advance(1)
+        emu.read()
+    live = lint.summary()                     # the episode is still open: counted and shown alike
+    assert live["counts"]["overrun"] == 1 and not live["clean"]
+    (finding,) = [f for f in live["findings"] if f["kind"] == "overrun"]
+    assert "8192-byte receive ring" in finding["detail"]
+    assert "overrun" in (lint.fatal_message() or "")            # --strict-host stops at once, not at its end
+    assert nonzero(lint) == {"overrun": 1}, lint.report()     # closing it reports the same one finding
+
+
+def test_intake_model_holds_what_the_hat_has_not_run_yet() -> None:
+    # Derived by hand from the wire rate: 100 bytes take 100 / 11.52 = 8.7 ms to arrive.
+    model = IntakeModel(ring=1000)
+    assert model.line(0, 100, 0.01) == 100          # run long before the next one arrives
+    assert model.line(0, 100, 0.01) == 100
+    slow = IntakeModel(ring=1000)
+    held = [slow.line(0, 10, 50.0) for _ in range(5)]   # each costs 50 ms, arrives in under 1 ms
+    assert held == [10, 20, 30, 40, 50]
 
 
 def test_lf_only_line_endings_leave_unterminated_input() -> None:
@@ -122,3 +161,18 @@ def test_a_pid_behind_an_earlier_failure_is_reported_as_not_reached() -> None:
     assert nonzero(lint) == {"error": 1, "not_in_profile": 1, "pid_arity": 1}, lint.report()
     (arity,) = [f for f in lint.summary()["findings"] if f["kind"] == "pid_arity"]
     assert "11 numbers" in arity["detail"] and "not reached" in arity["detail"]
+
+
+def test_replies_that_overflow_the_transmit_ring_on_a_paced_wire_are_an_overrun() -> None:
+    # FIRMWARE-FACTS §1: output that does not fit the 8192-byte TX ring is dropped. Three `list` dumps of
+    # three motors (kilobytes each) asked back to back on a 115200-baud wire cannot all fit.
+    emu = Emulator(firmware="1737564117", devices={0: "0x30", 1: "0x30", 2: "0x30", 3: "none"}, baud=115200)
+    emu.boot()
+    emu.advance(2000)                     # the start-up's output has left the ring
+    emu.read()
+    lint = HostLint.for_hat(emu.hat)
+    emu.write(b"list\rlist\rlist\rlist\rvin\r")
+    emu.advance(50)
+    assert emu.uart.tx_dropped > 0                          # the emulator's ring model did drop output
+    (finding,) = [f for f in lint.summary()["findings"] if f["kind"] == "overrun"]
+    assert "transmit ring" in finding["detail"] and "dropped" in finding["detail"]

@@ -254,6 +254,13 @@ def test_report_command_line(sample, capsys):
     bad.write_text(junit_xml([{"name": "a"}], counts={"tests": "9"}), encoding="utf-8")
     assert cli_main(["report", str(bad), "-o", str(out)]) == 0
     assert cli_main(["report", str(bad), "-o", str(out), "--check"]) == 1
+    broken = sample / "broken.xml"
+    broken.write_text("<testsuites><testsuite", encoding="utf-8")
+    capsys.readouterr()
+    assert cli_main(["report", str(broken), "-o", str(out)]) == 2      # a bad file: one line, no traceback
+    err = capsys.readouterr().err
+    want = f"report: {broken}: not well-formed XML: unclosed token: line 1, column 12"
+    assert err.splitlines() == [want], err
 
 
 def test_html_escapes_what_tests_print(sample):

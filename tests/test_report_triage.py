@@ -121,6 +121,8 @@ def test_failures_group_by_first_differing_line_and_the_report_says_so(tmp_path)
             "status 2; its last stderr lines:\n      usage: hat [-h]\n      hat: error: bad option")
     cases.append({"name": "test_after_reboot", "failure": ("target fault (unreachable): it exited", died),
                   "props": [("verdict", "target-fault")]})
+    cases.append({"name": "test_bias_removed", "failure": (HAT_REPR, f"{HAT_REPR}\nbias answered Error"),
+                  "props": [("verdict", "known deviation"), ("deviations", "BIAS-REMOVED")]})
     for name in ("test_next", "test_after_next"):
         cases.append({"name": name, "failure": ("buildhat_conformance.conformance.plugin.NotRun: not run: "
                                                 "cannot open target cmd:hat", ""),

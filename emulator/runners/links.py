@@ -181,13 +181,13 @@ class StdioLink(_Buffered):
 
     def __init__(self) -> None:
         super().__init__()
-        out_fd = sys.stdout.fileno()
-        self.in_fd, self.out_fd = sys.stdin.fileno(), out_fd
+        self.in_fd, self.stdout_fd = sys.stdin.fileno(), sys.stdout.fileno()
+        self.out_fd = self.stdout_fd
         self._saved = None
         if os.isatty(self.in_fd):
             self._saved = termios.tcgetattr(self.in_fd)
             tty.setraw(self.in_fd, termios.TCSANOW)
-        os.set_blocking(out_fd, False)
+        os.set_blocking(self.stdout_fd, False)
 
     def readables(self, data: bool = True) -> List[Any]:
         return [self.in_fd] if data else []
@@ -202,12 +202,10 @@ class StdioLink(_Buffered):
         return data
 
     def close(self) -> None:
-        out_fd = self.out_fd
         try:
-            if out_fd is not None:
-                os.set_blocking(out_fd, True)
-            while self._out and out_fd is not None:
-                n = os.write(out_fd, self._out)
+            os.set_blocking(self.stdout_fd, True)
+            while self._out:
+                n = os.write(self.stdout_fd, self._out)
                 del self._out[:n]
         except OSError:
             pass

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+import xml.etree.ElementTree as ET
 
 from . import build_report
 from .junit import check_junit
@@ -55,6 +56,12 @@ def main(args: argparse.Namespace) -> int:
         for problem in check_junit(path):
             bad += 1
             print(f"report: {path}: {problem}", file=sys.stderr)
-    out = build_report(args.junit, args.output)
+    try:
+        out = build_report(args.junit, args.output)
+    except ET.ParseError:
+        return 2          # check_junit has said which file and where it stops being XML
+    except (OSError, ValueError) as exc:
+        print(f"report: {exc}", file=sys.stderr)
+        return 2
     print(f"report: wrote {out}")
     return 1 if (bad and args.check) else 0

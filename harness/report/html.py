@@ -18,10 +18,11 @@ from .junit import VERDICTS, Case, Run
 from .markup import LABEL as _LABEL
 from .markup import SHORT as _SHORT
 from .markup import esc as _e
+from .markup import names
 from .markup import tag as _tag
 from .markup import tests_cell as _tests_cell
 from .plots import Plot
-from .triage import Change, FailureGroup, headline
+from .triage import Change, FailureGroup, headline, scrub
 
 __all__ = ["render_html", "Triage"]
 
@@ -133,7 +134,7 @@ def _coverage_section(cov: Coverage, runs: Sequence[Run]) -> str:
         rows.append(f'<tr><td class="{row.status}" id="req-{_e(r.id)}">{_e(r.id)}</td><td>{_e(r.obs)}</td>'
                     f'<td>{_e(r.statement)}</td>{cells}<td>{_tag(row.status)}</td>'
                     + (f'<td class="byrun">{by_run}</td>' if multi else "") +
-                    f'<td class="tests">{_e(tests)}</td></tr>')
+                    f'<td class="tests">{names(tests)}</td></tr>')
     per_run = f"<th>by run (1..{len(runs)})</th>" if multi else ""
     cols = ("<col style='width:10.5em'><col style='width:4em'><col style='width:24%'>"
             + "<col style='width:4.6em'>" * len(VERDICTS) + "<col style='width:7.5em'>"
@@ -162,7 +163,7 @@ def _case_list(items: List[Tuple[Run, Case]], excerpts: Dict[int, List[str]]) ->
             if case.prop(key):
                 parts.append(f"<p class=why><b>{key}:</b> {_e(case.prop(key))}</p>")
         if case.detail:
-            parts.append(f"<details><summary>details</summary><pre>{_e(case.detail)}</pre></details>")
+            parts.append(f"<details><summary>details</summary><pre>{_e(scrub(case.detail))}</pre></details>")
         ex = excerpts.get(id(case))
         if ex:
             parts.append(f"<details><summary>transcript <code>{_e(case.transcript)}</code></summary>"

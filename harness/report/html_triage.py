@@ -8,8 +8,8 @@ import re
 from typing import Dict, List, Optional, Sequence, Tuple
 
 from .junit import VERDICTS, Case, Run
-from .markup import LABEL, LETTER, MEANING, esc, tag, tests_cell
-from .triage import MODULE_PATH, NOTHING, Change, Exchange, FailureGroup, headline, skip_reasons
+from .markup import LABEL, LETTER, MEANING, esc, names, tag, tests_cell
+from .triage import MODULE_PATH, NOTHING, Change, Exchange, FailureGroup, headline, scrub, skip_reasons
 
 __all__ = ["summary_section", "failure_groups_section", "by_requirement_section", "faults_section",
            "skips_section", "legend_section", "exchange_html"]
@@ -64,17 +64,17 @@ def _changes_line(run: Run, found: Optional[Tuple[str, List[Change]]]) -> str:
     better = [c for c in changes if c.before in ("fail", "target_fault") and c.after == "pass"]
     other = [c for c in changes if c not in worse and c not in better]
 
-    def names(cs: List[Change]) -> str:
+    def listed(cs: List[Change]) -> str:
         shown = ", ".join(f"{c.test_id.split('::')[-1]} ({LABEL.get(c.before, c.before)} → "
                           f"{LABEL.get(c.after, c.after)})" for c in cs[:6])
         return shown + (f", … {len(cs) - 6} more" if len(cs) > 6 else "")
     bits = []
     if worse:
-        bits.append(f"<b class=warn>{len(worse)} newly failing</b>: {esc(names(worse))}")
+        bits.append(f"<b class=warn>{len(worse)} newly failing</b>: {esc(listed(worse))}")
     if better:
-        bits.append(f"<b>{len(better)} fixed</b>: {esc(names(better))}")
+        bits.append(f"<b>{len(better)} fixed</b>: {esc(listed(better))}")
     if other:
-        bits.append(f"{len(other)} other change(s): {esc(names(other))}")
+        bits.append(f"{len(other)} other change(s): {esc(listed(other))}")
     return (f"<p class=changes>Since the previous run of this target ({esc(prev_name)}): "
             f"{'; '.join(bits)}.</p>")
 
@@ -154,7 +154,7 @@ def failure_groups_section(groups: List[FailureGroup]) -> str:
             f'<tr><td class=n><b>{len(g.members)}</b></td>'
             f'<td><b>{esc(title)}</b><div class=why>{why}</div>'
             f'<div class=tests>requirements: {req_html}</div></td>'
-            f'<td>{exchange_html(ex)}</td><td class=tests>{esc(", ".join(tests))}'
+            f'<td>{exchange_html(ex)}</td><td class=tests>{names(", ".join(tests))}'
             + (f" <span class=muted>… +{more_tests} more</span>" if more_tests else "") + "</td></tr>")
     return (f"<h2 id=failures>What failed: {total} case(s), {len(groups)} kind(s), "
             "by first differing line</h2>"
@@ -199,7 +199,7 @@ def by_requirement_section(groups: List[FailureGroup], statements: Dict[str, str
 def _fault_detail(case: Case) -> str:
     """The error as raised, up to its chained repeats: it carries the target's last stderr lines."""
     text = case.detail.split("\n\nThe above exception was the direct cause", 1)[0].strip()
-    return MODULE_PATH.sub("", text)[:3000]
+    return scrub(MODULE_PATH.sub("", text))[:3000]
 
 
 def faults_section(items: List[Tuple[Run, Case]]) -> str:

@@ -6,7 +6,7 @@ from typing import Dict, List, Tuple
 
 from .junit import Case
 
-__all__ = ["esc", "tag", "LABEL", "SHORT", "LETTER", "MEANING", "tests_cell"]
+__all__ = ["esc", "names", "tag", "LABEL", "SHORT", "LETTER", "MEANING", "tests_cell"]
 
 LABEL = {"pass": "pass", "fail": "fail", "target_fault": "target fault", "not_run": "not run",
          "skip": "skip", "known_deviation": "known deviation", "informational": "informational",
@@ -37,6 +37,11 @@ MEANING = {
 
 def esc(x: object) -> str:
     return html.escape(str(x), quote=True)
+
+
+def names(text: str) -> str:
+    """Escaped test names that may wrap after an underscore (not in the middle of a word)."""
+    return esc(text).replace("_", "_<wbr>")
 
 
 def tag(verdict: str) -> str:

@@ -18,8 +18,8 @@ from typing import Dict, List, Optional, Sequence, Tuple
 from ..transcript import field_bytes, iter_events
 from .junit import Case, Run
 
-__all__ = ["MODULE_PATH", "NOTHING", "Exchange", "headline", "exchange_of", "FailureGroup", "group_failures",
-           "skip_reasons", "Change", "changes_since"]
+__all__ = ["MODULE_PATH", "NOTHING", "scrub", "Exchange", "headline", "exchange_of", "FailureGroup",
+           "group_failures", "skip_reasons", "Change", "changes_since"]
 
 # The parameter ``hat`` shown by pytest as the failing line's context: a repr, never a reason.
 _REPR = re.compile(r"<[\w.]+ object at 0x[0-9a-fA-F]+>")
@@ -29,6 +29,12 @@ MODULE_PATH = re.compile(r"^(?:[a-z_]\w*\.)+(?=[A-Z]\w*: )")
 _GOT = re.compile(r"\bgot (?P<q>['\"])(?P<line>.*?)(?P=q)(?:$|[,;)]|\s)")
 _FENCE = "version"
 NOTHING = "(nothing)"
+
+
+def scrub(text: str) -> str:
+    """Text from pytest with its object reprs (``hat = <...Hat object at 0x...>``) shortened:
+    an address says nothing to a reader and changes from run to run."""
+    return _REPR.sub("<…>", text)
 
 
 def headline(case: Case) -> str:

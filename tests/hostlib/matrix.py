@@ -138,6 +138,9 @@ EXTRA_PLANS: Dict[Tuple[str, str], Plan] = {
                  "color.rgbi": [data_line(1, 0x3D, 5, COLOR["rgbi"])],
                  "distance": [data_line(2, 0x3E, 0, [DISTANCE["far"]])]}},
         timeout=90, gpio_reset_from="1636109636"),
+    # The library's upstream stress loops (shortened): the calibrated lint must find nothing.
+    ("0.9.0", "stress"): Plan("stress.py", {0: "0x30", 1: "none", 2: "none", 3: "none"}, {"seconds": 3},
+                              timeout=60),
 }
 
 

@@ -36,9 +36,11 @@ REPO = pathlib.Path(__file__).resolve().parents[2]
 FIRMWARE_OF: Dict[str, int] = {"0.9.0": 1737564117, "0.5.7": 1636109636, "0.5.12": 1670596313}
 #: The releases the scenario matrix of tests/test_hostlib_python_build_hat.py runs.
 SUPPORTED = ("0.9.0", "0.5.7")
-#: Releases whose venv also holds this project (editable), for its gpiozero pin factory entry point
-#: (``GPIOZERO_PIN_FACTORY=buildhat_emulator``), as a host library's CI would install it.
-WITH_PROJECT = frozenset({"0.5.12"})
+#: Releases whose venv also holds this project (editable, no dependencies) and pytest, as a host library's CI
+#: would install them: 0.5.12 for the gpiozero pin factory entry point (``GPIOZERO_PIN_FACTORY=
+#: buildhat_emulator``), 0.9.0 for a pytest session of the library on the shared-emulator fixture.
+WITH_PROJECT = frozenset({"0.5.12", "0.9.0"})
+_PROJECT_PINS = ["pytest==8.3.5"]
 
 # Pins beside the library: gpiozero 2.x still imports on Python 3.9 and offers the mock pin factory the
 # scenarios select (there is no GPIO here). Pinning keeps the venv the same from run to run.
@@ -66,7 +68,7 @@ def requirements(version: str) -> List[str]:
     """The exact requirement lines installed into the venv of ``version``."""
     if version not in FIRMWARE_OF:
         raise ValueError(f"buildhat {version} is not one the gate runs; known: {', '.join(FIRMWARE_OF)}")
-    return [f"buildhat=={version}"] + _EXTRA_PINS
+    return [f"buildhat=={version}"] + _EXTRA_PINS + (_PROJECT_PINS if version in WITH_PROJECT else [])
 
 
 def _python_in(venv: pathlib.Path) -> pathlib.Path:
@@ -74,10 +76,15 @@ def _python_in(venv: pathlib.Path) -> pathlib.Path:
 
 
 def _project_fingerprint() -> str:
-    """What an editable install of this project depends on: its packaging files (entry points)."""
-    digest = hashlib.sha256()
-    for name in ("pyproject.toml", "setup.py"):
-        digest.update((REPO / name).read_bytes())
+    """What an editable install of this project depends on: its entry points and setup.py's package map
+    (not the rest of pyproject.toml, so that a new dependency elsewhere does not rebuild the venvs)."""
+    digest = hashlib.sha256((REPO / "setup.py").read_bytes())
+    section = False
+    for line in (REPO / "pyproject.toml").read_text(encoding="utf-8").splitlines():
+        if line.startswith("["):
+            section = line.startswith("[project.entry-points")
+        if section:
+            digest.update(line.encode() + b"\n")
     return f"project {REPO} {digest.hexdigest()[:16]}"
 
 

@@ -57,8 +57,8 @@ def run_suite(tmp: str, target: str, cases: Sequence[str] = (), keyword: Optiona
 # pytest's own closing line ("2 passed, 1 target-fault, 15 not-run in 15.81s"), whatever the
 # suite's own summary prints after it.
 _PYTEST_SUMMARY = re.compile(r"^(?:\d+ [a-z -]+, )*\d+ [a-z -]+ in [\d.]+s(?: \([\d:]+\))?$")
-_COUNTED = re.compile(r"(\d+) (?:passed|failed|errors?|skipped|target-fault|not-run"
-                      r"|known deviation|informational)")
+_COUNTED = re.compile(r"(\d+) (?:passed|failed|errors?|skipped|target-fault|not-run|known deviation|"
+                      r"informational)")
 
 
 def reported_case_count(output: str) -> int:
