@@ -28,7 +28,7 @@ QUICK_SUITE = "test_select"
 
 
 def _groups(quick: bool) -> List[Group]:
-    from . import cost, fidelity, suite, target_faults, throughput
+    from . import cost, fidelity, firmware_load, suite, target_faults, throughput
 
     lines = 100_000 if quick else 1_000_000
     # Seconds per measurement window: three 3 s windows give medians as steady as 5 s ones did
@@ -82,6 +82,10 @@ def _groups(quick: bool) -> List[Group]:
         ("memory", lambda: cost.memory_after_lines(lines), [
             (Figure(f"resident memory after {lines:,} lines", "MiB"), "rss_mib"),
             (Figure(f"memory growth over {lines:,} lines", "MiB"), "rss_growth_mib")], 1),  # deterministic
+        ("firmware load", firmware_load.upload, [
+            (Figure("upload of a 51 KB image (load, 115200 baud)", "s"), "upload_s"),
+            (Figure("upload time above the wire's minimum", "%", "<= 5 %", target=5.0), "over_min_pct"),
+            (Figure("whole load: bootloader to firmware running", "s"), "total_s")], None),
     ]
 
 
