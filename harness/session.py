@@ -72,7 +72,7 @@ class Session(Identification, Conversation):
                  profile: Union[Profile, str, int, None] = None):
         self.target = target
         self._own_writer = not isinstance(transcript, TranscriptWriter) and transcript is not None
-        self._transcript_path = transcript if self._own_writer else None
+        self._transcript_path = None if isinstance(transcript, TranscriptWriter) else transcript
         self.transcript: Optional[TranscriptWriter] = transcript if isinstance(transcript, TranscriptWriter) \
             else None
         self._requested_profile = get_profile(profile) if profile is not None and \
@@ -169,7 +169,7 @@ class Session(Identification, Conversation):
         self._opened = True
         try:
             self._hat0 = (self._hat_now() or 0.0) if self.virtual else 0.0
-            if self._own_writer:
+            if self._own_writer and self._transcript_path is not None:
                 self.transcript = TranscriptWriter(self._transcript_path, self._meta())
             if not self.virtual:
                 self._reader = threading.Thread(target=self._read_loop, daemon=True,
