@@ -350,7 +350,7 @@ class Run:
             exact = "" if hat.profile_exact else \
                 " - unknown version, judged as the nearest earlier release"
             judged = " (--firmware)" if self.config.getoption("firmware") else ""
-            tr.write_line(f"target {self.url}: firmware {_firmware_of(self.hat)} judged as profile "
+            tr.write_line(f"target {self.url}: firmware {_firmware_of(hat)} judged as profile "
                           f"{p.name}{judged}{exact}")
         tr.write_line(f"JUnit: {self.junit.path}   transcripts: {self.transcripts}")
 
@@ -361,7 +361,6 @@ _run_key = pytest.StashKey[Run]()
 def _firmware_of(hat: Hat) -> str:
     """What the target runs (its `version` answer); the profile it is judged as may differ."""
     return getattr(hat.session, "version_string", "") or hat.profile.version_string
-
 
 
 def _failure_line(report: Any) -> str:
