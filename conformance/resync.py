@@ -116,14 +116,15 @@ class Resync:
         if binary_count(received) > BABBLE_BINARY:
             return garbled_reply(received)
         unknown = sum(1 for e in s.events[self._case_events:] if e.kind == "unknown")
-        if unknown < BABBLE_LINES:
+        if unknown == 0:
             return None
         if unknown >= BABBLE_BURST:
             self._babbled_in = self._cases
             return TargetFault(GARBLED, f"a flood of lines no Build HAT prints: {unknown:,} came during this "
                                         "case")
-        # Many unknown lines: a firmware answering wrongly, or something babbling? Listen a
-        # moment without asking anything; a HAT (even a buggy one) prints no such lines unasked.
+        # Unknown lines (even one: a flood that began as the case ended): a firmware answering
+        # wrongly, or something babbling? Listen a moment without asking anything; a HAT (even a
+        # buggy one) prints no such lines unasked.
         mark, deadline = s.mark(), s.clock() + QUIET_S
         unasked: List[Any] = []
         while len(unasked) < BABBLE_LINES and s.clock() < deadline:
