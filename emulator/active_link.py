@@ -42,8 +42,6 @@ HANDSHAKE_ACK_MS = 110
 HANDSHAKE_SWITCH_MS = 120
 HANDSHAKE_DUMP_MS = 121
 
-# The handshake's milliseconds that do something (``_setup_tick``); the ones between only wait.
-_HANDSHAKE_STEPS = (HANDSHAKE_SPEED_MS, HANDSHAKE_ACK_MS, HANDSHAKE_SWITCH_MS, HANDSHAKE_DUMP_MS)
 
 ESTABLISHED = "established"
 RESTART = "restart"
@@ -88,11 +86,7 @@ class ActiveLink:
             # Only the timeout is the link's own; a message that arrives is the port's to notice.
             return max(now + 1, self._last_msg + SETUP_TIMEOUT_MS + 1)
         if self.phase == "handshake":
-            t = now + 1 - self._handshake_at
-            for step in _HANDSHAKE_STEPS:
-                if t <= step:
-                    return self._handshake_at + step
-            return now + 1
+            return max(now + 1, self._handshake_at)     # the next step's own due time
         return min(self.reporter.next_due(now), self._next_nack,
                    self._last_msg + DATA_TIMEOUT_MS + 1)
 
