@@ -208,8 +208,8 @@ def _selrate(ctx: Ctx, token: str) -> Outcome:
 
 
 PROBES: Dict[str, Callable[[Ctx, str], Outcome]] = {
-    "help": _exact(lambda h: b"\r\n" + h.profile.help_bytes),
-    "?": _exact(lambda h: b"\r\n" + h.profile.help_bytes),
+    "help": _exact(lambda h: b"\r\n" + h.help_bytes),
+    "?": _exact(lambda h: b"\r\n" + h.help_bytes),
     "version": _matches(rb"\r\nFirmware version: [^\r\n]+\r\n"),
     "vin": _matches(rb"\r\n[0-9]+\.[0-9]{2} V\r\n"),
     "signature": _matches(rb"\r\nFirmware signature:( [0-9A-F]{2}){64}\r\n"),

@@ -11,14 +11,16 @@ from typing import Any, Callable, List, Optional, Union
 
 from ..harness.errors import ExpectTimeout, TargetError
 from ..harness.matching import matcher
-from ..protocol.profiles import Profile
+from ..protocol.profiles import Profile, neighbours
 from .reply import ASYNC_BYTES, ASYNC_LINE, Reply
 from .resync import Resync
 from .target_fault import TargetFault, target_fault_of
+from .verdict import UnknownBuild
 
 __all__ = ["Hat", "Reply", "TargetGone", "TargetFault", "ASYNC_BYTES", "ASYNC_LINE"]
 
 FENCE_ANSWER = b"Firmware version: "
+_TABLES = ("commands", "set_keywords", "help_lines")     # Profile fields, not features
 #: How long the fence's line ending may lag a version line before the count is taken as off. The
 #: HAT prints a line's CRLF before its answer and the next line's CRLF right after it; this is
 #: many times the gap a loaded host or a slow link puts between them.
@@ -53,11 +55,66 @@ class Hat(Resync):
     def profile_exact(self) -> bool:
         return bool(getattr(self.session, "profile_exact", True))
 
+    @property
+    def between(self) -> Optional[tuple[Profile, Profile]]:
+        """For an unknown build between two known releases (the session detected it, it was not
+        forced with ``--firmware``): those two releases; else None."""
+        if self.profile_exact:
+            return None
+        head = str(getattr(self.session, "version_string", "") or "").split()[:1]
+        return neighbours(int(head[0])) if head and head[0].isdigit() else None
+
+    def undecided(self, key: str) -> Optional[str]:
+        """Why ``key`` is unknown for this build (its neighbouring releases differ on it), or None
+        when the profile's value holds. ``key``: a feature of profiles.json, or one of the
+        tables ``commands``, ``set_keywords``, ``help_lines``."""
+        pair = self.between
+        if pair is None:
+            return None
+        a, b = pair
+        table = key in _TABLES
+        va, vb = (getattr(a, key), getattr(b, key)) if table else (a.features.get(key), b.features.get(key))
+        if va == vb:
+            return None
+        what = f"their {key} differ" if table else f"{key} is {va!r} on {a.name}, {vb!r} on {b.name}"
+        build = self.session.version_string.split()[0]
+        return f"behaviour of {a.name} or {b.name}: unknown build {build} ({what})"
+
+    def _decided(self, key: str) -> None:
+        why = self.undecided(key)
+        if why is not None:
+            raise UnknownBuild(why)
+
     def feature(self, key: str) -> Any:
+        """The release's value of ``key``; for an unknown build whose neighbouring releases
+        differ on it, :class:`UnknownBuild` (the case is then informational, never failed)."""
+        self._decided(key)
         return self.profile.features[key]
 
     def has(self, command: str) -> bool:
+        """Whether the release has ``command`` (UnknownBuild when only one neighbour has it)."""
+        pair = self.between
+        if pair is not None and (command in pair[0].commands) != (command in pair[1].commands):
+            raise UnknownBuild(f"behaviour of {pair[0].name} or {pair[1].name}: unknown build "
+                               f"{self.session.version_string.split()[0]} (only one of them has `{command}`)")
         return command in self.profile.commands
+
+    # The release's tables, decided as features are: an unknown build between releases whose
+    # tables differ cannot be held to either.
+    @property
+    def commands(self) -> tuple:
+        self._decided("commands")
+        return self.profile.commands
+
+    @property
+    def set_keywords(self) -> tuple:
+        self._decided("set_keywords")
+        return self.profile.set_keywords
+
+    @property
+    def help_bytes(self) -> bytes:
+        self._decided("help_lines")
+        return self.profile.help_bytes
 
     @property
     def time_scale(self) -> float:

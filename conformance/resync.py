@@ -47,6 +47,8 @@ class Resync:
         def exchange(self, text: Any, timeout_ms: float = ...) -> Any: ...
         def seconds(self, hat_ms: float) -> float: ...
         def has(self, command: str) -> bool: ...
+        @property
+        def profile(self) -> Any: ...
 
     def _init_resync(self) -> None:
         self._powered_checked = False
@@ -137,9 +139,9 @@ class Resync:
         parts = ["echo 0", "debug 0"]
         for p in range(4):
             parts += [f"port {p}", "select"] + ([] if p in powered else ["pwm", "off"])
-            if self.has("bias"):
+            if self.profile.has("bias"):      # the profile's table: a cleanup is never a verdict
                 parts.append("bias 0")
-        if self.has("pwmparams"):
+        if self.profile.has("pwmparams"):
             parts = parts + [f"port {p} ; pwmparams 0 0" for p in range(4)]
         # plimit is left alone: a powered light matrix needs it, and tests that depend on the
         # default limit set it themselves.

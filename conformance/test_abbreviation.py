@@ -39,7 +39,7 @@ def _expect_error(hat: Hat, token: str) -> None:
 @pytest.mark.parametrize("command", ALL_COMMANDS)
 def test_shortest_resolving_prefix_runs_the_command(hat: Hat, motor_port: int, verdict: Verdict,
                                                     command: str) -> None:
-    table = hat.profile.commands
+    table = hat.commands
     if command not in table:
         # Not a command of this release: its full name must be rejected (or mean another).
         other = resolve(command, table)
@@ -70,7 +70,7 @@ def test_shortest_resolving_prefix_runs_the_command(hat: Hat, motor_port: int, v
 @pytest.mark.parametrize("prefix", ALL_AMBIGUOUS)
 def test_ambiguous_prefix_resolves_by_table_order(hat: Hat, motor_port: int, verdict: Verdict,
                                                   prefix: str) -> None:
-    table = hat.profile.commands
+    table = hat.commands
     names = [c for c in table if c.startswith(prefix)]
     first = resolve(prefix, table)
     if first is None:
@@ -94,7 +94,7 @@ def test_ambiguous_prefix_resolves_by_table_order(hat: Hat, motor_port: int, ver
 def test_document_unique_prefix_runs_the_command(hat: Hat, motor_port: int, verdict: Verdict,
                                                  command: str) -> None:
     token = unique_prefix(command, DOCUMENT_COMMANDS) or command
-    table = hat.profile.commands
+    table = hat.commands
     if command not in table:
         reply = hat.exchange(f"{token} 0.2")
         verdict.document(False, key="BIAS-REMOVED", firmware_ok=reply.raw == b"\r\nError\r\n",
@@ -106,7 +106,7 @@ def test_document_unique_prefix_runs_the_command(hat: Hat, motor_port: int, verd
 @pytest.mark.req("SYN-ABBREV", "FW-MATCH-LONGER")
 @pytest.mark.parametrize("command", ALL_COMMANDS)
 def test_token_longer_than_a_name_is_an_error(hat: Hat, command: str) -> None:
-    table = hat.profile.commands
+    table = hat.commands
     token = next(command + x for x in "xz9_" if resolve(command + x, table) is None)
     _expect_error(hat, token)
 
@@ -121,6 +121,6 @@ def test_matching_is_case_sensitive(hat: Hat, token: str) -> None:
 def test_write2_must_be_typed_in_full(hat: Hat, motor_port: int) -> None:
     # Every shorter prefix of write2 is write1's (FACTS §2): `write 44 11 22` is write1.
     for n in range(1, len("write2")):
-        assert resolve("write2"[:n], hat.profile.commands) == "write1"
+        assert resolve("write2"[:n], hat.commands) == "write1"
     _expect_runs(hat, motor_port, "write", "write1")
     _expect_runs(hat, motor_port, "write2", "write2")

@@ -18,11 +18,11 @@ def test_help_prints_the_synopsis_of_this_release(hat: Hat, command: str) -> Non
     raw = hat.exchange_quiet(command).raw
     text = raw.decode("utf-8")
     # Document: a synopsis of the available commands: every command of the table is named.
-    missing = [c for c in hat.profile.commands if not re.search(rf"(^|[\s,]){re.escape(c)}([\s,:]|$)", text,
+    missing = [c for c in hat.commands if not re.search(rf"(^|[\s,]){re.escape(c)}([\s,:]|$)", text,
                                                                   re.M)]
     assert not missing, f"help does not mention {missing}"
     # FIRMWARE-FACTS §4.3: the exact text of this release.
-    assert raw == b"\r\n" + hat.profile.help_bytes
+    assert raw == b"\r\n" + hat.help_bytes
 
 
 @pytest.mark.req("CMD-VERSION")

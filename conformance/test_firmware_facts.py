@@ -79,7 +79,7 @@ def test_port_plimit_limits_one_port(hat: Hat, motor_port: int, second_motor_por
 @pytest.mark.req("FW-SET-VAR", "CMD-PID-PV")
 def test_set_var_takes_the_setpoint_from_a_sensor(hat: Hat, world: World, motor_port: int) -> None:
     p = motor_port
-    if "var" not in hat.profile.set_keywords:
+    if "var" not in hat.set_keywords:
         assert hat.exchange(f"port {p} ; set var 0 1 1 0 {p} 3 0 s2 1 0").raw == b"\r\nError\r\n"
         return
     world.require("data", "control of the motor's reported position (world @data)")

@@ -160,7 +160,7 @@ def test_bad_numbers(hat: Hat, motor_port: int, line: str, sp: str, error: bool)
 @pytest.mark.req("CMD-SET-SQUARE", "FW-SET-KEYWORDS")
 @pytest.mark.parametrize("word", ["s", "sq", "si", "t", "tri", "p", "r", "v"])
 def test_waveform_keywords_abbreviate_in_table_order(hat: Hat, motor_port: int, word: str) -> None:
-    keywords = hat.profile.set_keywords
+    keywords = hat.set_keywords
     shape = next((k for k in keywords if k.startswith(word)), None)
     if shape == "var" or shape is None:
         reply = hat.exchange(f"port {motor_port} ; set {word} 0 1 0.2 0")

@@ -15,7 +15,8 @@ import pytest
 
 from .deviations import deviation
 
-__all__ = ["Verdict", "PASS", "FAIL", "SKIP", "KNOWN", "INFO", "TARGET_FAULT", "NOT_RUN", "VERDICTS"]
+__all__ = ["Verdict", "UnknownBuild", "PASS", "FAIL", "SKIP", "KNOWN", "INFO", "TARGET_FAULT", "NOT_RUN",
+           "VERDICTS"]
 
 PASS, FAIL, SKIP, KNOWN, INFO = "pass", "fail", "skip", "known deviation", "informational"
 TARGET_FAULT, NOT_RUN = "target-fault", "not-run"
@@ -23,9 +24,18 @@ TARGET_FAULT, NOT_RUN = "target-fault", "not-run"
 VERDICTS = (PASS, FAIL, TARGET_FAULT, NOT_RUN, SKIP, KNOWN, INFO)
 
 
+class UnknownBuild(Exception):
+    """Raised by a check that needs a behaviour on which the two releases around an unknown
+    build differ (``Hat.feature``): the case ends ``informational`` with this message, never
+    ``fail`` (the plugin turns it into the verdict)."""
+
+
 class Verdict:
-    def __init__(self, profile_name: str):
+    def __init__(self, profile_name: str, between: Optional[Tuple[str, str]] = None):
+        """``between``: for an unknown build, the releases just before and after it (the
+        ``profile_name`` is the earlier one, whose command table the build is driven with)."""
         self.profile_name = profile_name
+        self.between = between
         self.known: List[Tuple[str, str]] = []      # (deviation key, what was seen)
         self.notes: List[str] = []
         self.informational = False
@@ -43,6 +53,18 @@ class Verdict:
         if key is None:
             pytest.fail(f"deviates from the document: {seen}", pytrace=False)
         dev = deviation(key)
+        if self.between is not None and dev.applies_to(self.between[0]) != dev.applies_to(self.between[1]):
+            # An unknown build between a release with this deviation and one without it may
+            # be either: what the deviating one does is no fault of this build (FACTS is
+            # silent on it). Anything else is neither release's behaviour: a failure.
+            had, fixed = self.between if dev.applies_to(self.between[0]) else self.between[::-1]
+            if firmware_ok:
+                self.inform(f"behaviour of {self.between[0]} or {self.between[1]}: unknown build; it does "
+                            f"what {had} is known to do ({key}: {dev.firmware}) and {fixed} does not; "
+                            f"seen: {seen}")
+                return
+            pytest.fail(f"{key}: the document requires: {dev.document}; this unknown build does neither "
+                        f"that nor what {had} does instead ({dev.firmware}); seen: {seen}", pytrace=False)
         if dev.applies_to(self.profile_name) and firmware_ok:
             self.known.append((key, seen))
             return

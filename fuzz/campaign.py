@@ -1,28 +1,44 @@
-"""A fuzzing campaign: runs the state machine under a budget, collects one shrunk finding per oracle.
+"""A fuzzing campaign: seeded runs under a budget, each finding confirmed, reduced and reported.
 
-The budget is wall-clock seconds (``30s``, ``2m``) or a number of examples (``5000``). The machine
-runs in chunks of examples; each chunk is one Hypothesis run with its own seed derived from
-``--seed``, so a campaign with an example budget is reproducible. The Hypothesis database (when
-given) persists failing examples between campaigns: the next run replays them first.
-A campaign stops after the first chunk that produced findings (each one already shrunk).
+A run is a pure function of its seed: the prelude, then ``steps`` steps, each either a batch of
+generated inputs sent back to back with one fence, or a wait. Nothing a target answers changes
+what is drawn, so a run replays exactly, on any target. Run seeds derive from the campaign seed
+(chosen at random when none is given, and printed), so a campaign with an example budget repeats.
+
+A failed oracle is a candidate. It is confirmed by replaying the run's script ``confirm`` times
+(fuzz/replay.py); one that never fails again is listed as unconfirmed, not reported. A confirmed
+one is reduced by replaying smaller scripts (fuzz/reduce.py) and reported with how often it
+reproduced. The campaign goes on until the budget is spent; one finding per oracle is kept.
+
+Targets that take seconds to start (a HAT, a process) stay open from run to run: the prelude
+brings them back to a known state. In-process, every run starts on a freshly booted copy.
 """
 from __future__ import annotations
 
 import hashlib
+import json
+import os
+import random
 import re
 import time
 from dataclasses import dataclass, field
-from typing import Callable, List, Optional, Tuple
+from typing import Callable, Dict, List, Optional, Tuple
 
-import hypothesis
-from hypothesis import HealthCheck, Verbosity, settings
-from hypothesis.database import DirectoryBasedExampleDatabase
-from hypothesis.stateful import get_state_machine_test
-
-from .machine import FuzzConfig, make_machine
+from ..harness.script import Script
+from ..harness.targets.base import Target, TargetError
+from ..protocol.profiles import Profile
+from .findings import script_from_trace
+from .generate import FAMILIES, InputGenerator
+from .grammar import grammar_for
 from .oracles import Finding
+from .reduce import reduce_finding
+from .replay import replay_script
+from .runner import Runner, Stats, output_groups
 
-__all__ = ["Budget", "parse_budget", "CampaignResult", "run_campaign"]
+__all__ = ["Budget", "parse_budget", "CampaignConfig", "CampaignResult", "Confirmed", "run_campaign",
+           "run_seed", "new_seed"]
+
+_GENERATOR_VERSION = 2      # part of the database key: a stored run seed means nothing to another generator
 
 
 @dataclass(frozen=True)
@@ -31,139 +47,331 @@ class Budget:
     examples: Optional[int] = None
 
     def __str__(self) -> str:
-        return f"{self.seconds:g}s" if self.seconds is not None else f"{self.examples} examples"
+        return f"{self.seconds:g}s" if self.seconds is not None else f"{self.examples}x"
+
+
+_BUDGET = re.compile(r"\s*(\d+(?:\.\d+)?)\s*(s|m|h|x)\s*")
 
 
 def parse_budget(text: str) -> Budget:
-    """``30s``, ``2m``, ``1h`` (wall-clock) or ``5000`` (examples)."""
-    m = re.fullmatch(r"\s*(\d+(?:\.\d+)?)\s*(s|m|h)?\s*", str(text))
+    """``60s``, ``2m``, ``1h`` (wall clock) or ``500x`` (runs). A bare number is refused."""
+    m = _BUDGET.fullmatch(str(text))
     if not m:
-        raise ValueError(f"budget must be a duration like 30s / 2m or a number of examples, got {text!r}")
+        hint = f" (say {text.strip()}s for seconds or {text.strip()}x for runs)" if re.fullmatch(
+            r"\s*\d+(\.\d+)?\s*", str(text)) else ""
+        raise ValueError(f"--budget takes a duration (60s, 2m, 1h) or a number of runs (500x), "
+                         f"got {text!r}{hint}")
     value, unit = float(m.group(1)), m.group(2)
-    if unit is None:
+    if unit == "x":
         if value != int(value) or value < 1:
-            raise ValueError(f"an example budget must be a positive whole number, got {text!r}")
+            raise ValueError(f"a run budget must be a positive whole number, got {text!r}")
         return Budget(examples=int(value))
+    if value <= 0:
+        raise ValueError(f"a time budget must be more than zero, got {text!r}")
     return Budget(seconds=value * {"s": 1, "m": 60, "h": 3600}[unit])
+
+
+def new_seed() -> int:
+    return random.SystemRandom().randrange(1, 2**32)
+
+
+def run_seed(seed: int, index: int) -> int:
+    return int.from_bytes(hashlib.sha256(f"{seed}:{index}".encode()).digest()[:8], "big")
+
+
+@dataclass
+class CampaignConfig:
+    open_primary: Callable[[], Target]
+    profile: Profile
+    open_secondary: Optional[Callable[[], Target]] = None
+    secondary_profile: Optional[Profile] = None
+    families: Tuple[str, ...] = FAMILIES
+    steps: int = 40
+    batch: int = 16               # at most this many inputs in one step
+    waits: Tuple[int, ...] = (10, 60, 300)
+    wait_share: float = 0.15      # the chance that a step is a wait
+    fence_s: float = 2.0
+    fresh: bool = True            # every open starts a freshly booted HAT (the layout is known)
+    keep_open: bool = False       # one target for many runs (the prelude resets it)
+    out_limit: Optional[int] = None   # bytes one exchange may print (a wire's TX ring)
+    confirm: int = 3
+    reduce_seconds: float = 30.0
+    labels: Tuple[str, str] = ("target", "against")
+    devices: Optional[Dict[int, Optional[tuple]]] = None   # the layout, when known
+    stats: Stats = field(default_factory=Stats)
+
+
+@dataclass
+class Confirmed:
+    """A reported finding: the (reduced) failure, its script and how often replays failed."""
+
+    finding: Finding
+    script: Script
+    reproduced: int
+    attempts: int
+    run_seed: int
+    also_seen: int = 0
+
+    @property
+    def oracle(self) -> str:
+        return self.finding.oracle
 
 
 @dataclass
 class CampaignResult:
-    findings: List[Finding] = field(default_factory=list)
-    flaky: List[str] = field(default_factory=list)
-    elapsed: float = 0.0
-    chunks: int = 0
-    seed: Optional[int] = None
+    findings: List[Confirmed] = field(default_factory=list)
+    unconfirmed: List[Tuple[Finding, int]] = field(default_factory=list)   # (finding, replays tried)
+    elapsed: float = 0.0          # fuzzing time (confirming, reducing, starting targets not included)
+    checking: float = 0.0         # time spent confirming and reducing
+    cpu: float = 0.0              # this process's CPU time while fuzzing (a loaded machine shows here)
+    runs: int = 0
+    seed: int = 0
+    interrupted: bool = False     # stopped by Ctrl-C before the budget was spent
 
-    def finding(self, oracle: str) -> Optional[Finding]:
+    def finding(self, oracle: str) -> Optional[Confirmed]:
         return next((f for f in self.findings if f.oracle == oracle), None)
 
 
-def _flatten(exc: BaseException) -> List[BaseException]:
-    inner = getattr(exc, "exceptions", None)
-    if inner:
-        out: List[BaseException] = []
-        for e in inner:
-            out.extend(_flatten(e))
-        return out
-    return [exc]
+class _Keeper:
+    """Targets kept open from run to run (``keep_open``); reopened after a failure."""
+
+    def __init__(self, opener: Callable[[], Target], keep: bool):
+        self.opener, self.keep = opener, keep
+        self.target: Optional[Target] = None
+        self.runs = 0             # runs since the last (re)open
+        self.clean = False        # the last run on it ended without a finding
+
+    def __call__(self) -> Target:
+        if not self.keep:
+            return self.opener()
+        if self.target is None:
+            self.target = self.opener()
+            self.runs = 0
+            self.clean = False
+        self.runs += 1
+        return self.target
+
+    def discard(self) -> None:
+        if self.target is not None:
+            try:
+                self.target.close()
+            except (TargetError, OSError):
+                pass
+        self.target = None
 
 
-def _chunk_seed(seed: int, index: int) -> int:
-    return int.from_bytes(hashlib.sha256(f"{seed}:{index}".encode()).digest()[:8], "big")
+class Campaign:
+    def __init__(self, config: CampaignConfig):
+        self.config = config
+        self.generator = InputGenerator(grammar_for(config.profile), config.families)
+        self.keepers = [_Keeper(config.open_primary, config.keep_open)]
+        self.against: Optional[Tuple[Callable[[], Target], Profile]] = None
+        if config.open_secondary is not None:
+            self.keepers.append(_Keeper(config.open_secondary, config.keep_open))
+            self.against = (self.keepers[1], config.secondary_profile or config.profile)
 
+    # -- one run ---------------------------------------------------------------------------------
+    def _runner(self) -> Runner:
+        c = self.config
+        openers = [(c.labels[0], self.keepers[0], c.profile)]
+        if self.against is not None:
+            openers.append((c.labels[1], self.keepers[1], self.against[1]))
+        runner = Runner(openers, c.fence_s, c.fresh, c.stats, c.devices, keep_open=c.keep_open)
+        # A target kept open knows its layout only for the first run after it booted.
+        runner.fresh = c.fresh and all(k.runs <= 1 for k in self.keepers)
+        return runner
 
-def run_campaign(config: FuzzConfig, budget: Budget, seed: Optional[int] = None,
-                 database: Optional[str] = None, steps: int = 20, chunk: int = 25,
-                 database_key: str = "", stop: Optional[Callable[[], bool]] = None,
-                 shrink_seconds: Optional[float] = None) -> CampaignResult:
-    """Run the machine until the budget is spent or findings appear.
-
-    ``shrink_seconds`` caps Hypothesis's shrink phase (on a slow target it would otherwise run for
-    up to 5 minutes per finding); fuzz/reduce.py finishes the job on the written script.
-    """
-    limit = _ShrinkLimit(shrink_seconds)
-    machine = make_machine(config)
-    result = CampaignResult(seed=seed)
-    start = time.monotonic()
-    done = 0
-    if budget.seconds is not None:
-        chunk = min(chunk, 5)     # the first chunk measures the pace
-    db = DirectoryBasedExampleDatabase(database) if database else None
-    while True:
-        if budget.examples is not None and done >= budget.examples:
-            break
-        if budget.seconds is not None and time.monotonic() - start >= budget.seconds:
-            break
-        if stop is not None and stop():
-            break
-        n = chunk if budget.examples is None else min(chunk, budget.examples - done)
-        if budget.seconds is not None and done:
-            # Size the chunk to what is left of the time budget (Hypothesis cannot be stopped
-            # mid-run), from the time an example has taken so far.
-            per_example = (time.monotonic() - start) / done
-            left = budget.seconds - (time.monotonic() - start)
-            n = max(1, min(chunk, int(left / max(per_example, 1e-3))))
-        test = get_state_machine_test(machine, settings=settings(
-            max_examples=n, stateful_step_count=steps, deadline=None, database=db,
-            # HealthCheck iterates via an untyped metaclass __iter__: pyright cannot see its members
-            suppress_health_check=list(HealthCheck),  # pyright: ignore[reportArgumentType]
-            verbosity=Verbosity.quiet, report_multiple_bugs=True,
-            print_blob=False))
-        # One key per target kind, release and input families: examples saved for one campaign
-        # are replayed by the next campaign of the same kind.
-        test._hypothesis_internal_database_key = hashlib.sha256(  # type: ignore[attr-defined]
-            f"buildhat-fuzz:{database_key}:{config.profile.name}:{','.join(config.families)}".encode()
-        ).digest()
-        if seed is not None:
-            test = hypothesis.seed(_chunk_seed(seed, result.chunks))(test)
-        result.chunks += 1
-        if budget.seconds is not None and shrink_seconds is not None:
-            # A time budget bounds shrinking too (but leave it a few seconds to work with).
-            limit.seconds = min(shrink_seconds, max(5.0, budget.seconds - (time.monotonic() - start)))
+    def run(self, seed: int, stop: Callable[[], bool] = lambda: False) -> None:
+        """One run; raises the Finding of its first failed check. ``stop``: asked before each
+        step; the run ends early when it says so (the budget is spent)."""
+        c = self.config
+        rng = random.Random(seed)
+        settled = c.keep_open and all(k.clean for k in self.keepers)
+        for k in self.keepers:
+            k.clean = False
+        t0 = time.monotonic()
+        runner = self._runner()
+        if c.keep_open and any(k.runs == 1 for k in self.keepers):
+            # A target that takes seconds to start (a process booting, a HAT) was (re)started:
+            # that is not fuzzing time; the summary reports it apart.
+            c.stats.startup_s += time.monotonic() - t0
+        runner.settled = settled
         try:
-            with limit:
-                test()
-        except BaseException as exc:  # noqa: B036 - Hypothesis groups failures; we sort them below
-            if isinstance(exc, KeyboardInterrupt):
-                raise
-            found = _flatten(exc)
-            for e in found:
-                if isinstance(e, Finding):
-                    if result.finding(e.oracle) is None:
-                        result.findings.append(e)
-                    if "Flaky" in type(exc).__name__:
-                        result.flaky.append(e.oracle)
-            others = [e for e in found if not isinstance(e, Finding)]
-            if others and not result.findings:
-                raise others[0] from None
-            if result.findings:
-                break
+            runner.start()
+            for _step in range(c.steps):
+                if stop():
+                    break
+                if c.waits and rng.random() < c.wait_share:
+                    runner.wait(rng.choice(c.waits))
+                    continue
+                batch = [self.generator.input(rng) for _ in range(rng.randint(1, c.batch))]
+                datas = [inp.data for inp in batch]
+                if c.out_limit is None:
+                    groups = [datas]
+                else:
+                    groups, left_out = output_groups(runner.sides[0].model, datas, c.out_limit)
+                    if left_out:
+                        c.stats.left_out += len(left_out)
+                        batch = [inp for i, inp in enumerate(batch) if i not in left_out]
+                self._count(batch)
+                for group in groups:
+                    runner.exchange(group, guard=True)
+                if runner.tainted:
+                    # A line did what the facts leave open: the rest of this run could be judged
+                    # on liveness alone. A new run (fresh, or after the prelude) judges fully.
+                    break
+                if c.stats.on_progress is not None:
+                    c.stats.on_progress(c.stats)
+            for k in self.keepers:
+                k.clean = True
         finally:
-            done += n
-    result.elapsed = time.monotonic() - start
+            runner.close()
+
+    def _count(self, batch) -> None:  # type: ignore[no-untyped-def]
+        stats = self.config.stats
+        for inp in batch:
+            stats.executions += 1
+            stats.lines += inp.data.count(b"\r")
+            stats.productions.update(inp.productions)
+
+    def discard_targets(self) -> None:
+        for k in self.keepers:
+            k.discard()
+
+    def after_failure(self, finding: Finding) -> None:
+        """A target that stopped answering is restarted; after any other failure it answered,
+        and the next run's prelude (with a drain and a sync) brings it back to a known state:
+        a restart would cost a kept-open target seconds per finding."""
+        if finding.oracle == "liveness" or not self.config.keep_open:
+            self.discard_targets()
+
+    # -- findings -------------------------------------------------------------------------------
+    def replay(self, script: Script) -> Optional[Finding]:
+        c = self.config
+        fresh = c.fresh and not c.keep_open
+        return replay_script(script, self.keepers[0], c.profile, c.fence_s, fresh=fresh, against=self.against,
+                             keep_open=c.keep_open, on_fail=self.after_failure)
+
+    def _note(self, text: str) -> None:
+        if self.config.stats.on_note is not None:
+            self.config.stats.on_note(text)
+
+    def confirm(self, script: Script, oracle: str) -> int:
+        """How many of ``confirm`` replays fail ``oracle`` again."""
+        hits = 0
+        for _ in range(max(1, self.config.confirm)):
+            again = self.replay(script)
+            hits += again is not None and again.oracle == oracle
+        return hits
+
+    def check(self, finding: Finding, seed: int) -> Optional[Confirmed]:
+        """Confirm, reduce, confirm again; None when no replay failed the same way."""
+        c = self.config
+        self.after_failure(finding)
+        script = script_from_trace(finding, c.devices if c.fresh else None)
+        self._note(f"a [{finding.oracle}] failure: replaying it {max(1, c.confirm)} time(s) to confirm it")
+        hits = self.confirm(script, finding.oracle)
+        if not hits:
+            self._note(f"the [{finding.oracle}] failure did not happen again: not reported")
+            return None
+        self._note(f"[{finding.oracle}] reproduced {hits}/{max(1, c.confirm)}; reducing it by replaying "
+                   f"smaller scripts (at most {c.reduce_seconds:g} s)")
+        reduced, smaller = reduce_finding(script, finding, self.replay, c.reduce_seconds)
+        if smaller is not finding:
+            again = self.confirm(reduced, finding.oracle)
+            if again:
+                return Confirmed(smaller, reduced, again, max(1, c.confirm), seed)
+        return Confirmed(finding, script, hits, max(1, c.confirm), seed)
+
+
+def _database_key(config: CampaignConfig, scheme: str) -> str:
+    parts = [str(_GENERATOR_VERSION), scheme, config.profile.name, ",".join(config.families),
+             str(config.steps), str(config.batch), ",".join(map(str, config.waits)), f"{config.wait_share:g}"]
+    return hashlib.sha256(":".join(parts).encode()).hexdigest()[:16]
+
+
+def _stored_runs(folder: Optional[str]) -> List[int]:
+    if folder is None or not os.path.isdir(folder):
+        return []
+    seeds = []
+    for name in sorted(os.listdir(folder)):
+        try:
+            with open(os.path.join(folder, name), encoding="utf-8") as fh:
+                seeds.append(int(json.load(fh)["run_seed"]))
+        except (OSError, ValueError, KeyError, TypeError):
+            continue
+    return seeds
+
+
+def _store_run(folder: Optional[str], seed: int, oracle: str) -> None:
+    if folder is None:
+        return
+    os.makedirs(folder, exist_ok=True)
+    with open(os.path.join(folder, f"{seed:016x}.json"), "w", encoding="utf-8") as fh:
+        json.dump({"run_seed": seed, "oracle": oracle}, fh)
+
+
+def _forget_run(folder: Optional[str], seed: int) -> None:
+    if folder is not None:
+        try:
+            os.remove(os.path.join(folder, f"{seed:016x}.json"))
+        except OSError:
+            pass
+
+
+def run_campaign(config: CampaignConfig, budget: Budget, seed: int, database: Optional[str] = None,
+                 database_scheme: str = "") -> CampaignResult:
+    """Runs until the budget is spent. ``database``: a folder where failing runs are kept; the
+    next campaign of the same kind replays them first."""
+    campaign = Campaign(config)
+    result = CampaignResult(seed=seed)
+    folder = os.path.join(database, _database_key(config, database_scheme)) if database else None
+    stored = _stored_runs(folder)
+    start = time.monotonic()
+    cpu_start, checking_cpu = time.process_time(), 0.0
+    index = 0
+
+    def spent() -> bool:
+        return budget.seconds is not None and time.monotonic() - start - result.checking \
+            - config.stats.startup_s >= budget.seconds
+
+    try:
+        while True:
+            if spent():
+                break
+            if budget.examples is not None and result.runs >= budget.examples and not stored:
+                break
+            from_store = bool(stored)
+            seed_i = stored.pop(0) if stored else run_seed(seed, index)
+            index += 0 if from_store else 1
+            result.runs += 1
+            config.stats.examples = result.runs
+            try:
+                campaign.run(seed_i, spent)
+                if from_store:
+                    _forget_run(folder, seed_i)      # it passes now
+                continue
+            except Finding as exc:
+                finding = exc
+            t0, c0 = time.monotonic(), time.process_time()
+            known = result.finding(finding.oracle)
+            if known is not None:
+                known.also_seen += 1
+                campaign.after_failure(finding)
+            else:
+                confirmed = campaign.check(finding, seed_i)
+                if confirmed is None:
+                    result.unconfirmed.append((finding, max(1, config.confirm)))
+                else:
+                    result.findings.append(confirmed)
+                    _store_run(folder, seed_i, finding.oracle)
+            result.checking += time.monotonic() - t0
+            checking_cpu += time.process_time() - c0
+            config.stats.checking_s = result.checking
+    except KeyboardInterrupt:
+        result.interrupted = True    # what ran so far is still summarised and written
+    finally:
+        campaign.discard_targets()
+    result.elapsed = time.monotonic() - start - result.checking - config.stats.startup_s
+    result.cpu = time.process_time() - cpu_start - checking_cpu
     return result
-
-
-class _ShrinkLimit:
-    """Temporarily lowers Hypothesis's shrink-time cap (an engine constant; no public setting)."""
-
-    def __init__(self, seconds: Optional[float]):
-        self.seconds = seconds
-        self.saved: Optional[float] = None
-
-    def __enter__(self) -> None:
-        from hypothesis.internal.conjecture import engine
-        if self.seconds is not None and hasattr(engine, "MAX_SHRINKING_SECONDS"):
-            self.saved = engine.MAX_SHRINKING_SECONDS
-            engine.MAX_SHRINKING_SECONDS = self.seconds
-
-    def __exit__(self, *exc) -> None:
-        from hypothesis.internal.conjecture import engine
-        if self.saved is not None:
-            engine.MAX_SHRINKING_SECONDS = self.saved
-            self.saved = None
-
-
-def describe(result: CampaignResult) -> Tuple[str, ...]:
-    return tuple(f"{f.oracle}: {f.message}" for f in result.findings)

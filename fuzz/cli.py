@@ -1,69 +1,85 @@
 """``buildhat-conformance fuzz``: grammar-based, stateful fuzzing of a target (optionally against another).
 
-    buildhat-conformance fuzz --target inprocess:R7 --budget 30s --seed 1
-    buildhat-conformance fuzz --target /dev/serial0 --against emulator --budget 5000
+    buildhat-conformance fuzz -t inprocess:R7 --budget 30s --seed 1
+    buildhat-conformance fuzz -t /dev/serial0 --against emulator --budget 500x
+    buildhat-conformance fuzz --reproduce reports/fuzz/fate.script -t emulator:R7
 
-Findings (one shrunk example per oracle) are written to ``--out`` (default ``reports/fuzz``):
-``<oracle>.script`` (replay with ``buildhat-conformance script``), ``<oracle>.<target>.jsonl``
-transcripts and ``junit.xml``. Exit status: 0 no findings, 1 findings, 2 usage or target errors.
+Findings (one per oracle, confirmed by replays and reduced) are written to ``--out`` (default
+``reports/fuzz``): ``<oracle>.script`` (replay with ``--reproduce`` or ``buildhat-conformance script``),
+``<oracle>.<target>.jsonl`` transcripts and ``junit.xml``. Exit status: 0 no findings, 1 findings
+(with ``--reproduce``: 1 reproduced, 0 not), 2 usage errors, 3 a target that cannot be reached.
 """
 from __future__ import annotations
 
 import argparse
 import os
+import re
+import shlex
 import sys
 import time
-from typing import Callable, Dict, List, Optional, Tuple
+from typing import Callable, Dict, Optional, Tuple
 
-from ..harness.script import load_script
+from ..harness.script import ScriptError, load_script
 from ..harness.targets import make_target
 from ..harness.targets.base import Target, TargetError
 from ..protocol.devices import DEFAULT_LAYOUT
 from ..protocol.profiles import Profile, get_profile
-from .campaign import CampaignResult, parse_budget, run_campaign
+from .campaign import Budget, CampaignConfig, CampaignResult, new_seed, parse_budget, run_campaign
 from .findings import write_finding, write_junit
+from .generate import FAMILIES, check_families
 from .grammar import grammar_for
-from .machine import FuzzConfig
-from .reduce import reduce_finding
+from .link import WIRE_BYTES_PER_S
+from .replay import replay_script
 from .runner import Stats
-from .strategies import FAMILIES
 
-__all__ = ["add_arguments", "main", "detect_profile", "opener_for", "is_fresh", "run"]
+__all__ = ["add_arguments", "main", "detect_profile", "opener_for", "is_fresh", "run", "reproduce",
+           "DEFAULT_TARGET"]
 
 DEFAULT_OUT = os.path.join("reports", "fuzz")
+DEFAULT_TARGET = "inprocess"
 _FRESH_SCHEMES = ("inprocess", "emulator", "cmd")   # every open starts a new, freshly booted HAT
+# On a wire the firmware's 8192-byte TX ring must never fill: one exchange may print this much.
+OUT_LIMIT = 6000
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--target", default="inprocess", help="target URL (default: inprocess, the emulator "
-                        "in this process in virtual time)")
+    parser.add_argument("-t", "--target", default=None,
+                        help=f"target URL (default: {DEFAULT_TARGET}; with --reproduce, the finding's own)")
     parser.add_argument("--against", default=None, metavar="URL",
                         help="differential mode: send the same input to this second target and compare")
     parser.add_argument("--budget", default="30s",
-                        help="30s / 2m (wall clock) or 5000 (examples); default 30s")
-    parser.add_argument("--seed", type=int, default=None, help="seed for a reproducible campaign")
+                        help="how long to fuzz: 60s / 2m / 1h (wall clock) or 500x (runs); default 30s")
+    parser.add_argument("--seed", type=int, default=None,
+                        help="campaign seed (default: chosen at random, printed and stored with the results)")
+    parser.add_argument("--confirm", type=int, default=3, metavar="N",
+                        help="replays of a failing run before it is reported (and with --reproduce); "
+                             "default 3")
+    parser.add_argument("--reproduce", default=None, metavar="FINDING",
+                        help="replay a finding's script against the target: prints reproduced (exit 1) "
+                             "or not reproduced (exit 0)")
     parser.add_argument("--database", default=None, metavar="PATH",
-                        help="Hypothesis example database (default: <out>/.hypothesis)")
-    parser.add_argument("--no-database", action="store_true", help="do not read or save examples")
+                        help="where failing runs are kept for the next campaign (default: <out>/.examples)")
+    parser.add_argument("--no-database", action="store_true", help="do not read or save failing runs")
     parser.add_argument("--out", default=DEFAULT_OUT, help=f"where findings go (default {DEFAULT_OUT})")
     parser.add_argument("--junit", default=None, help="JUnit file (default: <out>/junit.xml)")
-    parser.add_argument("--profile", default=None, help="release to assume (R1..R7); default: ask `version`")
+    parser.add_argument("--firmware", "--profile", dest="profile", default=None, metavar="RELEASE",
+                        help="judge as this release (R1..R7); default: the one `version` reports")
     parser.add_argument("--families", default=",".join(FAMILIES),
                         help=f"input families, comma-separated (default: {','.join(FAMILIES)})")
-    parser.add_argument("--steps", type=int, default=40, help="steps per example (default 40)")
-    parser.add_argument("--batch", type=int, default=None,
-                        help="at most this many inputs sent back to back in one step (default: 4 in-process, "
-                             "8 over a link)")
+    parser.add_argument("--steps", type=int, default=100, help="steps per run (default 100)")
+    parser.add_argument("--batch", type=int, default=32,
+                        help="at most this many inputs sent back to back in one step, with one fence "
+                             "(default 32)")
     parser.add_argument("--waits", default="10,60,300",
                         help="HAT milliseconds the wait rule may let pass, comma-separated; empty: no "
                              "wait rule (default 10,60,300)")
     parser.add_argument("--fence-timeout", type=float, default=None,
                         help="HAT seconds a fence may take beyond the time its output needs on the wire "
                              "(default: 0.3 in-process, where nothing is slower than the wire; else 2)")
-    parser.add_argument("--shrink-time", type=float, default=60.0,
-                        help="seconds Hypothesis may spend shrinking (then whole steps are dropped by "
-                             "replaying the script; default 60)")
-    parser.add_argument("--quiet", action="store_true", help="no live progress line")
+    parser.add_argument("--shrink-time", type=float, default=30.0,
+                        help="seconds a finding may spend being reduced by replaying smaller scripts "
+                             "(default 30)")
+    parser.add_argument("--quiet", action="store_true", help="no progress line")
 
 
 def _scheme(url: str) -> str:
@@ -85,134 +101,257 @@ def detect_profile(open_target: Callable[[], Target], timeout: float = 2.0) -> P
     session = Session(open_target())
     try:
         session.open(timeout=timeout)
-        profile = session.profile
-        if session.in_bootloader or profile is None:
+        if session.in_bootloader:
             raise TargetError("the target is in its bootloader; the fuzzer needs the firmware running")
-        return profile
+        if session.profile is None:
+            raise TargetError("the target did not say which firmware it runs (no answer to `version`)")
+        return session.profile
     finally:
         session.close()
 
 
-class Progress:
-    """The live progress line (stderr), at most twice a second."""
 
-    def __init__(self, grammar_size: int, enabled: bool):
+class Progress:
+    """The progress line on stderr: rewritten in place on a terminal (at most twice a second),
+    else a plain line every few seconds (a log must not fill with carriage returns)."""
+
+    def __init__(self, budget: Budget, grammar_size: int, productions: set, enabled: bool,
+                 stream=None, every: float = 5.0):  # type: ignore[no-untyped-def]
+        self.stream = stream or sys.stderr
         self.start = time.monotonic()
-        self.last = 0.0
+        self.last = self.start
+        self.budget = budget
         self.grammar_size = grammar_size
+        self.productions = productions
         self.enabled = enabled
-        self.findings = 0
+        self.tty = bool(getattr(self.stream, "isatty", lambda: False)())
+        self.every = 0.5 if self.tty else every
 
     def line(self, stats: Stats) -> str:
-        el = max(time.monotonic() - self.start, 1e-9)
-        covered = len(stats.productions & _KNOWN[0])
-        return (f"[fuzz] {stats.examples} runs, {stats.executions} inputs, {stats.lines / el:.0f} lines/s, "
-                f"{self.findings} findings, productions {covered}/{self.grammar_size}, "
+        # The budget counts fuzzing time; confirming and reducing findings come on top.
+        el = max(time.monotonic() - self.start - stats.checking_s - stats.startup_s, 1e-9)
+        spent = f"{el:.0f}/{self.budget.seconds:g} s" if self.budget.seconds is not None else \
+            f"{stats.examples}/{self.budget.examples} runs, {el:.0f} s"
+        if stats.checking_s >= 1:
+            spent += f" (+{stats.checking_s:.0f} s confirming findings)"
+        return (f"[fuzz] {spent}: {stats.executions} inputs, {stats.lines / el:.0f} lines/s, "
+                f"productions {len(stats.productions & self.productions)}/{self.grammar_size}, "
                 f"response classes {len(stats.responses)}")
 
     def __call__(self, stats: Stats) -> None:
         now = time.monotonic()
-        if self.enabled and now - self.last >= 0.5:
+        if self.enabled and now - self.last >= self.every:
             self.last = now
-            sys.stderr.write("\r" + self.line(stats) + " " * 4)
-            sys.stderr.flush()
+            if self.tty:
+                self.stream.write("\r" + self.line(stats) + " " * 4)
+            else:
+                self.stream.write(self.line(stats) + "\n")
+            self.stream.flush()
+
+    def note(self, text: str) -> None:
+        """A plain line (on a terminal, below the progress line)."""
+        if self.enabled:
+            self.stream.write(("\n" if self.tty else "") + f"[fuzz] {text}\n")
+            self.stream.flush()
+
+    def end(self, stats: Stats) -> None:
+        if self.enabled and self.tty:
+            self.stream.write("\r" + self.line(stats) + "\n")
+            self.stream.flush()
 
 
-_KNOWN: List[set] = [set()]
-
-
-def run(args: argparse.Namespace, primary: Optional[Callable[[], Target]] = None,
-        secondary: Optional[Callable[[], Target]] = None) -> Tuple[CampaignResult, Dict[str, Dict[str, str]]]:
-    """The campaign of ``args`` (openers may be given directly, e.g. planted-fault targets)."""
-    budget = parse_budget(args.budget)
+def _config(args: argparse.Namespace, target: str, primary: Optional[Callable[[], Target]],
+            secondary: Optional[Callable[[], Target]]) -> CampaignConfig:
+    """The campaign ``args`` describe (openers may be given directly, e.g. planted-fault targets)."""
+    virtual = _scheme(target) == "inprocess" and (not args.against or _scheme(args.against) == "inprocess")
     if args.fence_timeout is None:
-        args.fence_timeout = 0.3 if _scheme(args.target) == "inprocess" and (
-            not args.against or _scheme(args.against) == "inprocess") else 2.0
+        args.fence_timeout = 0.3 if virtual else 2.0
     families = tuple(f.strip() for f in args.families.split(",") if f.strip())
+    check_families(families)
     try:
         waits = tuple(int(w) for w in args.waits.split(",") if w.strip())
     except ValueError:
         raise ValueError(f"--waits takes milliseconds separated by commas, got {args.waits!r}") from None
-    open_primary = primary or opener_for(args.target)
+    if args.steps < 1 or args.batch < 1 or args.confirm < 0:
+        raise ValueError("--steps and --batch take a positive number, --confirm zero or more")
+    open_primary = primary or opener_for(target)
     profile = get_profile(args.profile) if args.profile else detect_profile(open_primary, args.fence_timeout)
     open_secondary, secondary_profile = secondary, None
     if open_secondary is None and args.against:
         open_secondary = opener_for(args.against)
     if open_secondary is not None:
         secondary_profile = detect_profile(open_secondary, args.fence_timeout)
-    grammar = grammar_for(profile)
-    _KNOWN[0] = set(grammar.productions)
-    fresh = is_fresh(args.target) and (not args.against or is_fresh(args.against))
-    batch = args.batch if args.batch is not None else (4 if _scheme(args.target) == "inprocess" else 8)
     devices = getattr(args, "devices", None)
-    if devices is None and _scheme(args.target) == "inprocess":
+    if devices is None and _scheme(target) == "inprocess":
         layout = dict(DEFAULT_LAYOUT)
-        layout.update(getattr(make_target(args.target), "devices", {}))
+        layout.update(getattr(make_target(target), "devices", {}))
         devices = layout
-    progress = Progress(len(grammar.productions), not args.quiet)
-    stats = Stats(on_progress=progress)
-    config = FuzzConfig(open_primary=open_primary, profile=profile, open_secondary=open_secondary,
-                        secondary_profile=secondary_profile, families=families, batch=batch, waits=waits,
-                        fence_s=args.fence_timeout, fresh=fresh,
-                        labels=("target", "against"), stats=stats, devices=devices)
-    database = None if args.no_database else (args.database or os.path.join(args.out, ".hypothesis"))
-    result = run_campaign(config, budget, seed=args.seed, database=database, steps=args.steps,
-                          database_key=f"{_scheme(args.target)}>{_scheme(args.against or '')}",
-                          shrink_seconds=args.shrink_time)
-    progress.findings = len(result.findings)
-    if progress.enabled:
-        sys.stderr.write("\r" + progress.line(stats) + "\n")
+    return CampaignConfig(
+        open_primary=open_primary, profile=profile, open_secondary=open_secondary,
+        secondary_profile=secondary_profile, families=families, steps=args.steps, batch=args.batch,
+        waits=waits, fence_s=args.fence_timeout,
+        # In HAT time a wait costs only CPU; on a real-time wire it idles the link.
+        wait_share=0.1 if virtual else 0.01,
+        fresh=is_fresh(target) and (not args.against or is_fresh(args.against)),
+        # Targets that take seconds to boot stay open from run to run (the prelude resets them).
+        keep_open=not virtual, out_limit=None if virtual else OUT_LIMIT, confirm=args.confirm,
+        reduce_seconds=args.shrink_time, devices=devices)
+
+
+def run(args: argparse.Namespace, primary: Optional[Callable[[], Target]] = None,
+        secondary: Optional[Callable[[], Target]] = None) -> Tuple[CampaignResult, Dict[str, Dict[str, str]]]:
+    """The campaign of ``args``; prints its summary. Returns the result and the files written."""
+    budget = parse_budget(args.budget)
+    target = args.target or DEFAULT_TARGET
+    config = _config(args, target, primary, secondary)
+    seed, chosen = (args.seed, False) if args.seed is not None else (new_seed(), True)
+    grammar = grammar_for(config.profile)
+    progress = Progress(budget, len(grammar.productions), set(grammar.productions), not args.quiet)
+    config.stats.on_progress = progress
+    config.stats.on_note = progress.note
+    database = None if args.no_database else (args.database or os.path.join(args.out, ".examples"))
+    if not args.quiet:
+        print(f"fuzz: seed {seed}" + (" (chosen at random)" if chosen else "") + f", budget {budget}",
+              file=sys.stderr, flush=True)
+    result = run_campaign(config, budget, seed, database, f"{_scheme(target)}>{_scheme(args.against or '')}")
+    stats = config.stats
+    stats.examples = result.runs
+    progress.end(stats)
     files: Dict[str, Dict[str, str]] = {}
-    header = [f"target: {args.target}" + (f"  against: {args.against}" if args.against else ""),
-              f"release: {profile.name}" + (f" / {secondary_profile.name}" if secondary_profile else ""),
-              f"seed: {args.seed}  budget: {args.budget}",
-              f"replay: buildhat-conformance script --target {args.target} <this file>"]
-    meta = {"firmware": profile.version_string, "target": args.target, "tool": "buildhat-conformance fuzz",
-            "seed": args.seed}
-    against = (open_secondary, secondary_profile) \
-        if open_secondary is not None and secondary_profile is not None else None
-    for i, f in enumerate(result.findings):
-        files[f.oracle] = write_finding(f, args.out, header + [f"finding: {f.message[:300]}"], meta, devices)
-        if fresh and "script" in files[f.oracle]:
-            script, reduced = reduce_finding(load_script(files[f.oracle]["script"]), f, open_primary, profile,
-                                             args.fence_timeout, against=against)
-            if reduced is not f:
-                result.findings[i] = reduced
-                note = [f"finding: {reduced.message[:300]}"]
-                files[f.oracle] = write_finding(reduced, args.out, header + note, meta, devices)
-    oracles = ["liveness", "fate", "state", "hygiene"] + (["differential"] if open_secondary else [])
+    other = config.secondary_profile
+    release = config.profile.name + (f" / {other.name}" if other else "")
+    meta = {"firmware": config.profile.version_string, "target": target, "tool": "buildhat-conformance fuzz",
+            "seed": seed}
+    for f in result.findings:
+        script_path = os.path.join(args.out, f"{f.oracle}.script")
+        reproduce_cmd = ["buildhat-conformance", "fuzz", "--reproduce", script_path, "--target", target]
+        if args.against:
+            reproduce_cmd += ["--against", args.against]
+        header = [f"target: {target}"] + ([f"against: {args.against}"] if args.against else []) + [
+            f"release: {release}", f"seed: {seed}  run seed: {f.run_seed}  budget: {budget}",
+            f"reproduced: {f.reproduced}/{f.attempts} replays",
+            f"reproduce: {shlex.join(reproduce_cmd)}",
+            f"replay: {shlex.join(['buildhat-conformance', 'script', '--target', target, script_path])}",
+            f"finding: {f.finding.message[:300]}"]
+        layout = config.devices if config.fresh else None
+        files[f.oracle] = write_finding(f.finding, args.out, header, meta, layout)
+    oracles = ["liveness", "fate", "state", "hygiene"] + (["differential"] if config.open_secondary else [])
     junit = args.junit or os.path.join(args.out, "junit.xml")
-    write_junit(junit, oracles, result.findings, stats.checks, result.elapsed,
-                {"target": args.target, "against": args.against or "", "release": profile.name,
-                 "seed": str(args.seed), "budget": args.budget, "inputs": str(stats.executions),
+    write_junit(junit, oracles, [f.finding for f in result.findings], stats.checks, result.elapsed,
+                {"target": target, "against": args.against or "", "release": config.profile.name,
+                 "seed": str(seed), "budget": str(budget), "inputs": str(stats.executions),
                  "lines": str(stats.lines)}, files)
-    _summary(result, stats, grammar.productions, files, junit)
+    _summary(result, stats, grammar.productions, files, junit, target, seed, chosen)
     return result, files
 
 
-def _summary(result: CampaignResult, stats: Stats, productions, files, junit: str) -> None:
+def _summary(result: CampaignResult, stats: Stats, productions, files, junit: str, target: str,  # type: ignore[no-untyped-def]
+             seed: int, chosen: bool) -> None:
     el = max(result.elapsed, 1e-9)
-    print(f"fuzz: {stats.examples} runs, {stats.executions} inputs ({stats.lines} lines, "
-          f"{stats.lines / el:.0f} lines/s) in {result.elapsed:.1f} s")
+    apart = ([f"{result.checking:.1f} s confirming findings"] if result.checking >= 0.05 else []) + \
+        ([f"{stats.startup_s:.1f} s starting targets"] if stats.startup_s >= 0.05 else [])
+    checking = f" (and {', '.join(apart)})" if apart else ""
+    print(f"fuzz: {result.runs} runs, {stats.executions} inputs ({stats.lines} lines, "
+          f"{stats.lines / el:.0f} lines/s) in {result.elapsed:.1f} s{checking}")
+    if result.cpu > 0:
+        # On a shared machine the wall-clock rate is what others leave over; this is the fuzzer's own.
+        print(f"  this process: {result.cpu:.1f} s of CPU, "
+              f"{stats.lines / result.cpu:.0f} lines per CPU second")
+    if _scheme(target) != "inprocess":
+        sent, recv = stats.sent_bytes / el, stats.recv_bytes / el
+        print(f"  wire: sent {sent:.0f} B/s, received {recv:.0f} B/s; the busier direction carries "
+              f"{100 * max(sent, recv) / WIRE_BYTES_PER_S:.0f} % of what 115200 baud can")
+    print(f"  seed: {seed}" + (f" (chosen at random; --seed {seed} repeats this campaign)" if chosen else ""))
     missing = sorted(set(productions) - stats.productions)
     more = " ..." if len(missing) > 12 else ""
     print(f"  grammar productions covered: {len(set(productions) & stats.productions)}/{len(productions)}"
           + (f" (not reached: {', '.join(missing[:12])}{more})" if missing else ""))
     print(f"  response classes seen: {', '.join(sorted(stats.responses))}")
-    print("  checks: " + ", ".join(f"{k} {v}" for k, v in sorted(stats.checks.items())))
+    print("  checks: " + ", ".join(f"{k} {v}" for k, v in sorted(stats.checks.items()))
+          + (f"; {stats.liveness_only} step(s) judged on liveness only (debug bit 1's raw trace)"
+             if stats.liveness_only else ""))
+    if stats.left_out:
+        print(f"  {stats.left_out} input(s) not sent: the answer of each alone is over {OUT_LIMIT} bytes, "
+              f"more than the TX ring keeps on this wire")
     if not result.findings:
         print("  no findings")
     for f in result.findings:
-        print(f"  FINDING [{f.oracle}]{' (flaky)' if f.oracle in result.flaky else ''}: {f.message[:400]}")
+        again = f", seen {f.also_seen} more time(s)" if f.also_seen else ""
+        print(f"  FINDING [{f.oracle}] (reproduced {f.reproduced}/{f.attempts}{again}): "
+              f"{f.finding.message[:400]}")
         for what, path in files.get(f.oracle, {}).items():
             print(f"      {what}: {path}")
+    for finding, tries in result.unconfirmed:
+        print(f"  unconfirmed [{finding.oracle}] (0/{tries} replays failed again; not reported): "
+              f"{finding.message[:200]}")
     print(f"  junit: {junit}")
+    if result.interrupted:
+        print("  interrupted (Ctrl-C): the figures and findings above cover what ran")
+
+
+_HEADER = re.compile(r"^;; (target|against|release): (.*)$", re.M)
+_ORACLE_OF = re.compile(r"^fuzz finding \((\w+)\)")
+
+
+def reproduce(args: argparse.Namespace, primary: Optional[Callable[[], Target]] = None,
+              secondary: Optional[Callable[[], Target]] = None) -> int:
+    """``--reproduce FINDING``: replay its script ``--confirm`` times (at least once)."""
+    path = args.reproduce
+    try:
+        with open(path, encoding="utf-8") as fh:
+            recorded = dict(_HEADER.findall(fh.read()))
+        script = load_script(path)
+    except OSError as exc:
+        raise ValueError(f"cannot read {path}: {exc.strerror}") from None
+    target = args.target or recorded.get("target") or DEFAULT_TARGET
+    against = args.against or recorded.get("against")
+    fence_s = args.fence_timeout if args.fence_timeout is not None else (0.3 if _scheme(target) == "inprocess"
+                                                                         else 2.0)
+    open_primary = primary or opener_for(target)
+    profile = get_profile(args.profile) if args.profile else detect_profile(open_primary, fence_s)
+    other = None
+    if secondary is not None or against:
+        open_secondary = secondary or opener_for(against or "")
+        other = (open_secondary, detect_profile(open_secondary, fence_s))
+    # A finding's script names its oracle; only that failure reproduces it (any, for other scripts).
+    named = _ORACLE_OF.search(script.name or "")
+    oracle = named.group(1) if named else None
+    attempts = max(1, args.confirm)
+    hits, first, others = 0, None, []
+    for _ in range(attempts):
+        finding = replay_script(script, open_primary, profile, fence_s, fresh=is_fresh(target), against=other)
+        if finding is None:
+            continue
+        if oracle is None or finding.oracle == oracle:
+            hits += 1
+            first = first or finding
+        else:
+            others.append(finding)
+    where = f"{target}" + (f" against {against}" if against else "")
+    if first is not None:
+        print(f"reproduced ({hits}/{attempts} replays) on {where}: [{first.oracle}] {first.message[:400]}")
+    else:
+        print(f"not reproduced (0/{attempts} replays) on {where}")
+    for f in others[:1]:
+        print(f"  {len(others)} replay(s) failed otherwise, first: [{f.oracle}] {f.message[:300]}")
+    return 1 if first is not None else 0
 
 
 def main(args: argparse.Namespace) -> int:
     try:
+        if args.reproduce:
+            return reproduce(args)
         result, _files = run(args)
-    except (TargetError, ValueError, KeyError) as exc:
+    except (ValueError, KeyError, ScriptError) as exc:
         print(f"buildhat-conformance fuzz: {exc.args[0] if exc.args else exc}", file=sys.stderr)
         return 2
+    except TargetError as exc:
+        print(f"buildhat-conformance fuzz: {exc.args[0] if exc.args else exc}", file=sys.stderr)
+        return 3
+    except BrokenPipeError:
+        # The summary's reader went away (`| head`): the findings are in their files already.
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 1
+    if result.interrupted:
+        return 130
     return 1 if result.findings else 0

@@ -22,19 +22,34 @@ VALUE_TOLERANCE = 0.05      # relative, for positions/speeds in data lines
 
 def synchronous_part(data: bytes) -> Tuple[List[bytes], List[Event]]:
     """(pieces that answer commands, asynchronous events). Pieces are complete lines, or the
-    unterminated rest (a prompt)."""
+    unterminated rest (a prompt). Listing lines answer `list`, except the device dump a HAT
+    prints on connecting (§5): one port's header and block, then that port's ``established``
+    line. Its time depends on each target's clock, so it is not compared."""
     parts = data.split(b"\r\n")
     sync: List[bytes] = []
     async_events: List[Event] = []
+    block: List[Tuple[bytes, Event]] = []     # listing lines since the last other line
     for i, raw in enumerate(parts):
         last = i == len(parts) - 1
         if last and not raw:
             continue
         ev = classify(raw)
-        if not last and ev.kind in ASYNC_KINDS and ev.kind != "list_port" and ev.kind != "list_line":
+        if not last and ev.kind in ("list_line", "list_port"):
+            block.append((raw + b"\r\n", ev))
+            continue
+        dump = 0
+        if ev.kind == "established":
+            headers = [k for k, (_p, e) in enumerate(block) if e.kind == "list_port"]
+            if headers and block[headers[-1]][1].port == ev.port:
+                dump = len(block) - headers[-1]
+        sync.extend(p for p, _e in block[:len(block) - dump])
+        async_events.extend(e for _p, e in block[len(block) - dump:])
+        block = []
+        if not last and ev.kind in ASYNC_KINDS:
             async_events.append(ev)
             continue
         sync.append(raw + (b"" if last else b"\r\n"))
+    sync.extend(p for p, _e in block)
     return sync, async_events
 
 

@@ -13,13 +13,14 @@ import re
 from typing import Dict, List, Optional, Sequence
 from xml.sax.saxutils import escape, quoteattr
 
-from ..harness.script import Action, format_action
+from ..harness.script import Action, Script, format_action, parse_script
 from ..harness.transcript import TranscriptWriter
 from ..protocol.devices import DEFAULT_LAYOUT
 from .link import Trace
 from .oracles import ORACLES, Finding
 
-__all__ = ["script_text", "write_finding", "write_transcript", "write_junit", "split_lines"]
+__all__ = ["script_text", "script_from_trace", "write_finding", "write_transcript", "write_junit",
+           "split_lines"]
 
 
 def split_lines(data: bytes) -> List[bytes]:
@@ -65,6 +66,11 @@ def script_text(finding: Finding, trace: Trace, header: Sequence[str] = (),
         for piece in split_lines(value):  # type: ignore[arg-type]
             lines.append(format_action(Action("send", (), piece)))
     return "\n".join(lines) + "\n"
+
+
+def script_from_trace(finding: Finding, devices: Optional[Dict[int, Optional[tuple]]] = None) -> Script:
+    """The run that failed (its first target's trace) as a script, for replays."""
+    return parse_script(script_text(finding, finding.traces[0], (), devices), source="<finding>")
 
 
 def write_transcript(path: str, trace: Trace, meta: dict) -> str:

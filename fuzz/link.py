@@ -53,6 +53,14 @@ class Link:
         # H10 (baud-paced links): the incomplete last line of an answer, kept for the next
         # one. On a paced wire a line can be half-way across when the fence arrives.
         self._carry = b""
+        self.sent_bytes = 0       # what crossed the wire each way (fences and syncs included)
+        self.recv_bytes = 0
+
+    @property
+    def timed(self) -> bool:
+        """Input takes time to arrive (a real-time or baud-paced target): the HAT may print
+        between two bytes of one line."""
+        return not self._virtual or bool(getattr(self.target, "baud", None))
 
     @property
     def now(self) -> float:
@@ -62,11 +70,13 @@ class Link:
 
     def send(self, data: bytes) -> None:
         self.trace.entries.append(("send", self.now, bytes(data)))
+        self.sent_bytes += len(data)
         self.target.write(data)
 
     def _got(self, data: bytes) -> None:
         if data:
             self.trace.entries.append(("recv", self.now, data))
+            self.recv_bytes += len(data)
 
     def drain(self, quiet_s: float = 0.05, limit_s: float = 2.0) -> bytes:
         """Read until the target has been quiet for ``quiet_s`` (HAT seconds)."""
@@ -86,6 +96,7 @@ class Link:
         a script runner syncs on its own when it opens the target)."""
         for attempt in range(attempts):
             self.trace.entries.append(("sync", self.now, FENCE))
+            self.sent_bytes += len(FENCE)
             self.target.write(FENCE)
             start, buf = self.now, bytearray()
             while self.now - start < self.fence_s * 1000.0 * (attempt + 1):
@@ -100,20 +111,27 @@ class Link:
     def wait(self, ms: int) -> bytes:
         """Let ``ms`` HAT milliseconds pass; returns the output that arrived meanwhile."""
         self.trace.entries.append(("wait", self.now, ms))
-        out = bytearray()
+        out = bytearray(self._carry)
+        self._carry = b""
         if self._virtual:
             self.target.advance(ms)  # type: ignore[attr-defined]
             data = self.target.read(0)
             self._got(data)
-            return data
-        end = time.monotonic() + ms / 1000.0 / self._scale
-        while True:
-            left = end - time.monotonic()
-            if left <= 0:
-                break
-            data = self.target.read(min(left, 0.05))
-            self._got(data)
             out += data
+        else:
+            end = time.monotonic() + ms / 1000.0 / self._scale
+            while True:
+                left = end - time.monotonic()
+                if left <= 0:
+                    break
+                data = self.target.read(min(left, 0.05))
+                self._got(data)
+                out += data
+        # A line still arriving when the wait ends belongs to what comes next.
+        keep = _incomplete_tail(bytes(out), 0)
+        if keep:
+            self._carry = bytes(out[len(out) - keep:])
+            del out[len(out) - keep:]
         return bytes(out)
 
     def exchange(self, data: bytes, fence_line: bytes, fences: int, extra_bytes: int = 0) -> bytes:
@@ -126,28 +144,40 @@ class Link:
         after each input's last fence line (and the prompt that may follow it)."""
         blob = b"".join(bytes(d) + FENCE for d in inputs)
         self.send(blob)
-        want = sum(fences)
-        expected_out = sum(extra_bytes) if extra_bytes else 0
-        # Deadline in HAT time: the fence, plus the time the predicted output needs on the wire.
-        deadline_ms = (self.fence_s + (expected_out + len(blob)) / WIRE_BYTES_PER_S * 1.5) * 1000.0
+        answer = self.receive(fence_line, sum(fences), sum(extra_bytes), len(blob), prompt)
+        return _cut(answer, fence_line, fences)
+
+    def receive(self, fence_line: bytes, want: int, expected_out: int = 0, sent: int = 0,
+                prompt: Optional[bool] = None) -> bytes:
+        """Read until ``want`` copies of ``fence_line`` arrived (and the prompt that may follow
+        the last). The deadline is HAT time: the fence, plus the time the predicted output
+        (``expected_out`` bytes) and the ``sent`` bytes need on the wire."""
+        deadline_ms = (self.fence_s + (expected_out + sent) / WIRE_BYTES_PER_S * 1.5) * 1000.0
         start = self.now
         buf = bytearray(self._carry)
         self._carry = b""
+        slice_s = 0.05 if self._virtual else 0.05 / self._scale
         while buf.count(fence_line) < want:
             if self.now - start > deadline_ms:
                 raise LinkTimeout(f"no answer to the fence within {deadline_ms:.0f} ms (HAT time): "
                                   f"{buf.count(fence_line)} of {want} fence line(s) arrived", bytes(buf))
             try:
-                data = self.target.read(0.05 if self._virtual else 0.05 / self._scale)
+                data = self.target.read(slice_s)
             except TargetError as exc:
                 raise LinkTimeout(f"the target went away: {exc}", bytes(buf)) from None
             self._got(data)
             buf += data
         # A prompt may follow the last fence line; on a real link give it a moment to arrive.
         tail = bytes(buf[buf.rfind(fence_line) + len(fence_line):])
-        # H10: ``prompt=False`` (the caller knows echo is off) skips the wait: it idled the link
-        # for 20 ms after every batch. Paced virtual targets wait too.
-        if not tail and prompt is not False and (not self._virtual or getattr(self.target, "baud", None)):
+        # ``prompt=True`` (the caller knows echo is on): wait for it within the deadline (a
+        # loaded machine can take longer than any fixed grace). H10: ``prompt=False`` skips the
+        # wait (it idled the link for 20 ms after every batch). Paced virtual targets wait too.
+        while prompt and self.timed and len(tail) < 3 and self.now - start <= deadline_ms:
+            data = self.target.read(slice_s)
+            self._got(data)
+            buf += data
+            tail = bytes(buf[buf.rfind(fence_line) + len(fence_line):])
+        if not tail and prompt is None and self.timed:
             data = self.target.read(0.02 / self._scale)
             self._got(data)
             buf += data
@@ -155,15 +185,14 @@ class Link:
         # incomplete line after the answer is carried over to the next read, not judged half.
         end = buf.rfind(fence_line) + len(fence_line)
         while _PARTIAL_PROMPT.fullmatch(bytes(buf[end:])) and self.now - start <= deadline_ms:
-            data = self.target.read(0.05 if self._virtual else 0.05 / self._scale)
+            data = self.target.read(slice_s)
             self._got(data)
             buf += data
         keep = _incomplete_tail(bytes(buf), end)
         if keep:
             self._carry = bytes(buf[len(buf) - keep:])
             del buf[len(buf) - keep:]
-        return _cut(bytes(buf), fence_line, fences)
-
+        return bytes(buf)
 
 _PARTIAL_PROMPT = re.compile(rb"P[0-3]?")
 _PROMPT = re.compile(rb"P[0-3]>")

@@ -12,110 +12,34 @@ skip what depends on it (see :data:`UNSPECIFIED`).
 from __future__ import annotations
 
 import re
-import struct
 from dataclasses import dataclass, field
-from functools import cache, lru_cache
+from functools import cache
 from typing import Dict, List, Optional, Tuple, Union
 
 from ..protocol.profiles import Profile
+from .expect import (
+    CRLF_ITEM,
+    LISTING_ITEM,
+    SIGNATURE_ITEM,
+    VIN_ITEM,
+    Expect,
+    LineFate,
+    error_item,
+    exact_item,
+    prompt_item,
+)
+from .lineparse import Cursor, LineFailed, clamp, f32, prefix_table, q16
 
-__all__ = ["HatModel", "PortModel", "Expect", "LineFate", "UNSPECIFIED", "CR", "LINE_MAX", "expected_duty",
-           "joined"]
+__all__ = ["HatModel", "PortModel", "UNSPECIFIED", "CR", "LINE_MAX", "expected_duty", "established"]
 
 CR, LF, BS, DEL, NUL = 0x0D, 0x0A, 0x08, 0x7F, 0x00
+_RUBOUTS = re.compile(rb"([\x08\x7f])")
 LINE_MAX = 256            # CMDBUFLEN (§1)
-ACC_LIMIT = 100000000     # the float parser's digit accumulator stops growing here (§3)
 
 # Situations FIRMWARE-FACTS does not settle; a line that hits one is not judged on them.
 UNSPECIFIED = {
     "bs_when_full": "BS/DEL after the 256-byte buffer filled (§1 does not say whether it is discarded)",
 }
-
-
-def f32(x: float) -> float:
-    """Round to IEEE single precision (the firmware computes in float)."""
-    try:
-        return struct.unpack("<f", struct.pack("<f", x))[0]
-    except OverflowError:
-        return float("inf") if x > 0 else float("-inf")
-
-
-def q16(x: float) -> int:
-    """plimit/bias/pwmparams storage: clamp to [0,1], then floor(x*65536 + 0.5) (§3)."""
-    x = min(max(x, 0.0), 1.0)
-    return int(f32(f32(x * 65536.0) + 0.5) // 1)
-
-
-# -- expected output ------------------------------------------------------------------------
-
-@dataclass(frozen=True)
-class Expect:
-    """One piece of predicted output.
-
-    ``exact``: these bytes. ``pattern``: one CRLF-terminated line matching this regex.
-    ``listing``: the ``list`` dump (4 port headers with active-device blocks). ``oracle`` says
-    which oracle a mismatch here belongs to (prompt and echo bytes show state; outputs show fate).
-    """
-
-    kind: str                     # "exact" | "pattern" | "listing"
-    data: bytes = b""
-    pattern: str = ""
-    oracle: str = "fate"
-    what: str = ""
-
-    def describe(self) -> str:
-        if self.kind == "exact":
-            return f"{self.what or 'bytes'} {self.data!r}"
-        if self.kind == "pattern":
-            return f"{self.what} line /{self.pattern}/"
-        return "list dump of ports 0..3"
-
-
-def _exact(data: bytes, what: str, oracle: str = "fate") -> Expect:
-    return Expect("exact", data=data, oracle=oracle, what=what)
-
-
-# Items predicted over and over, made once (Expect is frozen; H10 profile: building them was a
-# visible share of a prediction).
-_CRLF_ITEM = _exact(b"\r\n", "CRLF after CR")
-_VIN_ITEM = Expect("pattern", pattern=r"\d+\.\d\d V", what="vin")
-_SIGNATURE_ITEM = Expect("pattern", pattern=r"Firmware signature:( [0-9A-F]{2}){64}", what="signature")
-_LISTING_ITEM = Expect("listing")
-
-
-@lru_cache(maxsize=16)
-def _prompt_item(port: int) -> Expect:
-    return _exact(f"P{port}>".encode(), "prompt", "state")
-
-
-@lru_cache(maxsize=1024)
-def _error_item(failed: str) -> Expect:
-    return _exact(b"Error\r\n", f"Error (from {failed!r})")
-
-
-@dataclass
-class LineFate:
-    """What one CR-terminated line did according to the model."""
-
-    raw: bytes                    # the stored line (after editing and the 256-byte limit)
-    commands: List[str] = field(default_factory=list)   # resolved names that completed
-    failed: Optional[str] = None  # the command (or unknown token) that printed Error
-    unknown: Optional[str] = None  # set when the failure was a token that matched no command
-    comment: bool = False
-    unspecified: List[str] = field(default_factory=list)
-
-    @property
-    def error(self) -> bool:
-        return self.failed is not None
-
-
-def joined(first: List[Expect], second: List[Expect]) -> List[Expect]:
-    """The prediction for two inputs fed at once, from the predictions for each in turn: an
-    unfinished line's echo that runs on into the second is one item, as :meth:`HatModel.feed`
-    of both would give (the echo only changes at a CR, which ends a run)."""
-    if first and second and first[-1].what == "echo" and second[0].what == "echo":
-        return first[:-1] + [_exact(first[-1].data + second[0].data, "echo", "state")] + second[1:]
-    return first + second
 
 
 # -- state ----------------------------------------------------------------------------------
@@ -162,140 +86,6 @@ class PortModel:
         return f"M{self.mode}"
 
 
-class _Fail(Exception):
-    """A command printed Error (the rest of the line is dropped)."""
-
-
-# Each token and the spaces after it matched with one regex call, not a Python loop per byte
-# (H10 profile: the model's per-byte loops were its main cost).
-_COMMAND = re.compile(rb"[ ;]*([^ ;]*)(?:[ ;] *)?")   # separators, a token, one separator, spaces
-_WORD = re.compile(rb"([^ ;]*)(?:[ ;] *)?")
-_UNSIGNED = re.compile(rb"([0-9]*) *")
-_HEX = re.compile(rb"([0-9a-fA-F]*) *")
-_SIGNED = re.compile(rb"([+-]?)([0-9]*) *")
-_FLOAT = re.compile(rb"([+-]?)([0-9]*)(?:\.([0-9]*))? *")
-_FORMAT = re.compile(rb"(u1|s1|u2|s2|u4|s4|f4) *")   # exactly two characters; what follows is not checked
-# All but _FORMAT also match the empty string: their ``match`` never fails (``assert m``).
-
-
-@lru_cache(maxsize=64)
-def _prefixes(names: Tuple[str, ...]) -> Dict[bytes, str]:
-    """The matcher (§2) as a table: every non-empty prefix of a name -> the first name it starts."""
-    table: Dict[bytes, str] = {}
-    for name in names:
-        encoded = name.encode()
-        for end in range(1, len(encoded) + 1):
-            table.setdefault(encoded[:end], name)
-    return table
-
-
-def _float_value(whole: bytes, fraction: bytes) -> float:
-    """The float parser's accumulator (§3) over the digits before and after the point."""
-    if len(whole) + len(fraction) <= 9:
-        # Nine digits always fit (the accumulator stops only once it reaches 10^8).
-        return f32(f32(float(int(whole + fraction))) / 10.0 ** len(fraction))
-    acc = k = f = 0
-    for c in whole:
-        if acc < ACC_LIMIT:
-            acc = acc * 10 + c - 0x30
-        else:
-            k += 1             # further integer digits scale by 10
-    for c in fraction:
-        if acc < ACC_LIMIT:
-            acc = acc * 10 + c - 0x30
-            f += 1             # further fraction digits are ignored
-    return f32(f32(float(acc) * 10.0 ** k) / 10.0 ** f)
-
-
-class _Cursor:
-    __slots__ = ("s", "pos")
-
-    def __init__(self, s: bytes, pos: int = 0):
-        self.s = s
-        self.pos = pos
-
-    def command(self, prefixes: Dict[bytes, str]) -> Tuple[bytes, Optional[str]]:
-        """Past the separators, (the token, the command it names or None); the token is empty
-        at the end of the line. A command is consumed like :meth:`word` consumes a name."""
-        m = _COMMAND.match(self.s, self.pos)
-        assert m is not None
-        tok = m.group(1)
-        name = prefixes.get(tok) if tok else None
-        if name is not None:
-            self.pos = m.end()
-        return tok, name
-
-    # Number parsers (§3). Each returns None and leaves the position alone when no number
-    # starts here, and skips the spaces (not ';') after a number it read.
-    def unsigned(self) -> Optional[int]:
-        m = _UNSIGNED.match(self.s, self.pos)
-        assert m is not None
-        digits = m.group(1)
-        if not digits:
-            return None
-        self.pos = m.end()
-        return int(digits) % 2**32
-
-    def signed(self) -> Optional[int]:
-        m = _SIGNED.match(self.s, self.pos)
-        assert m is not None
-        sign, digits = m.groups()
-        if not digits:
-            return None
-        v = int(digits) % 2**32
-        if sign == b"-":
-            v = (-v) % 2**32
-        self.pos = m.end()
-        return v - 2**32 if v >= 2**31 else v
-
-    def float(self) -> Optional[float]:
-        m = _FLOAT.match(self.s, self.pos)
-        assert m is not None
-        sign, whole, fraction = m.groups()
-        if not whole and not fraction:
-            return None
-        value = _float_value(whole, fraction or b"")
-        self.pos = m.end()
-        return -value if sign == b"-" else value
-
-    def hex32(self) -> Optional[int]:
-        m = _HEX.match(self.s, self.pos)
-        assert m is not None
-        digits = m.group(1)
-        if not digits:
-            return None
-        self.pos = m.end()
-        return int(digits, 16) % 2**32
-
-    def format(self) -> Optional[bytes]:
-        m = _FORMAT.match(self.s, self.pos)
-        if m is None:
-            return None
-        self.pos = m.end()
-        return m.group(1)
-
-    def word(self, prefixes: Dict[bytes, str]) -> Optional[str]:
-        """The matcher (§2): first name the token is a non-empty prefix of (``prefixes`` from
-        :func:`_prefixes`)."""
-        m = _WORD.match(self.s, self.pos)
-        assert m is not None
-        tok = m.group(1)
-        name = prefixes.get(tok) if tok else None
-        if name is not None:
-            self.pos = m.end()
-        return name
-
-    # the same, raising _Fail
-    def need(self, value):  # type: ignore[no-untyped-def]
-        if value is None:
-            raise _Fail()
-        return value
-
-
-def _clamp(v, lo, hi):  # type: ignore[no-untyped-def]
-    return lo if v < lo else hi if v > hi else v
-
-
 class HatModel:
     """The observable state of one HAT running ``profile``, and the parser that changes it."""
 
@@ -305,6 +95,7 @@ class HatModel:
         self.port = 0
         self.echo = 0
         self.debug = 0
+        self.debug_seen = 0                    # every debug bit set since the caller cleared it
         self.ledmode = -1
         self.plimit = 6554                     # R1-R5 global limit (Q16)
         self.ports = [PortModel() for _ in range(4)]
@@ -318,17 +109,17 @@ class HatModel:
         self.per_port_plimit = profile.feature("plimit_scope") == "per_port"
         # What depends on the profile alone, looked up once rather than on every line.
         self._hash_comments = bool(profile.feature("hash_comments"))
-        self._commands = _prefixes(tuple(profile.commands))
-        self._set_keywords = _prefixes(tuple(profile.set_keywords))
+        self._commands = prefix_table(tuple(profile.commands))
+        self._set_keywords = prefix_table(tuple(profile.set_keywords))
         self._pid_extra = int(profile.feature("pid_numbers")) - 6
         self._combi_clears = bool(profile.feature("combi_clears_selection"))
-        self._help_item = _exact(profile.help_bytes, "help text")
+        self._help_item = exact_item(profile.help_bytes, "help text")
         version_line = f"Firmware version: {profile.version_string}\r\n".encode()
-        self._version_item = _exact(version_line, "version line")
-        self._signature_item = _SIGNATURE_ITEM      # unknown signature: its form only
+        self._version_item = exact_item(version_line, "version line")
+        self._signature_item = SIGNATURE_ITEM      # unknown signature: its form only
         if profile.signature is not None:
             hexes = "".join(f" {b:02X}" for b in profile.signature)
-            self._signature_item = _exact(f"Firmware signature:{hexes}\r\n".encode(), "signature line")
+            self._signature_item = exact_item(f"Firmware signature:{hexes}\r\n".encode(), "signature line")
 
     def clone(self) -> HatModel:
         """An independent copy (the profile, which never changes, is shared)."""
@@ -365,10 +156,10 @@ class HatModel:
             if stop > pos:
                 echo = self._edit(data[pos:stop])
                 if echo and self.echo:
-                    out.append(_exact(echo, "echo", "state"))
+                    out.append(exact_item(echo, "echo", "state"))
             if end < 0:
                 break
-            out.append(_CRLF_ITEM)
+            out.append(CRLF_ITEM)
             fates.append(self._end_line(out))
             pos = end + 1
         return out, fates
@@ -380,16 +171,18 @@ class HatModel:
             self.buffer += stored
             return stored
         echo = bytearray()
-        for b in run:                        # rubouts: byte by byte
-            if b in (BS, DEL):
-                if len(self.buffer) >= LINE_MAX:
+        buffer = self.buffer
+        for piece in _RUBOUTS.split(run):    # the bytes between rubouts, and each rubout
+            if piece == b"\x08" or piece == b"\x7f":
+                if len(buffer) >= LINE_MAX:
                     self.overflowed_then_bs = True
-                if self.buffer:
-                    self.buffer.pop()
+                if buffer:
+                    buffer.pop()
                     echo += b"\x08 \x08"
-            elif len(self.buffer) < LINE_MAX:
-                self.buffer.append(b)
-                echo.append(b)
+            elif piece:
+                stored = piece[:max(0, LINE_MAX - len(buffer))]
+                buffer += stored
+                echo += stored
         return bytes(echo)
 
     def _end_line(self, out: List[Expect]) -> LineFate:
@@ -408,7 +201,7 @@ class HatModel:
         if self._hash_comments and line[:1] == b"#":
             fate.comment = True                  # ignored: no Error and no prompt (R6+)
             return fate
-        cur = _Cursor(line.split(b"\x00", 1)[0])   # NUL ends the line for the parser
+        cur = Cursor(line.split(b"\x00", 1)[0])   # NUL ends the line for the parser
         while True:
             token, name = cur.command(self._commands)
             if not token:
@@ -418,89 +211,90 @@ class HatModel:
                 break
             try:
                 getattr(self, _handler(name))(cur, out)
-            except _Fail:
+            except LineFailed:
                 fate.failed = name
                 break
             fate.commands.append(name)
         if fate.failed is not None:
-            out.append(_error_item(fate.failed))
+            out.append(error_item(fate.failed))
         if self.echo:
-            out.append(_prompt_item(self.port))
+            out.append(prompt_item(self.port))
         return fate
 
     # -- commands (§4) ---------------------------------------------------------------------
-    def _cmd_help(self, cur: _Cursor, out: List[Expect]) -> None:
+    def _cmd_help(self, cur: Cursor, out: List[Expect]) -> None:
         out.append(self._help_item)
 
     _cmd_q = _cmd_help
 
-    def _cmd_version(self, cur: _Cursor, out: List[Expect]) -> None:
+    def _cmd_version(self, cur: Cursor, out: List[Expect]) -> None:
         out.append(self._version_item)
 
-    def _cmd_signature(self, cur: _Cursor, out: List[Expect]) -> None:
+    def _cmd_signature(self, cur: Cursor, out: List[Expect]) -> None:
         out.append(self._signature_item)
 
-    def _cmd_vin(self, cur: _Cursor, out: List[Expect]) -> None:
-        out.append(_VIN_ITEM)
+    def _cmd_vin(self, cur: Cursor, out: List[Expect]) -> None:
+        out.append(VIN_ITEM)
 
-    def _cmd_list(self, cur: _Cursor, out: List[Expect]) -> None:
-        out.append(_LISTING_ITEM)
+    def _cmd_list(self, cur: Cursor, out: List[Expect]) -> None:
+        out.append(LISTING_ITEM)
 
-    def _cmd_clear_faults(self, cur: _Cursor, out: List[Expect]) -> None:
+    def _cmd_clear_faults(self, cur: Cursor, out: List[Expect]) -> None:
         pass
 
-    def _cmd_port(self, cur: _Cursor, out: List[Expect]) -> None:
-        self.port = _clamp(cur.need(cur.unsigned()), 0, 3)
+    def _cmd_port(self, cur: Cursor, out: List[Expect]) -> None:
+        self.port = clamp(cur.need(cur.unsigned()), 0, 3)
 
-    def _cmd_ledmode(self, cur: _Cursor, out: List[Expect]) -> None:
-        self.ledmode = _clamp(cur.need(cur.signed()), -1, 3)
+    def _cmd_ledmode(self, cur: Cursor, out: List[Expect]) -> None:
+        self.ledmode = clamp(cur.need(cur.signed()), -1, 3)
 
-    def _cmd_echo(self, cur: _Cursor, out: List[Expect]) -> None:
+    def _cmd_echo(self, cur: Cursor, out: List[Expect]) -> None:
         self.echo = cur.need(cur.signed())
 
-    def _cmd_debug(self, cur: _Cursor, out: List[Expect]) -> None:
+    def _cmd_debug(self, cur: Cursor, out: List[Expect]) -> None:
         self.debug = cur.need(cur.signed())
+        self.debug_seen |= self.debug
 
     def _here(self) -> PortModel:
         return self.ports[self.port]
 
-    def _cmd_coast(self, cur: _Cursor, out: List[Expect]) -> None:
+    def _cmd_coast(self, cur: Cursor, out: List[Expect]) -> None:
         self._here().coast = True
 
-    def _cmd_pwm(self, cur: _Cursor, out: List[Expect]) -> None:
+    def _cmd_pwm(self, cur: Cursor, out: List[Expect]) -> None:
         p = self._here()
         p.pwmmode, p.coast = 0, False
 
-    def _cmd_on(self, cur: _Cursor, out: List[Expect]) -> None:
+    def _cmd_on(self, cur: Cursor, out: List[Expect]) -> None:
         p = self._here()
         p.coast, p.constant = False, 1.0          # only the setpoint; the mode stays (§4.1)
 
-    def _cmd_off(self, cur: _Cursor, out: List[Expect]) -> None:
+    def _cmd_off(self, cur: Cursor, out: List[Expect]) -> None:
         p = self._here()
         p.coast, p.constant = False, 0.0
 
-    def _svar(self, cur: _Cursor) -> None:
+    def _svar(self, cur: Cursor) -> None:
         for parse in (cur.unsigned, cur.unsigned, cur.unsigned, cur.format, cur.float, cur.float):
             cur.need(parse())
 
-    def _pid(self, cur: _Cursor, mode: int) -> None:
+    def _pid(self, cur: Cursor, mode: int) -> None:
         p = self._here()
         try:
             self._svar(cur)
             for _ in range(self._pid_extra):
                 cur.need(cur.float())
-        except _Fail:
+        except LineFailed:
             p.pwmmode, p.coast = 0, False        # the error path forces direct PWM (§3)
             raise
         p.pwmmode, p.coast = mode, False
 
-    def _cmd_pid(self, cur: _Cursor, out: List[Expect]) -> None:
+    def _cmd_pid(self, cur: Cursor, out: List[Expect]) -> None:
         self._pid(cur, 1)
 
-    def _cmd_pid_diff(self, cur: _Cursor, out: List[Expect]) -> None:
+    def _cmd_pid_diff(self, cur: Cursor, out: List[Expect]) -> None:
         self._pid(cur, 2)
 
-    def _cmd_set(self, cur: _Cursor, out: List[Expect]) -> None:
+    def _cmd_set(self, cur: Cursor, out: List[Expect]) -> None:
         kw = cur.word(self._set_keywords)
         p = self._here()
         if kw is None:
@@ -516,10 +310,10 @@ class HatModel:
             p.constant = None
         p.coast = False
 
-    def _cmd_bias(self, cur: _Cursor, out: List[Expect]) -> None:
+    def _cmd_bias(self, cur: Cursor, out: List[Expect]) -> None:
         self._here().bias = q16(cur.need(cur.float()))
 
-    def _cmd_plimit(self, cur: _Cursor, out: List[Expect]) -> None:
+    def _cmd_plimit(self, cur: Cursor, out: List[Expect]) -> None:
         v = q16(cur.need(cur.float()))
         if self.per_port_plimit:
             for p in self.ports:
@@ -527,14 +321,14 @@ class HatModel:
         else:
             self.plimit = v
 
-    def _cmd_port_plimit(self, cur: _Cursor, out: List[Expect]) -> None:
+    def _cmd_port_plimit(self, cur: Cursor, out: List[Expect]) -> None:
         self._here().plimit = q16(cur.need(cur.float()))
 
-    def _cmd_pwmparams(self, cur: _Cursor, out: List[Expect]) -> None:
+    def _cmd_pwmparams(self, cur: Cursor, out: List[Expect]) -> None:
         thresh = q16(cur.need(cur.float()))
         self._here().pwmparams = (thresh, q16(cur.need(cur.float())))
 
-    def _select(self, cur: _Cursor, once: bool) -> None:
+    def _select(self, cur: Cursor, once: bool) -> None:
         p = self._here()
         mode = cur.signed()
         if mode is None:                         # no argument: stop reporting
@@ -543,29 +337,29 @@ class HatModel:
             if once:
                 p.known = False                  # `selonce` alone: §6 names only `select`
             return
-        p.mode, p.var, p.once = _clamp(mode, 0, 15), False, once
+        p.mode, p.var, p.once = clamp(mode, 0, 15), False, once
         offset = cur.signed()
         if offset is not None:
-            p.offset = _clamp(offset, 0, 127)
+            p.offset = clamp(offset, 0, 127)
             if cur.format() is None:             # offset without format: reporting off (§3)
                 p.mode = -1
-                raise _Fail()
+                raise LineFailed()
             p.var = True
         p.rate = -1 if once else 100
         p.known = True
 
-    def _cmd_select(self, cur: _Cursor, out: List[Expect]) -> None:
+    def _cmd_select(self, cur: Cursor, out: List[Expect]) -> None:
         self._select(cur, once=False)
 
-    def _cmd_selonce(self, cur: _Cursor, out: List[Expect]) -> None:
+    def _cmd_selonce(self, cur: Cursor, out: List[Expect]) -> None:
         self._select(cur, once=True)
 
-    def _cmd_selrate(self, cur: _Cursor, out: List[Expect]) -> None:
-        self._here().rate = _clamp(cur.need(cur.signed()), 0, 1000000000)
+    def _cmd_selrate(self, cur: Cursor, out: List[Expect]) -> None:
+        self._here().rate = clamp(cur.need(cur.signed()), 0, 1000000000)
 
-    def _cmd_combi(self, cur: _Cursor, out: List[Expect]) -> None:
+    def _cmd_combi(self, cur: Cursor, out: List[Expect]) -> None:
         p = self._here()
-        index = _clamp(cur.need(cur.signed()), 0, 7)
+        index = clamp(cur.need(cur.signed()), 0, 7)
         p.tampered = True
         if self._combi_clears:
             # §6.2 says combi sets the mode to -1; whether an odd list does so too is not said.
@@ -578,13 +372,13 @@ class HatModel:
                 break
             if cur.signed() is None:             # odd count: the pairs so far are recorded
                 p.combi[index] = pairs
-                raise _Fail()
+                raise LineFailed()
             pairs += 1
             p.combi[index] = pairs
         if self._combi_clears:
             p.known = True
 
-    def _write(self, cur: _Cursor, headers: int) -> None:
+    def _write(self, cur: Cursor, headers: int) -> None:
         self._here().tampered = True
         for _ in range(headers):
             cur.need(cur.hex32())
@@ -592,10 +386,10 @@ class HatModel:
         while n < 128 and cur.hex32() is not None:
             n += 1
 
-    def _cmd_write1(self, cur: _Cursor, out: List[Expect]) -> None:
+    def _cmd_write1(self, cur: Cursor, out: List[Expect]) -> None:
         self._write(cur, 1)
 
-    def _cmd_write2(self, cur: _Cursor, out: List[Expect]) -> None:
+    def _cmd_write2(self, cur: Cursor, out: List[Expect]) -> None:
         self._write(cur, 2)
 
     # -- what the world does (seen in asynchronous lines) ------------------------------------

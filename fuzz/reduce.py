@@ -1,9 +1,9 @@
-"""A last, cheap reduction after Hypothesis's shrinking: drop whole steps from a finding's script.
+"""Shrinking a finding by replaying smaller scripts: whole steps first, then single lines.
 
-Hypothesis shrinks the generated program, but on slow targets its shrink phase is cut short by a
-time limit. This pass works on the written script instead: it removes one step at a time (a
-step is the lines up to and including a fence, or one ``@wait``), replays, and keeps the removal
-when the replay still fails the same oracle. It needs a target that starts fresh at every open.
+A step is the lines up to and including a fence, or one ``@wait``; the first step is the
+prelude and stays. A removal is kept when the replay still fails the same oracle. This works on
+every target the fuzzer can drive, real ones included: it needs nothing but replays (which bring
+the target to a known state with the prelude).
 """
 from __future__ import annotations
 
@@ -11,13 +11,12 @@ import time
 from typing import Callable, List, Optional, Tuple
 
 from ..harness.script import Action, Script
-from ..harness.targets.base import Target
-from ..protocol.profiles import Profile
 from .link import FENCE
 from .oracles import Finding
-from .replay import replay_script
 
 __all__ = ["reduce_finding", "steps_of"]
+
+Replay = Callable[[Script], Optional[Finding]]
 
 
 def steps_of(script: Script) -> List[List[Action]]:
@@ -39,21 +38,36 @@ def _script(base: Script, steps: List[List[Action]]) -> Script:
                   source=base.source, explicit_devices=dict(base.explicit_devices))
 
 
-def reduce_finding(script: Script, finding: Finding, open_target: Callable[[], Target], profile: Profile,
-                   fence_s: float, time_limit: float = 20.0,
-                   against: Optional[Tuple[Callable[[], Target], Profile]] = None) -> Tuple[Script, Finding]:
-    """The smallest script (by whole steps) that still fails ``finding.oracle``, and its finding."""
+def reduce_finding(script: Script, finding: Finding, replay: Replay,
+                   time_limit: float = 30.0) -> Tuple[Script, Finding]:
+    """The smallest script found (by whole steps, then lines) that still fails ``finding.oracle``,
+    and the finding its replay gave (``finding`` itself when nothing could be removed)."""
     steps = steps_of(script)
     best: Finding = finding
     deadline = time.monotonic() + time_limit
-    # Latest steps first. The failing step is not always the last one: inputs sent back to back
-    # (pipelined) fail together, so the last step is tried too.
+
+    def fails(trial: List[List[Action]]) -> Optional[Finding]:
+        again = replay(_script(script, trial))
+        return again if again is not None and again.oracle == finding.oracle else None
+
+    # Whole steps, latest first: the failing step is usually the last, and what sets its scene
+    # comes shortly before it.
     i = len(steps) - 1
     while i >= 1 and time.monotonic() < deadline:
         trial = steps[:i] + steps[i + 1:]
-        again: Optional[Finding] = replay_script(_script(script, trial), open_target, profile, fence_s,
-                                                against=against)
-        if again is not None and again.oracle == finding.oracle:
+        again = fails(trial)
+        if again is not None:
             steps, best = trial, again
         i -= 1
+    # Then the lines of each remaining step (never its fence: it ends the step).
+    for i in range(len(steps) - 1, 0, -1):
+        j = len(steps[i]) - 1
+        while j >= 0 and time.monotonic() < deadline:
+            action = steps[i][j]
+            if action.kind == "send" and action.data != FENCE and len(steps[i]) > 2:
+                trial = steps[:i] + [steps[i][:j] + steps[i][j + 1:]] + steps[i + 1:]
+                again = fails(trial)
+                if again is not None:
+                    steps, best = trial, again
+            j -= 1
     return _script(script, steps), best

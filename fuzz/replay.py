@@ -1,8 +1,8 @@
 """Replaying a finding's script with the fuzzer's own oracles: does it fail the same way?
 
 The script's sends are grouped as the fuzzer sent them: every group ends with the fence line
-(``version``); the first group is the prelude, which is not judged. ``@wait`` lets HAT time pass
-(checked like the fuzzer's wait rule); world actions go to the target's control.
+(``version``) and is one step; the first group is the prelude, which is not judged. ``@wait``
+lets HAT time pass (checked like the fuzzer's wait rule); world actions go to the target's control.
 """
 from __future__ import annotations
 
@@ -20,9 +20,12 @@ __all__ = ["replay_script"]
 
 def replay_script(script: Union[str, Script], open_target: Callable[[], Target], profile: Profile,
                   fence_s: float = 2.0, fresh: bool = True,
-                  against: Optional[Tuple[Callable[[], Target], Profile]] = None) -> Optional[Finding]:
+                  against: Optional[Tuple[Callable[[], Target], Profile]] = None, keep_open: bool = False,
+                  on_fail: Optional[Callable[[Finding], None]] = None) -> Optional[Finding]:
     """The finding the replay produces (None if every check passed). With ``against`` (an opener
-    and its release) the script goes to both targets and the differential oracle runs too."""
+    and its release) the script goes to both targets and the differential oracle runs too.
+    ``keep_open``: the openers hand out targets that stay open after the replay (``on_fail`` is
+    called with the finding of a failed replay, which may have left them broken)."""
     if not isinstance(script, Script):
         script = load_script(script)
     runner: Optional[Runner] = None
@@ -32,8 +35,8 @@ def replay_script(script: Union[str, Script], open_target: Callable[[], Target],
         openers = [("target", open_target, profile)]
         if against is not None:
             openers.append(("against", against[0], against[1]))
-        runner = Runner(openers, fence_s, fresh,
-                        devices=dict(script.devices) if script.explicit_devices else None)
+        layout = dict(script.devices) if script.explicit_devices else None
+        runner = Runner(openers, fence_s, fresh, devices=layout, keep_open=keep_open)
         for action in script.actions:
             if action.kind == "send":
                 if action.data != FENCE:
@@ -56,6 +59,8 @@ def replay_script(script: Union[str, Script], open_target: Callable[[], Target],
                         raise ValueError(f"line {action.lineno}: {action.text} needs a target with a control")
                     control.action(action.text)
     except Finding as finding:
+        if on_fail is not None:
+            on_fail(finding)
         return finding
     finally:
         if runner is not None:

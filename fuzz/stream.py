@@ -7,6 +7,7 @@ Classification of lines is the harness's (``harness/events.py``), not ours.
 """
 from __future__ import annotations
 
+import os
 import re
 from dataclasses import dataclass, field
 from functools import lru_cache
@@ -14,9 +15,10 @@ from typing import List, Optional, Tuple
 
 from ..harness.events import Event, classify, line_kind
 from ..protocol.profiles import Profile
-from .model import Expect
+from .expect import Expect
 
-__all__ = ["Problem", "MatchResult", "match_stream", "ASYNC_KINDS", "allowed_kinds", "split_lines"]
+__all__ = ["Problem", "MatchResult", "match_stream", "ASYNC_KINDS", "allowed_kinds", "split_lines",
+           "without_torn"]
 
 # Lines the firmware prints on its own (§5, §6, §7.4); anything else must be predicted.
 ASYNC_KINDS = frozenset({
@@ -42,6 +44,18 @@ class MatchResult:
     asynchronous: List[Tuple[int, Event]] = field(default_factory=list)  # (expected index, event)
     problems: List[Problem] = field(default_factory=list)
     consumed: int = 0
+    torn: List[Tuple[int, int]] = field(default_factory=list)   # asynchronous lines found inside an echo
+
+
+def without_torn(actual: bytes, res: MatchResult) -> bytes:
+    """``actual`` without the asynchronous lines that cut into an echo (the echo made whole)."""
+    if not res.torn:
+        return actual
+    out, last = bytearray(), 0
+    for start, end in res.torn:
+        out += actual[last:start]
+        last = end
+    return bytes(out + actual[last:])
 
 
 def allowed_kinds(profile: Profile, debug: Optional[int]) -> frozenset:
@@ -105,6 +119,44 @@ def _show(data: bytes, limit: int = 120) -> str:
     return repr(data[:limit]) + ("..." if len(data) > limit else "")
 
 
+def _asynchronous(res: MatchResult, idx: int, ev: Event, line: bytes, allowed: frozenset) -> None:
+    res.asynchronous.append((idx, ev))
+    if ev.kind == "banner":
+        res.problems.append(Problem("liveness", f"start-up line {line!r}: the HAT rebooted"))
+    elif ev.kind not in allowed:
+        res.problems.append(Problem("hygiene", f"{ev.kind} line {line!r} is not one this release "
+                                               "prints in this state"))
+
+
+def _torn_echo(echo: bytes, actual: bytes, pos: int, idx: int, allowed: frozenset,
+               res: MatchResult) -> Optional[int]:
+    """The position after ``echo`` when asynchronous lines cut into it, else None.
+
+    The echo leaves as the input arrives, byte by byte; on a paced wire input takes time, and a
+    line the HAT prints meanwhile (a data report) lands between two echoed bytes. Such a line is
+    skipped like any asynchronous line; anything else is a mismatch."""
+    done, torn = 0, []
+    while done < len(echo):
+        n = len(os.path.commonprefix([echo[done:], actual[pos:pos + len(echo) - done]]))
+        if n == 0 and not torn:
+            return None              # not cut: it does not even start here
+        done, pos = done + n, pos + n
+        if done == len(echo):
+            break
+        line = _line_at(actual, pos)
+        if line is None:
+            return None
+        ev = classify(line)
+        if ev.kind not in ASYNC_KINDS:
+            return None
+        torn.append((ev, line, pos))
+        pos += len(line) + 2
+    for ev, line, start in torn:
+        _asynchronous(res, idx, ev, line, allowed)
+        res.torn.append((start, start + len(line) + 2))
+    return pos
+
+
 def match_stream(expected: List[Expect], actual: bytes, allowed: frozenset) -> MatchResult:
     """Walk ``expected`` over ``actual``, skipping asynchronous lines of ``allowed`` kinds."""
     res = MatchResult()
@@ -119,25 +171,24 @@ def match_stream(expected: List[Expect], actual: bytes, allowed: frozenset) -> M
                     nxt = _match_item(item, actual, pos)
                 if nxt is not None:
                     break
+            if item is not None and item.what == "echo":
+                nxt = _torn_echo(item.data, actual, pos, idx, allowed, res)
+                if nxt is not None:
+                    break
             line = _line_at(actual, pos)
             if line is None:
                 break
             ev = classify(line)
             if ev.kind not in ASYNC_KINDS:
                 break
-            res.asynchronous.append((idx, ev))
-            if ev.kind == "banner":
-                res.problems.append(Problem("liveness", f"start-up line {line!r}: the HAT rebooted"))
-            elif ev.kind not in allowed:
-                res.problems.append(Problem("hygiene", f"{ev.kind} line {line!r} is not one this release "
-                                                       "prints in this state"))
+            _asynchronous(res, idx, ev, line, allowed)
             pos += len(line) + 2
         if item is None:
             break
         if nxt is None:
             line = _line_at(actual, pos)
             kind = classify(line).kind if line is not None else None
-            if kind == "unknown" and line is not None and not line.startswith(b"P"):
+            if line is not None and kind == "unknown" and not line.startswith(b"P"):
                 oracle = "hygiene"
                 what = f"an output line of no known class {line!r}"
             elif item.oracle == "state" and kind not in (None, "unknown"):

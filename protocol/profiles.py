@@ -11,8 +11,8 @@ from functools import cache, cached_property, lru_cache
 from importlib import resources
 from typing import Any, Optional
 
-__all__ = ["Profile", "load_profiles", "get_profile", "resolve_version", "profile_numbers",
-           "bootloader_data", "DEFAULT_FIRMWARE"]
+__all__ = ["Profile", "load_profiles", "get_profile", "resolve_version", "neighbours", "undecided_features",
+           "profile_numbers", "bootloader_data", "DEFAULT_FIRMWARE"]
 
 
 @lru_cache(maxsize=1)
@@ -117,6 +117,27 @@ def resolve_version(number: int) -> tuple[Profile, bool]:
         return profiles[number], True
     earlier = [n for n in profiles if n < number]
     return profiles[max(earlier) if earlier else min(profiles)], False
+
+
+def neighbours(number: int) -> Optional[tuple[Profile, Profile]]:
+    """For a build number between two known releases: (the release before it, the one after).
+
+    None for a known release and for numbers before the first or after the last release (those
+    have one neighbour, whose profile :func:`resolve_version` gives)."""
+    profiles = load_profiles()
+    if number in profiles:
+        return None
+    earlier = [n for n in profiles if n < number]
+    later = [n for n in profiles if n > number]
+    if not earlier or not later:
+        return None
+    return profiles[max(earlier)], profiles[min(later)]
+
+
+def undecided_features(earlier: Profile, later: Profile) -> frozenset:
+    """The feature keys on which two releases differ: for a build between them, unknown."""
+    keys = set(earlier.features) | set(later.features)
+    return frozenset(k for k in keys if earlier.features.get(k) != later.features.get(k))
 
 
 def bootloader_data() -> dict:

@@ -40,20 +40,21 @@ def test_parse_junit_sums_the_case_waits(tmp_path) -> None:
     assert res == {"cases": 3, "failed": 1, "skipped": 1, "hat_wait_ms": 350.5, "case_s": 3.5}
 
 
-def test_inprocess_throughput_counts_checked_lines() -> None:
-    res = throughput.checked_rate("inprocess", seconds=0.5)
-    assert res["lines"] > 0 and res["lines_per_s"] > 0 and res["findings"] == 0
-    assert res["recv_bytes_per_s"] > res["sent_bytes_per_s"] > 0
+def test_fuzz_figures_come_from_the_commands_own_summary() -> None:
+    """The bench runs `buildhat-conformance fuzz` and takes what its summary prints."""
+    res = throughput.fuzz_command("inprocess", seconds=1.0, extra=["--steps", "5"])
+    assert res["lines"] > 0 and res["inputs"] > 0 and res["runs"] >= 1 and res["lines_per_s"] > 0
+    assert res["findings"] == [] and res["note"] == ""
+    assert "wire_share_pct" not in res          # in-process there is no wire
 
 
-def test_paced_pool_keeps_only_synchronous_inputs() -> None:
-    from buildhat_conformance.protocol.profiles import get_profile
-
-    profile = get_profile(None)
-    pool = throughput.input_pool(profile, n=60)
-    kept = throughput.synchronous(profile, pool)
-    assert 0 < len(kept) < len(pool)
-    assert not any(b"debug 4" in d or b"select 1" in d for d in kept)
+def test_parse_summary_reads_the_wire_share_and_findings() -> None:
+    text = ("fuzz: 3 runs, 900 inputs (950 lines, 95 lines/s) in 10.0 s\n"
+            "  wire: sent 1200 B/s, received 9400 B/s; the busier direction carries 82 % "
+            "of what 115200 baud can\n"
+            "  FINDING [fate] (reproduced 2/3): x\n")
+    res = throughput.parse_summary(text)
+    assert res["lines_per_s"] == 95 and res["wire_share_pct"] == 82 and res["findings"] == ["fate"]
 
 
 def test_group_runs_are_capped_and_notes_kept(monkeypatch, tmp_path) -> None:

@@ -10,17 +10,16 @@ import subprocess
 import sys
 
 import pytest
-from cryptography.hazmat.primitives import hashes, serialization
-from cryptography.hazmat.primitives.asymmetric import ec
-from cryptography.hazmat.primitives.asymmetric.utils import decode_dss_signature
 
+from buildhat_conformance.bench import firmware_load as bench_load
+from buildhat_conformance.bench.firmware_load import new_key, sign
 from buildhat_conformance.cli import main as cli
 from buildhat_conformance.harness.firmware.bootloader_client import BootloaderClient, wire_seconds
 from buildhat_conformance.harness.firmware.image import FirmwareImage
 from buildhat_conformance.harness.firmware.progress import Progress
 from buildhat_conformance.harness.firmware.wire import Wire
 from buildhat_conformance.harness.targets.base import Target
-from buildhat_conformance.protocol.image_checksum import bootloader_checksum
+from buildhat_conformance.protocol.image_checksum import image_with_checksum
 from buildhat_conformance.protocol.profiles import get_profile
 
 HERE = pathlib.Path(__file__).resolve().parent
@@ -30,15 +29,8 @@ LINK = [sys.executable, str(HERE / "load_faulty_link.py")]
 
 
 def image_of(release: str, size: int = 600) -> bytes:
-    """``size`` bytes whose checksum is the release's: the emulator's bootloader then starts that
-    release (as a real HAT would with the real image). The map from the last 32 bytes' low bits to
-    the checksum is linear over GF(2), so 32 bytes of 0/1 reach any value."""
-    target = get_profile(release).image_checksum
-    prefix = bytes((7 * i + 3) & 0xFF for i in range(size - 32))
-    bits = bootloader_checksum(prefix + bytes(32)) ^ target
-    image = prefix + bytes((bits >> (31 - j)) & 1 for j in range(32))
-    assert bootloader_checksum(image) == target
-    return image
+    """``size`` bytes that the emulator's bootloader takes for ``release`` (its checksum)."""
+    return image_with_checksum(size, get_profile(release).image_checksum)
 
 
 def files(tmp_path, image: bytes, signature: bytes = bytes(64)):
@@ -71,6 +63,7 @@ def test_load_starts_the_release_the_image_is(capsys, tmp_path):
     assert code == 0, err
     r3 = get_profile("R3")
     assert f"loaded: firmware version {r3.version_string}" in out
+    assert bench_load._LOADED.search(out), out            # what `make bench` reads its figures from
     assert "bootloader version 1737564075" in out
     assert "Traceback" not in err
     # every byte both ways is in the transcript: the commands of §9 in order, the image whole
@@ -133,28 +126,15 @@ def test_signature_length_is_refused(capsys, tmp_path):
     assert "Incorrect signature length (should be64 bytes)" in line and "63 bytes" in line
 
 
-def _keypair(tmp_path):
-    private = ec.generate_private_key(ec.SECP256R1())
-    pem = tmp_path / "key.pem"
-    pem.write_bytes(private.public_key().public_bytes(serialization.Encoding.PEM,
-                                                      serialization.PublicFormat.SubjectPublicKeyInfo))
-    return private, str(pem)
-
-
-def _sign(private, data: bytes) -> bytes:
-    r, s = decode_dss_signature(private.sign(data, ec.ECDSA(hashes.SHA256())))
-    return r.to_bytes(32, "big") + s.to_bytes(32, "big")
-
-
 def test_wrong_signature_is_refused_and_a_right_one_boots(capsys, tmp_path):
-    private, key = _keypair(tmp_path)
+    private, key = new_key(str(tmp_path))
     image = image_of("R6")
-    img, sig = files(tmp_path, image, _sign(private, image + b"other"))
+    img, sig = files(tmp_path, image, sign(private, image + b"other"))
     code, _out, err = load(capsys, stdio("--bootloader", "--bootloader-key", key), img, sig)
     assert code == 2
     (line,) = error_lines(err)
     assert "Image verification failed" in line
-    img, sig = files(tmp_path, image, _sign(private, image))
+    img, sig = files(tmp_path, image, sign(private, image))
     code, out, err = load(capsys, stdio("--bootloader", "--bootloader-key", key), img, sig)
     assert code == 0, err
     assert get_profile("R6").version_string in out

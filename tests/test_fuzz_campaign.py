@@ -45,7 +45,7 @@ def _opener(factory=None, devices=None):
 
 
 def test_short_campaign_against_the_emulator_has_no_findings(tmp_path):
-    args = _args(tmp_path, "--budget", "12", "--seed", "7", "--steps", "15")
+    args = _args(tmp_path, "--budget", "12x", "--seed", "7", "--steps", "15")
     result, files = cli.run(args, primary=_opener())
     assert not result.findings, "\n".join(f"{f.oracle}: {f.message}" for f in result.findings)
     junit = ET.parse(tmp_path / "junit.xml").getroot()
@@ -61,8 +61,8 @@ def test_short_campaign_against_the_emulator_has_no_findings(tmp_path):
 ])
 def test_planted_fault_gives_a_shrunk_replayable_finding(tmp_path, kind, oracles, trigger):
     factory = _faults().FAULTS[kind]
-    args = _args(tmp_path, "--budget", "60", "--seed", "3", "--families", "valid", "--steps", "8",
-                 "--shrink-time", "1.5", "--waits", "")
+    args = _args(tmp_path, "--budget", "60x", "--seed", "3", "--families", "valid", "--steps", "8",
+                 "--shrink-time", "60", "--waits", "")
     args.devices = EMPTY
     result, files = cli.run(args, primary=_opener(factory, EMPTY))
     assert result.findings, f"the planted '{kind}' fault was not found"

@@ -36,7 +36,7 @@ def _opener(release):
 
 
 def test_two_copies_of_one_release_agree(tmp_path):
-    args = _args(tmp_path, "--target", "inprocess:R7", "--against", "inprocess:R7", "--budget", "4",
+    args = _args(tmp_path, "--target", "inprocess:R7", "--against", "inprocess:R7", "--budget", "4x",
                  "--seed", "5", "--steps", "8")
     result, _files = cli.run(args, primary=_opener("R7"), secondary=_opener("R7"))
     assert not result.findings, [f.message for f in result.findings]
@@ -44,8 +44,8 @@ def test_two_copies_of_one_release_agree(tmp_path):
 
 def test_two_releases_differ_and_the_difference_replays(tmp_path):
     # R5 still has `bias` and a 10-number `pid`; R7 has pwmparams, pid_diff, a new help text ...
-    args = _args(tmp_path, "--target", "inprocess:R7", "--against", "inprocess:R5", "--budget", "40",
-                 "--seed", "5", "--steps", "8", "--families", "valid", "--shrink-time", "1.5")
+    args = _args(tmp_path, "--target", "inprocess:R7", "--against", "inprocess:R5", "--budget", "40x",
+                 "--seed", "5", "--steps", "8", "--families", "valid", "--shrink-time", "60")
     result, files = cli.run(args, primary=_opener("R7"), secondary=_opener("R5"))
     finding = result.finding("differential")
     assert finding is not None, [f.message for f in result.findings]
@@ -55,3 +55,16 @@ def test_two_releases_differ_and_the_difference_replays(tmp_path):
                           against=(_opener("R5"), get_profile("R5")))
     assert again is not None and again.oracle == "differential"
     assert (tmp_path / "differential.against.jsonl").exists()
+
+
+def test_a_device_dump_on_connecting_is_asynchronous_but_a_listing_is_not():
+    dump = (b"P1: connected to active ID 40\r\ntype 40\r\n  M0 COL O SI = PCT\r\n"
+            b"P1: established serial communication with active ID 40\r\n")
+    assert compare_answers(b"\r\n" + dump + b"P0>", b"\r\nP0>") is None
+    # a `list` answer (four headers) just before a connect is still compared
+    listed = b"P0: no device detected\r\nP1: connected to active ID 40\r\ntype 40\r\n"
+    assert compare_answers(listed + dump, listed) is None
+    assert compare_answers(listed + dump, dump) is not None
+    listing = b"P0: no device detected\r\nP1: connected to active ID 40\r\ntype 40\r\n"
+    shorter = b"P0: no device detected\r\nP1: connected to active ID 40\r\n"
+    assert compare_answers(listing, shorter) is not None

@@ -2,7 +2,8 @@
 
 URL options (query string, as the ``emulator`` URL): ``device=P=SPEC`` (repeatable; SPEC as the
 script ``@device``), ``seed=N``, ``baud=B`` (pace output at the wire rate), ``scale=S`` (see below),
-``boot=0`` (do not run the start-up at open).
+``boot=0`` (do not run the start-up at open), ``version=TEXT`` (what ``version`` prints after
+``Firmware version: ``, URL-encoded: a build the profiles do not know, e.g. ``1635608703``).
 
 Time: nothing here reads the wall clock. Virtual time moves only inside :meth:`read` and
 :meth:`advance`. ``read(timeout)`` steps the HAT one millisecond at a time, up to
@@ -86,7 +87,8 @@ class InProcessControl(Control):
 class InProcessTarget(Target):
     def __init__(self, firmware: Optional[str] = None, devices: Optional[Mapping[int, DeviceSpec]] = None,
                  seed: int = 0, baud: Optional[int] = None, scale: float = 1.0, boot: bool = True,
-                 factory: Optional[Callable[..., HatModel]] = None, url: str = "inprocess"):
+                 factory: Optional[Callable[..., HatModel]] = None, url: str = "inprocess",
+                 version_string: Optional[str] = None):
         if scale <= 0:
             raise TargetError(f"inprocess: scale must be positive, got {scale}")
         self.url = url
@@ -94,6 +96,7 @@ class InProcessTarget(Target):
         self.scale = float(scale)
         self.boot = boot
         self.factory = factory
+        self.version_string = version_string
         self.emulator: Optional[HatModel] = None
         self.control = InProcessControl(self)
         self.capabilities = frozenset({"control", "virtual_time", "drive_events", "line_records"})
@@ -119,14 +122,16 @@ class InProcessTarget(Target):
             return self.factory(firmware=self.firmware, devices=self.devices, seed=self.seed, baud=self.baud)
         from ...emulator import Emulator
         try:
-            return Emulator(firmware=self.firmware, devices=self.devices, seed=self.seed, baud=self.baud)
+            return Emulator(firmware=self.firmware, devices=self.devices, seed=self.seed, baud=self.baud,
+                            version_string=self.version_string)
         except KeyError as exc:
             raise TargetError(f"inprocess: {exc.args[0]}") from None
 
     def _booted_copy(self) -> HatModel:
         if not self.boot:
             return self._new()
-        key = (self.factory, self.firmware, tuple(sorted(self.devices.items())), self.seed, self.baud)
+        key = (self.factory, self.firmware, tuple(sorted(self.devices.items())), self.seed, self.baud,
+               self.version_string)
         booted = _BOOTED.get(key)
         if booted is None:
             booted = self._new()
@@ -240,17 +245,17 @@ def _parse_devices(values: List[str]) -> Dict[int, DeviceSpec]:
 
 
 def from_url(url: str, **options) -> InProcessTarget:
-    """``inprocess[:<release|latest>][?device=P=SPEC&seed=N&baud=B&scale=S&boot=0]``."""
+    """``inprocess[:<release|latest>][?device=P=SPEC&seed=N&baud=B&scale=S&boot=0&version=TEXT]``."""
     rest = url[len("inprocess"):] if url.startswith("inprocess") else url
     if rest and not rest.startswith((":", "?")):
         raise TargetError(f"not an inprocess URL: {url!r} (form: inprocess[:<release>][?options])")
     rest = rest[1:] if rest.startswith(":") else rest
     release, _, query = rest.partition("?")
     q = parse_qs(query, keep_blank_values=True)
-    unknown = set(q) - {"device", "seed", "baud", "scale", "boot"}
+    unknown = set(q) - {"device", "seed", "baud", "scale", "boot", "version"}
     if unknown:
         raise TargetError(f"inprocess: unknown option(s) {sorted(unknown)} "
-                          "(known: device, seed, baud, scale, boot)")
+                          "(known: device, seed, baud, scale, boot, version)")
     try:
         kwargs: Dict[str, Any] = dict(
             firmware=release or None,
@@ -259,6 +264,7 @@ def from_url(url: str, **options) -> InProcessTarget:
             baud=int(q["baud"][-1]) if "baud" in q else None,
             scale=float(q["scale"][-1]) if "scale" in q else 1.0,
             boot=q["boot"][-1] not in ("0", "false", "no") if "boot" in q else True,
+            version_string=q["version"][-1] if "version" in q else None,
         )
     except ValueError as exc:
         raise TargetError(f"inprocess: bad option value in {url!r}: {exc}") from None
