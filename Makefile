@@ -18,9 +18,12 @@ $(STAMP): pyproject.toml setup.py
 conformance: $(STAMP)
 	$(VENV)/bin/buildhat-conformance run --target $(TARGET)
 
-## The project's own tests.
+## The project's own tests, in parallel (pytest-xdist): many of them wait on a child process or a pty,
+## so more workers than cores pay off. Tests sharing a module-scoped fixture stay on one worker
+## (tests/conftest.py marks them xdist_group). TEST_WORKERS=0 runs them in this process, one by one.
+TEST_WORKERS ?= 3
 test: $(STAMP)
-	$(PY) -m pytest tests
+	$(PY) -m pytest tests -n $(TEST_WORKERS) --dist loadgroup
 
 ## Benchmarks: prints each figure next to its goal; never fails on wall-clock numbers.
 bench: $(STAMP)

@@ -1,6 +1,11 @@
 """Evidence that the suite can fail: each mutant emulator breaks ONE behaviour
-(tests/mutants/mutant_emulator.py); the cases for that behaviour must fail and the
-others must still pass."""
+(tests/mutants/line_mutations.py); the cases for that behaviour must fail and the
+others must still pass.
+
+Every mutant runs in virtual time on the in-process emulator (tests/mutants/mutant_target.py):
+the suite's logic is what is tested, not the wire. One mutant also runs as the pty relay in front
+of the real emulator process (tests/mutants/mutant_emulator.py), so that path stays covered too:
+``lf-ignored``, whose bytes (a CR LF pair from the host) are the ones a pty could alter."""
 from __future__ import annotations
 
 from typing import List
@@ -38,10 +43,14 @@ def _name(case: str) -> str:
     return case.split("::", 1)[1]
 
 
-@pytest.mark.parametrize("mutation", sorted(MUTANTS))
-def test_mutant_is_caught_by_its_tests_only(tmp_path, mutation: str) -> None:
+# (mutation, target): all in virtual time, one also over the pty relay.
+CASES = [(m, "inprocess:R7") for m in sorted(MUTANTS)] + [("lf-ignored", "emulator:R7")]
+
+
+@pytest.mark.parametrize(("mutation", "target"), CASES, ids=[f"{m}-{t.split(':')[0]}" for m, t in CASES])
+def test_mutant_is_caught_by_its_tests_only(tmp_path, mutation: str, target: str) -> None:
     must_fail, must_pass = MUTANTS[mutation]
-    results = run_suite(str(tmp_path), "emulator:R7", must_fail + must_pass, mutation=mutation, timeout=280)
+    results = run_suite(str(tmp_path), target, must_fail + must_pass, mutation=mutation, timeout=280)
     verdicts = {name: r.verdict for name, r in results.items()}
     caught: List[str] = [c for c in must_fail if verdicts.get(_name(c)) != "fail"]
     assert not caught, f"{mutation}: these cases did not fail: {caught} (verdicts {verdicts})"

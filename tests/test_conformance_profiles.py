@@ -70,7 +70,7 @@ def test_known_deviations_exactly_where_the_facts_say(tmp_path, release: str) ->
 def test_unknown_version_is_judged_as_the_nearest_earlier_release(tmp_path) -> None:
     cases = ["test_commands.py::test_version_prints_the_firmware_version",
              "test_commands.py::test_help_prints_the_synopsis_of_this_release"]
-    results = run_suite(str(tmp_path), "emulator:R7", cases, mutation="unknown-version", timeout=280)
+    results = run_suite(str(tmp_path), "inprocess:R7", cases, mutation="unknown-version", timeout=280)
     assert len(results) == 3 and all(r.verdict != "fail" for r in results.values()), \
         {n: r.verdict for n, r in results.items()}
     for r in results.values():

@@ -14,7 +14,8 @@ from typing import Dict, List, Optional, Sequence
 
 REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 SUITE = os.path.join(REPO, "conformance")
-MUTANT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "mutant_emulator.py")
+HERE = os.path.dirname(os.path.abspath(__file__))
+MUTANT = os.path.join(HERE, "mutant_emulator.py")
 
 
 @dataclass
@@ -40,17 +41,32 @@ def read_junit(path: str) -> Dict[str, CaseResult]:
 
 def run_suite(tmp: str, target: str, cases: Sequence[str] = (), keyword: Optional[str] = None,
               mutation: Optional[str] = None, timeout: float = 120) -> Dict[str, CaseResult]:
-    """Run the given cases (test names, e.g. ``test_link.py::test_x``) against ``target``."""
+    """Run the given cases (test names, e.g. ``test_link.py::test_x``) against ``target``.
+
+    With ``mutation``, the HAT is a mutant (tests/mutants/line_mutations.py): for an ``inprocess``
+    target the in-process one in virtual time (mutant_target.py), for an ``emulator`` target the
+    pty relay in front of the real emulator process (mutant_emulator.py)."""
     junit = os.path.join(tmp, "junit.xml")
+    env = dict(os.environ)
+    if mutation and target.startswith("inprocess"):
+        target = "mutant:" + mutation + target[len("inprocess"):]
+        env["PYTHONPATH"] = HERE + os.pathsep + env.get("PYTHONPATH", "")
+        plugins = ["-p", "mutant_target"]
+    else:
+        plugins = []
+        if mutation:
+            env["BUILDHAT_EMULATOR"] = f"{sys.executable} {MUTANT} {mutation}"
     argv = [sys.executable, "-m", "pytest", "-p", "no:cacheprovider", "--import-mode=importlib", "-q",
-            "--target", target, "--conformance-junit", junit, "--transcripts", os.path.join(tmp, "tr")]
+            *plugins, "--target", target, "--conformance-junit", junit,
+            "--transcripts", os.path.join(tmp, "tr")]
     argv += [os.path.join(SUITE, c) for c in cases] or [SUITE]
     if keyword:
         argv += ["-k", keyword]
-    env = dict(os.environ)
-    if mutation:
-        env["BUILDHAT_EMULATOR"] = f"{sys.executable} {MUTANT} {mutation}"
-    subprocess.run(argv, cwd=REPO, env=env, timeout=timeout, stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
+    proc = subprocess.run(argv, cwd=REPO, env=env, timeout=timeout, stdout=subprocess.PIPE,
+                          stderr=subprocess.STDOUT)
+    if not os.path.exists(junit):
+        output = proc.stdout.decode(errors="replace")[-3000:]
+        raise AssertionError(f"the suite wrote no JUnit file:\n{output}")
     return read_junit(junit)
 
 
