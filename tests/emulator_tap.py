@@ -2,7 +2,7 @@
 with the virtual millisecond it arrived in, and the device-side events."""
 from __future__ import annotations
 
-from typing import List, Tuple
+from typing import Dict, List, Optional, Tuple
 
 from buildhat_conformance.emulator.api import Emulator
 
@@ -40,3 +40,16 @@ class Tap:
     def devrx(self, port: int, since: int) -> list:
         return [e for e in self.emu.events
                 if e["dir"] == "devrx" and e["port"] == port and e["t"] >= since]
+
+
+def motor_on_p3(firmware: str = "R7", extra: Optional[Dict[int, str]] = None) -> Tap:
+    """A booted emulator with a SPIKE medium motor (0x30) on P3 only, P3 selected."""
+    layout = {0: "none", 1: "none", 2: "none", 3: "0x30"}
+    layout.update(extra or {})
+    emu = Emulator(firmware=firmware, devices=layout)
+    emu.boot()
+    tap = Tap(emu)
+    tap.run(1)
+    tap.send("port 3")
+    tap.run(5)
+    return tap

@@ -15,24 +15,11 @@ from buildhat_conformance.emulator.parser import Cursor
 from buildhat_conformance.emulator.reporting import decode_values
 from buildhat_conformance.protocol.profiles import get_profile
 
-from .emulator_tap import Tap
+from .emulator_tap import Tap, motor_on_p3
 
 EMPTY = {0: "none", 1: "none", 2: "none", 3: "none"}
 OLD = ["R1", "R2", "R3", "R4"]
 NEW = ["R5", "R6", "R7"]
-
-
-def motor_on_p3(firmware: str = "R7", extra=None) -> Tap:
-    layout = dict(EMPTY)
-    layout[3] = "0x30"
-    layout.update(extra or {})
-    emu = Emulator(firmware=firmware, devices=layout)
-    emu.boot()
-    tap = Tap(emu)
-    tap.run(1)
-    tap.send("port 3")
-    tap.run(5)
-    return tap
 
 
 def first_report(tap: Tap, prefix: str, ms: int = 250) -> str:

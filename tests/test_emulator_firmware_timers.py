@@ -10,21 +10,9 @@ import pytest
 
 from buildhat_conformance.emulator.api import Emulator
 
-from .emulator_tap import Tap
+from .emulator_tap import Tap, motor_on_p3
 
 EMPTY = {0: "none", 1: "none", 2: "none", 3: "none"}
-
-
-def motor_on_p3(firmware: str = "R7") -> Tap:
-    layout = dict(EMPTY)
-    layout[3] = "0x30"
-    emu = Emulator(firmware=firmware, devices=layout)
-    emu.boot()
-    tap = Tap(emu)
-    tap.run(1)
-    tap.send("port 3")
-    tap.run(5)
-    return tap
 
 
 def data_times(tap: Tap, since: int) -> list:

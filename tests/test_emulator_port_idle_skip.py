@@ -9,7 +9,8 @@ output bytes, with the virtual millisecond each was written, and the events must
 from __future__ import annotations
 
 import json
-from typing import List, Optional, Sequence, Tuple
+from contextlib import contextmanager
+from typing import Iterator, List, Optional, Sequence, Tuple
 
 import pytest
 
@@ -135,11 +136,10 @@ def test_skipping_idle_milliseconds_changes_nothing(firmware, devices, plan, tot
     assert reading == reference
 
 
-def test_idle_milliseconds_are_skipped():
-    emu = Emulator()
-    emu.boot()
-    emu.advance(1000)
-    ticks = []
+@contextmanager
+def ticked_ms() -> Iterator[List[int]]:
+    """The milliseconds the HAT ticks (``Hat._run_due``) while the block runs."""
+    ticks: List[int] = []
     real = Hat._run_due
 
     def counted(hat: Hat, now: int) -> None:
@@ -148,9 +148,17 @@ def test_idle_milliseconds_are_skipped():
 
     Hat._run_due = counted                 # type: ignore[method-assign]
     try:
-        emu.advance(1000)
+        yield ticks
     finally:
         Hat._run_due = real                # type: ignore[method-assign]
+
+
+def test_idle_milliseconds_are_skipped():
+    emu = Emulator()
+    emu.boot()
+    emu.advance(1000)
+    with ticked_ms() as ticks:
+        emu.advance(1000)
     # The controllers' 10 ms updates at least; far from every millisecond.
     assert 100 <= len(ticks) <= 400
 
@@ -161,18 +169,8 @@ def test_a_hot_plug_handshake_is_skipped_through():
     emu = Emulator(devices={0: None, 1: None, 2: None, 3: None})
     emu.boot()
     emu.advance(100)
-    ticks = []
-    real = Hat._run_due
-
-    def counted(hat: Hat, now: int) -> None:
-        ticks.append(now)
-        real(hat, now)
-
-    Hat._run_due = counted                 # type: ignore[method-assign]
-    try:
+    with ticked_ms() as ticks:
         emu.world("@plug 0 0x3D")          # a sensor: no motor physics, only the link
-        emu.advance(4500)                  # setup at 2400 baud (~3 s), handshake, data
-    finally:
-        Hat._run_due = real                # type: ignore[method-assign]
+        emu.advance(4500)                  # setup, handshake, data
     assert emu.hat.ports[0].established
     assert len(ticks) < 2000, len(ticks)
