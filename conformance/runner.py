@@ -67,6 +67,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="folder for per-case transcripts (default: beside the JUnit file)")
     parser.add_argument("-k", dest="keyword", default=None, help="only tests matching this pytest expression")
     parser.add_argument("--operator", action="store_true", help="ask a person for plug/unplug actions")
+    parser.add_argument("--max-target-faults", type=int, default=None, metavar="N",
+                        help="after N target faults in a row stop talking to the target and report the "
+                             "remaining cases as not run (default 5; 0: never stop)")
     parser.add_argument("--image", default=None, metavar="FILE",
                         help="load this firmware image through the HAT's bootloader before the suite "
                              "(with --signature; as 'buildhat-conformance load')")
@@ -114,6 +117,8 @@ def pytest_argv(args: argparse.Namespace) -> List[str]:
         argv += ["--firmware", args.firmware]
     if args.keyword:
         argv += ["-k", args.keyword]
+    if getattr(args, "max_target_faults", None) is not None:
+        argv += ["--max-target-faults", str(args.max_target_faults)]
     if args.operator:
         argv += ["--operator", "-s"]
     return argv + extra
