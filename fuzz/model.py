@@ -14,7 +14,7 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass, field
 from functools import cache
-from typing import Dict, List, Optional, Tuple, Union
+from typing import Dict, FrozenSet, List, Optional, Tuple, Union
 
 from ..protocol.profiles import Profile
 from .expect import (
@@ -52,6 +52,9 @@ class PortModel:
     rate: int = -2                # R5+: -2 off, -1 once, 0 every message, N ms
     offset: int = 0
     combi: Dict[int, int] = field(default_factory=dict)   # index -> number of recorded pairs
+    # Indices whose entry the model has not seen set: a HAT kept open from an earlier run keeps
+    # its combi table through the prelude (only a new connection clears it, §6.1, §6.2).
+    combi_unknown: FrozenSet[int] = frozenset()
     known: bool = True            # False after an event the model cannot follow exactly
     pwmmode: int = 0              # 0 direct PWM, 1 PID, 2 PID on the derivative
     coast: bool = False
@@ -77,13 +80,26 @@ class PortModel:
             return False
         return self.rate != -2 if selrate_engine else True
 
-    def report_form(self) -> str:
-        """``V``, ``C<i>`` or ``M<m>``: the data line this selection prints."""
+    def report_forms(self) -> Tuple[str, ...]:
+        """The data line this selection prints: ``V``, ``C<i>`` or ``M<m>`` (§6.1); both ``C<m>``
+        and ``M<m>`` when the combi entry of the mode is not known."""
         if self.var:
-            return "V"
+            return ("V",)
         if self.combi.get(self.mode, 0) > 0:
-            return f"C{self.mode}"
-        return f"M{self.mode}"
+            return (f"C{self.mode}",)
+        if self.mode in self.combi_unknown:
+            return (f"C{self.mode}", f"M{self.mode}")
+        return (f"M{self.mode}",)
+
+    def forget_combis(self) -> None:
+        """The combi table may hold anything (a run on a HAT an earlier run left)."""
+        self.combi.clear()
+        self.combi_unknown = frozenset(range(8))
+
+    def clear_combis(self) -> None:
+        """The combi table is empty (a new connection)."""
+        self.combi.clear()
+        self.combi_unknown = frozenset()
 
 
 class HatModel:
@@ -367,6 +383,7 @@ class HatModel:
             p.known = False
         pairs = 0
         p.combi[index] = 0
+        p.combi_unknown = p.combi_unknown - {index}
         while pairs < 15:
             if cur.signed() is None:
                 break
@@ -408,7 +425,7 @@ class HatModel:
     def saw_link_change(self, port: int) -> None:
         """A device on ``port`` connected or went away: its selection and combi records reset."""
         p = self.ports[port]
-        p.combi.clear()
+        p.clear_combis()
         p.device_modes = 0
         p.constant = None                        # the port reset (§4.2) and what follows it
         p.known = False
@@ -442,7 +459,7 @@ def established(p: PortModel, type_id: int) -> None:
     """An active device finished its setup on this port: a clean slate (§5)."""
     p.device_modes = _mode_count(type_id)
     p.tampered = False
-    p.combi.clear()
+    p.clear_combis()
 
 
 @cache

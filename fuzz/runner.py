@@ -192,6 +192,13 @@ def output_groups(model: HatModel, datas: Sequence[bytes], limit: int) -> Tuple[
     return [g for g in groups if g], left_out
 
 
+def _selection(p: PortModel, selrate_engine: bool) -> str:
+    """A port's selection as a finding names it."""
+    form = "/".join(p.report_forms()) if p.mode >= 0 else "-"
+    return (f"mode {p.mode} form {form} rate {p.rate} "
+            f"(reporting {'on' if p.reporting(selrate_engine) else 'off'})")
+
+
 class Runner:
     """The sides of one run and the checks made after each step (raise a Finding on failure)."""
 
@@ -239,8 +246,11 @@ class Runner:
             side.model.feed(prelude)
             side.model.feed(FENCE)
             if not self.fresh:
+                # An earlier run left this HAT: the prelude resets the selections, not the combi
+                # tables (a report may come as C<m> where this run set no combi).
                 for p in side.model.ports:
                     p.known = False
+                    p.forget_combis()
 
     @property
     def tainted(self) -> bool:
@@ -363,7 +373,7 @@ class Runner:
             if last[port] != want:
                 limit = p.plimit if model.per_port_plimit else model.plimit
                 res.problems.append(Problem(
-                    "state", f"{side.label}: port {port} drives {last[port]!r}; direct PWM at setpoint "
+                    "state", f"port {port} drives {last[port]!r}; direct PWM at setpoint "
                              f"{p.constant} with plimit {limit}/65536 should drive {want!r}"))
 
     def _expect_reports(self, side: Side, ms: int, before: List[PortModel], res: MatchResult) -> None:
@@ -373,7 +383,8 @@ class Runner:
         device, no link change, a rate well inside the wait."""
         if ms < 300:
             return
-        seen = {(ev.port, ev.kind, ev.fields.get("mode")) for _i, ev in res.asynchronous}
+        seen = {(ev.port, _REPORT_FORMS[ev.kind](ev.fields)) for _i, ev in res.asynchronous
+                if ev.kind in _REPORT_FORMS}
         changed = {ev.port for _i, ev in res.asynchronous if ev.kind in _LINK_KINDS}
         for port, p in enumerate(before):
             if not (p.known and not p.tampered and not p.var and 0 <= p.mode < min(p.device_modes, 8)
@@ -385,10 +396,12 @@ class Runner:
             elif p.once:
                 continue
             self.stats.count("state")
-            if (port, "mode_data", p.mode) not in seen:
+            forms = p.report_forms()
+            if not any((port, form) in seen for form in forms):
+                want = " or ".join(f"P{port}{form}" for form in forms)
                 res.problems.append(Problem(
-                    "state", f"{side.label}: port {port} has mode {p.mode} selected (rate {p.rate}) on an "
-                             f"established device, but no P{port}M{p.mode} report came in {ms} ms"))
+                    "state", f"port {port} has mode {p.mode} selected (rate {p.rate}) on an "
+                             f"established device, but no {want} report came in {ms} ms"))
 
     # -- checks --------------------------------------------------------------------------------
     def _note_kinds(self, out: bytes) -> None:
@@ -412,7 +425,7 @@ class Runner:
             if ev.kind in _LINK_KINDS:
                 model.saw_link_change(port)
                 for s in states:
-                    s[port].combi.clear()
+                    s[port].clear_combis()
                     s[port].known = False
                     s[port].device_modes = 0
                 ident = ev.fields.get("id")
@@ -428,14 +441,13 @@ class Runner:
             # A device that got raw messages (write1/write2, tampered) may send data in another
             # form (a combi it was told of directly): the form is not the model's to know then.
             ok = any(not s[port].known or (s[port].reporting(model.selrate_engine)
-                                           and (s[port].tampered or s[port].report_form() == form))
+                                           and (s[port].tampered or form in s[port].report_forms()))
                      for s in states)
             if not ok:
-                s = states[-1][port]
+                before, after = (_selection(s[port], model.selrate_engine) for s in (states[0], states[-1]))
+                whose = before if before == after else f"{before} before the step, {after} after it"
                 res.problems.append(Problem(
-                    "state", f"{side.label}: report {ev.text!r} from port {port}, whose selection is "
-                             f"mode {s.mode} form {s.report_form() if s.mode >= 0 else '-'} rate {s.rate} "
-                             f"(reporting {'on' if s.reporting(model.selrate_engine) else 'off'})"))
+                    "state", f"report {ev.text!r} from port {port}, whose selection is {whose}"))
             for s in states:
                 model.report_seen(s[port])
 
