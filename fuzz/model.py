@@ -50,6 +50,7 @@ class PortModel:
     var: bool = False             # the `select <m> <off> <fmt>` form (prints P<p>V:)
     once: bool = False            # R1-R4 once flag (selonce)
     rate: int = -2                # R5+: -2 off, -1 once, 0 every message, N ms
+    selection: int = 0            # which select/selonce made it (a report ends only its own once)
     offset: int = 0
     combi: Dict[int, int] = field(default_factory=dict)   # index -> number of recorded pairs
     # Indices whose entry the model has not seen set: a HAT kept open from an earlier run keeps
@@ -115,6 +116,7 @@ class HatModel:
         self.ledmode = -1
         self.plimit = 6554                     # R1-R5 global limit (Q16)
         self.ports = [PortModel() for _ in range(4)]
+        self.selections = 0                    # select/selonce commands run (PortModel.selection)
         for port, spec in self.devices.items():
             if spec is not None and spec[0] == "active":
                 self.ports[port].device_modes = _mode_count(spec[1])
@@ -346,6 +348,8 @@ class HatModel:
 
     def _select(self, cur: Cursor, once: bool) -> None:
         p = self._here()
+        self.selections += 1
+        p.selection = self.selections
         mode = cur.signed()
         if mode is None:                         # no argument: stop reporting
             p.mode, p.var, p.once = -1, False, False

@@ -440,16 +440,20 @@ class Runner:
             form = form_of(ev.fields)
             # A device that got raw messages (write1/write2, tampered) may send data in another
             # form (a combi it was told of directly): the form is not the model's to know then.
-            ok = any(not s[port].known or (s[port].reporting(model.selrate_engine)
-                                           and (s[port].tampered or form in s[port].report_forms()))
-                     for s in states)
-            if not ok:
+            sources = [s[port] for s in states
+                       if not s[port].known or (s[port].reporting(model.selrate_engine)
+                                                and (s[port].tampered or form in s[port].report_forms()))]
+            if not sources:
                 before, after = (_selection(s[port], model.selrate_engine) for s in (states[0], states[-1]))
                 whose = before if before == after else f"{before} before the step, {after} after it"
                 res.problems.append(Problem(
                     "state", f"report {ev.text!r} from port {port}, whose selection is {whose}"))
+                continue
+            # The report ends the once-selection that printed it, the first that could have: a
+            # report already due when a later select ran belongs to the earlier one (§6.2).
             for s in states:
-                model.report_seen(s[port])
+                if s[port].selection == sources[0].selection:
+                    model.report_seen(s[port])
 
     def _judge(self, side: Side, problems: List[Problem], details: dict) -> None:
         for oracle in ("hygiene", "fate", "state"):

@@ -132,3 +132,23 @@ def test_state_oracle_expects_reports_from_a_selected_mode(fault, finding):
 def test_state_oracle_checks_the_drive_against_plimit(fault, finding):
     """`set 0.5` in direct PWM mode drives 0.1 * 255 (the default plimit, §7.3): 25, not more."""
     assert _oracle_after(fault, b"set 0.5\r", 50) == finding
+
+
+def test_a_report_due_before_a_selonce_does_not_end_that_selonce():
+    """A report of the old selection printed while a step's input is still arriving (a paced
+    wire: here a long comment line) belongs to that selection; the `selonce 2` after it still
+    has its own once-report to come (§6.2). The model once took the `P0V:` report for it and
+    called the real `P0M2:` report that followed a state finding (issue 14)."""
+    from buildhat_conformance.fuzz.runner import Runner
+    profile = get_profile("R7")
+    target = InProcessTarget("R7", devices=LAYOUT, baud=115200)
+    runner = Runner([("target", lambda: target, profile)], 0.3, True, devices=LAYOUT)
+    try:
+        runner.start()
+        runner.exchange([b"select 0 0 u1\r", b"selrate 0\r"])     # a V report for every message
+        answer = runner.exchange([b"#" + b" " * 250 + b"\r", b"selonce 2\r"])[0]
+        assert answer.startswith(b"P0V: "), answer     # the scene: the old selection reported
+        runner.wait(100)                                # P0M2 comes: no finding
+        assert runner.sides[0].model.ports[0].rate == -2   # and the once is over
+    finally:
+        runner.close()
