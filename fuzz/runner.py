@@ -438,11 +438,11 @@ class Runner:
                 continue
             self.stats.count("state")
             form = form_of(ev.fields)
-            # A device that got raw messages (write1/write2, tampered) may send data in another
-            # form (a combi it was told of directly): the form is not the model's to know then.
+            # The form follows the HAT's own selection and combi table (§6.1), whatever the
+            # device was sent (write1/write2 change what it sends, not how the HAT prints it).
             sources = [s[port] for s in states
                        if not s[port].known or (s[port].reporting(model.selrate_engine)
-                                                and (s[port].tampered or form in s[port].report_forms()))]
+                                                and form in s[port].report_forms())]
             if not sources:
                 before, after = (_selection(s[port], model.selrate_engine) for s in (states[0], states[-1]))
                 whose = before if before == after else f"{before} before the step, {after} after it"

@@ -128,6 +128,13 @@ def test_state_oracle_expects_reports_from_a_selected_mode(fault, finding):
     assert _oracle_after(fault, b"select 1\r", 400) == finding
 
 
+@pytest.mark.parametrize("fault,finding", [(None, None), ("combiform", "state")])
+def test_state_oracle_checks_the_form_of_a_combi_report(fault, finding):
+    """After `combi 0 ...` and `select 0` the HAT prints `P0C0:` (§6.1); one that prints `P0M0:`
+    fails, though the combi command reached the device (the form is the HAT's, not the device's)."""
+    assert _oracle_after(fault, b"combi 0 1 0 2 0 3 0\rselect 0\r", 400) == finding
+
+
 @pytest.mark.parametrize("fault,finding", [(None, None), ("plimit", "state")])
 def test_state_oracle_checks_the_drive_against_plimit(fault, finding):
     """`set 0.5` in direct PWM mode drives 0.1 * 255 (the default plimit, §7.3): 25, not more."""

@@ -10,7 +10,9 @@ Each class wraps ``buildhat_conformance.emulator.Emulator`` (the same Python API
 - :class:`DropsBytes`: every 1000th output byte is lost (a lossy link or TX ring);
 - :class:`MutesReports`: mode data lines (``P<p>M<m>: ...``) are never printed;
 - :class:`IgnoresPlimit`: the motor driver is driven as if plimit were 1 (a drive-path bug, seen
-  only through the emulator's drive events).
+  only through the emulator's drive events);
+- :class:`CombiAsMode`: combi data lines come out as mode data (``P<p>C<i>:`` as ``P<p>M<i>:``, a
+  printer that ignores the combi table).
 
 The same faults work as a byte proxy in front of ``buildhat-emulator --stdio`` (``proxy.py``),
 for ``cmd:`` targets. The trigger logic is :class:`FaultFilter`, shared by both.
@@ -24,7 +26,7 @@ from buildhat_conformance.emulator import Emulator
 from buildhat_conformance.fuzz.findings import split_lines
 
 __all__ = ["FaultFilter", "HangsOnList", "WrongCoast", "DropsBytes", "MutesReports", "IgnoresPlimit",
-           "FAULTS"]
+           "CombiAsMode", "FAULTS"]
 
 
 def _first_word(line: bytes) -> bytes:
@@ -39,8 +41,8 @@ class FaultFilter:
     """The fault as a filter on host lines and HAT output (no emulator knowledge)."""
 
     def __init__(self, kind: str):
-        if kind not in ("hang", "wrong", "drop", "mute", "plimit"):
-            raise ValueError(f"unknown planted fault {kind!r} (hang, wrong, drop, mute, plimit)")
+        if kind not in ("hang", "wrong", "drop", "mute", "plimit", "combiform"):
+            raise ValueError(f"unknown planted fault {kind!r} (hang, wrong, drop, mute, plimit, combiform)")
         self.kind = kind
         self.hung = False
         self.sent = 0                 # output bytes passed so far (for 'drop')
@@ -73,6 +75,8 @@ class FaultFilter:
                 data = data[:i + 2] + b"Error\r\n" + data[i + 2:]
         if self.kind == "mute":
             data = re.sub(rb"P[0-3]M\d+:[^\r]*\r\n", b"", data)
+        if self.kind == "combiform":
+            data = re.sub(rb"(P[0-3])C(\d+:)", rb"\1M\2", data)
         if self.kind == "drop":
             kept = bytearray()
             for b in data:
@@ -151,8 +155,12 @@ class IgnoresPlimit(_Planted):
         self.emu.on_event(skewed)
 
 
+class CombiAsMode(_Planted):
+    kind = "combiform"
+
+
 FAULTS = {"hang": HangsOnList, "wrong": WrongCoast, "drop": DropsBytes, "mute": MutesReports,
-          "plimit": IgnoresPlimit}
+          "plimit": IgnoresPlimit, "combiform": CombiAsMode}
 
 
 def planted(kind: str) -> Optional[type]:
