@@ -102,6 +102,18 @@ class PortModel:
         self.combi.clear()
         self.combi_unknown = frozenset()
 
+    def link_changed(self, type_id: Optional[int] = None) -> None:
+        """A device connected, went away or failed (§5): the select state resets (the model no
+        longer knows it) and the port reset (§4.2) drops the setpoint. ``type_id``: a device
+        with this type id finished its setup (``established``)."""
+        self.known = False
+        self.constant = None
+        if type_id is None:
+            self.device_modes = 0
+            self.clear_combis()     # a new connection clears the table (§8); none reports before it
+        else:
+            established(self, type_id)
+
 
 class HatModel:
     """The observable state of one HAT running ``profile``, and the parser that changes it."""
@@ -426,14 +438,6 @@ class HatModel:
         elif p.once and not p.var:
             p.mode = -1
 
-    def saw_link_change(self, port: int) -> None:
-        """A device on ``port`` connected or went away: its selection and combi records reset."""
-        p = self.ports[port]
-        p.clear_combis()
-        p.device_modes = 0
-        p.constant = None                        # the port reset (§4.2) and what follows it
-        p.known = False
-
 
 def expected_duty(profile: Profile, p: PortModel, global_plimit: int) -> Optional[Union[int, str]]:
     """The motor-driver duty (±255, or "coast") a port in direct-PWM mode settles at (§7.3), or
@@ -460,10 +464,14 @@ def _mode_count(type_id: int) -> int:
 
 
 def established(p: PortModel, type_id: int) -> None:
-    """An active device finished its setup on this port: a clean slate (§5)."""
+    """An active device finished its setup on this port (§5). The connection cleared the combi
+    table when it began; the facts do not say whether an entry set during the setup survives
+    (§8 keeps it in the slot of mode i's info, which the setup fills), so those entries, and any
+    the model did not see the connection begin after, are unknown."""
     p.device_modes = _mode_count(type_id)
     p.tampered = False
-    p.clear_combis()
+    p.combi_unknown = p.combi_unknown | frozenset(p.combi)
+    p.combi.clear()
 
 
 @cache

@@ -13,7 +13,7 @@ from ..protocol.profiles import Profile
 from .differential import compare_answers
 from .expect import Expect, LineFate, joined
 from .link import FENCE, Link, LinkTimeout
-from .model import HatModel, PortModel, established, expected_duty
+from .model import HatModel, PortModel, expected_duty
 from .oracles import raise_finding
 from .stream import MatchResult, Problem, allowed_kinds, match_stream, without_torn
 
@@ -423,15 +423,11 @@ class Runner:
             if port is None or not 0 <= port <= 3:
                 continue
             if ev.kind in _LINK_KINDS:
-                model.saw_link_change(port)
-                for s in states:
-                    s[port].clear_combis()
-                    s[port].known = False
-                    s[port].device_modes = 0
                 ident = ev.fields.get("id")
-                if ev.kind == "established" and isinstance(ident, int):
-                    for p in [model.ports[port]] + [s[port] for s in states]:
-                        established(p, ident)
+                type_id = ident if ev.kind == "established" and isinstance(ident, int) else None
+                # Every state of the step: which of them the line came after is not known.
+                for p in [model.ports[port]] + [s[port] for s in states]:
+                    p.link_changed(type_id)
                 continue
             form_of = _REPORT_FORMS.get(ev.kind)
             if form_of is None:

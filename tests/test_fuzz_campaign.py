@@ -159,3 +159,25 @@ def test_a_report_due_before_a_selonce_does_not_end_that_selonce():
         assert runner.sides[0].model.ports[0].rate == -2   # and the once is over
     finally:
         runner.close()
+
+
+def test_a_combi_set_while_a_device_connects_may_outlive_the_setup():
+    """`combi 0 ...` sent while a motor plugged into port 2 is still in its setup phase: the
+    facts say a reconnect clears the table, not whether an entry set during the setup survives
+    (§8), and this emulator keeps it. A `P2C0:` report after `select 0` is then no state finding
+    (the model once took `established` for an empty table and wanted `P2M0:`)."""
+    from buildhat_conformance.fuzz.runner import Runner
+    profile = get_profile("R7")
+    target = InProcessTarget("R7", devices=LAYOUT)
+    runner = Runner([("target", lambda: target, profile)], 0.3, True, devices=LAYOUT)
+    try:
+        runner.start()
+        target.control.action("@plug 2 0x30")
+        runner.wait(150)                                # "P2: connecting to active device"
+        runner.exchange([b"port 2\r", b"combi 0 1 0 2 0 3 0\r"])
+        runner.wait(3000)                               # ... "established ... ID 30"
+        assert runner.sides[0].model.ports[2].device_modes > 0, "the motor did not connect"
+        runner.exchange([b"select 0\r"])
+        runner.wait(400)
+    finally:
+        runner.close()
