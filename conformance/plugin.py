@@ -9,7 +9,9 @@ Options: ``--target URL`` (default ``emulator``), ``--firmware V`` (override det
 Target faults (conformance/target_fault.py) get the verdict ``target-fault``: a JUnit
 ``<error>`` whose message is one line saying what the target did. After N of them in a row the
 run stops talking to the target and every remaining case is reported ``not-run`` (a JUnit
-``<skipped>``) with the reason, so a hung HAT costs N cases, not the rest of the run.
+``<skipped>``) with the reason, so a hung HAT costs N cases, not the rest of the run. Before
+that, a target that can reset the HAT is reset once (conformance/recovery.py: ``--image`` and
+``--signature`` load the release again after it), and the run goes on if the HAT comes back.
 """
 from __future__ import annotations
 
@@ -26,6 +28,7 @@ from ..protocol.requirements import requirements
 from .junit import Case, JUnitFile
 from .link import Hat
 from .needs import World
+from .recovery import RecoveryFailed, ResetRecovery
 from .target_fault import TargetFault, fault_line, first_line, is_target_fault
 from .tee import TeeTarget, tee
 from .verdict import FAIL, INFO, KNOWN, NOT_RUN, PASS, SKIP, TARGET_FAULT, VERDICTS, UnknownBuild, Verdict
@@ -59,7 +62,12 @@ def pytest_addoption(parser: Any) -> None:
     group.addoption("--max-target-faults", type=int, default=DEFAULT_MAX_TARGET_FAULTS,
                     help="after this many target faults in a row (silent, dead, restarted, garbled, not "
                          "reading) stop talking to the target and report the remaining cases as not-run "
-                         f"(default {DEFAULT_MAX_TARGET_FAULTS}; 0: never stop)")
+                         f"(default {DEFAULT_MAX_TARGET_FAULTS}; 0: never stop); a target that can reset "
+                         "the HAT is reset once first")
+    group.addoption("--image", default=None, metavar="FILE",
+                    help="the release's firmware image, loaded again if the run resets a dead HAT (a real "
+                         "HAT restarts in its bootloader); with --signature")
+    group.addoption("--signature", default=None, metavar="FILE", help="the image's 64-byte signature")
 
 
 def pytest_configure(config: Any) -> None:
@@ -123,6 +131,8 @@ class Run:
         self.faults_in_a_row = 0
         self.stopped: Optional[str] = None      # why the run stopped talking to the target
         self.target_faults: List[Tuple[str, str]] = []    # (nodeid, what the target did)
+        self.recovery = ResetRecovery(config.getoption("image"), config.getoption("signature"))
+        self.reset_due: Optional[str] = None    # why the next case begins with the run's one reset
         self.junit = JUnitFile(config.getoption("conformance_junit"), "buildhat-conformance",
                                [("target", self.url)])
 
@@ -286,10 +296,47 @@ class Run:
         if self.stopped is None and (dead or self.max_target_faults and
                                      self.faults_in_a_row >= self.max_target_faults):
             why = "the target went away" if dead else f"{self.faults_in_a_row} target faults in a row"
-            self.stopped = f"{why}; the last: {what}"
-            self.junit.set_property("stopped", self.stopped)
-            if self.hat is not None:
-                self._close_quietly()
+            why = f"{why}; the last: {what}"
+            no_reset = self.recovery.why_not(self.tee) if self.tee is not None and self.hat is not None \
+                else "the target is closed"
+            if no_reset is None:
+                self.reset_due = why        # the next case begins with the run's one reset
+                return
+            self._stop(why if self.recovery.outcome is None else f"{why}; {no_reset}")
+
+    def _stop(self, why: str) -> None:
+        self.stopped = why
+        self.junit.set_property("stopped", self.stopped)
+        if self.hat is not None:
+            self._close_quietly()
+
+    def recover(self) -> None:
+        """The run's one reset of a HAT that stopped answering (conformance/recovery.py), its
+        bytes in their own transcript; the run goes on if the HAT comes back, else it stops."""
+        from ..harness.transcript import TranscriptWriter
+
+        due, self.reset_due = self.reset_due, None
+        assert self.hat is not None and self.tee is not None and due is not None
+        session = self.hat.session
+        writer = TranscriptWriter(os.path.join(self.transcripts, "_reset.jsonl"),
+                                  {"target": self.url, "firmware": _firmware_of(self.hat), "case": "reset"})
+        self.tee.switch(writer)
+        since = session.mark()
+        recovered = False
+        try:
+            self.recovery.attempt(session)
+            self.hat.after_reset(since)
+            self.faults_in_a_row = 0
+            recovered = True
+        except RecoveryFailed:
+            pass        # the outcome says why, in one line
+        finally:
+            self.tee.switch(None)
+            writer.close()
+        outcome = self.recovery.outcome or "reset the HAT once"
+        self.junit.set_property("reset", f"{outcome} (after {due})")
+        if not recovered:
+            self._stop(f"{due}; {outcome}")
 
     def _close_quietly(self) -> None:
         # Stop talking to the target now: a hung HAT must not be written to (or waited for) again.
@@ -342,6 +389,8 @@ class Run:
             tr.write_line(f"  {nodeid}: {what}")
         if len(self.target_faults) > 20:
             tr.write_line(f"  ... and {len(self.target_faults) - 20} more target faults (JUnit has them all)")
+        if self.recovery.outcome:
+            tr.write_line(self.recovery.outcome, yellow=True)
         if self.stopped:
             tr.write_line(f"stopped talking to the target: {self.stopped}", yellow=True)
         hat = self.hat
@@ -398,6 +447,8 @@ def _conformance_case(request: Any, _run: Run) -> Any:
     item.user_properties.extend([("requirements", ",".join(ids)), ("target", _run.url)])
     if _run.stopped is None and _run.tee is not None and _run.tee.dead:
         _run.stopped = f"the target went away ({first_line(_run.tee.dead)})"
+    if _run.stopped is None and _run.reset_due is not None:
+        _run.recover()
     if _run.stopped is not None:
         item.stash[_not_run_key] = _run.stopped
         pytest.skip(f"not run: {_run.stopped}")
