@@ -67,3 +67,15 @@ def test_the_cli_refuses_a_hang_after_below_one():
                           capture_output=True, text=True, timeout=30)
     assert proc.returncode == 2
     assert proc.stderr.strip().splitlines()[-1].endswith("--hang-after must be at least 1 line, got 0")
+
+
+def test_a_hat_that_hangs_mid_answer_is_silent_not_garbled():
+    from buildhat_conformance.conformance.target_fault import GARBLED, SILENT, describe_silence
+    from buildhat_conformance.harness.events import LineSplitter
+
+    hat_lines = b"\r\nFirmware version: 1737564117 2025-01-22T16:41:57+00:00\r\n"
+    events = LineSplitter().feed(hat_lines, 0.0)
+    fault = describe_silence(hat_lines, events, 3.0)
+    assert fault.kind == SILENT and "then no answer to `version`" in fault.what
+    junk = b"zzzz nonsense\r\n" * 3
+    assert describe_silence(junk, LineSplitter().feed(junk, 0.0), 3.0).kind == GARBLED
