@@ -19,26 +19,24 @@ import hashlib
 import os
 import re
 import time
-from collections import defaultdict
 from typing import Any, Dict, List, Optional, Tuple
 
 import pytest
 
-from ..protocol.requirements import requirements
 from .junit import Case, JUnitFile
 from .link import Hat
 from .needs import World
 from .recovery import RecoveryFailed, ResetRecovery
+from .summary import firmware_of, write_summary
 from .target_fault import TargetFault, fault_line, first_line, is_target_fault
 from .tee import TeeTarget, tee
-from .verdict import FAIL, INFO, KNOWN, NOT_RUN, PASS, SKIP, TARGET_FAULT, VERDICTS, UnknownBuild, Verdict
+from .verdict import FAIL, INFO, KNOWN, NOT_RUN, PASS, SKIP, TARGET_FAULT, UnknownBuild, Verdict
 
 DEFAULT_CASE_TIMEOUT = 120.0
 DEFAULT_MAX_TARGET_FAULTS = 5
 # The exit statuses every command shares (README): 0 conforms, 1 conformance failures, 2 usage
 # error, 3 target unreachable or faulted.
 EXIT_OK, EXIT_FAILED, EXIT_TARGET = 0, 1, 3
-FW_AREA = "Firmware facts (FW-)"
 
 _verdict_key = pytest.StashKey[Verdict]()
 _not_run_key = pytest.StashKey[str]()          # why the case was not run
@@ -91,15 +89,6 @@ def requirement_ids(item: Any) -> List[str]:
     for mark in item.iter_markers("req"):
         ids.extend(str(a) for a in mark.args)
     return ids
-
-
-def area_of(req_id: str) -> str:
-    if req_id.startswith("FW-"):
-        return FW_AREA
-    for r in requirements():
-        if r.id == req_id:
-            return r.area
-    return "Unknown IDs"
 
 
 def transcript_name(nodeid: str) -> str:
@@ -319,7 +308,7 @@ class Run:
         assert self.hat is not None and self.tee is not None and due is not None
         session = self.hat.session
         writer = TranscriptWriter(os.path.join(self.transcripts, "_reset.jsonl"),
-                                  {"target": self.url, "firmware": _firmware_of(self.hat), "case": "reset"})
+                                  {"target": self.url, "firmware": firmware_of(self.hat), "case": "reset"})
         self.tee.switch(writer)
         since = session.mark()
         recovered = False
@@ -364,52 +353,11 @@ class Run:
         return EXIT_OK
 
     def pytest_terminal_summary(self, terminalreporter: Any) -> None:
-        tr = terminalreporter
-        if not self.results:
-            return
-        tr.section("conformance by requirement area")
-        per_area: Dict[str, Dict[str, int]] = defaultdict(lambda: defaultdict(int))
-        covered = set()
-        for cls, ids in self.results.values():
-            for rid in set(ids):
-                covered.add(rid)
-                per_area[area_of(rid)][cls] += 1
-        classes = VERDICTS
-        tr.write_line(f"{'area':<32}" + "".join(f"{c:>16}" for c in classes))
-        areas = [r.area for r in requirements()]
-        for area in sorted(per_area, key=lambda a: (areas.index(a) if a in areas else 99, a)):
-            tr.write_line(f"{area:<32}" + "".join(f"{per_area[area][c]:>16}" for c in classes))
-        all_ids = [r.id for r in requirements()]
-        missing = [rid for rid in all_ids if rid not in covered]
-        tr.write_line(f"requirement IDs with no test run: {len(missing)} of {len(all_ids)}"
-                      + (f" ({', '.join(missing)})" if missing else ""))
-        counts = {c: sum(1 for cls, _ in self.results.values() if cls == c) for c in VERDICTS}
-        tr.write_line("verdicts: " + ", ".join(f"{counts[c]} {c}" for c in VERDICTS if counts[c]))
-        for nodeid, what in self.target_faults[:20]:
-            tr.write_line(f"  {nodeid}: {what}")
-        if len(self.target_faults) > 20:
-            tr.write_line(f"  ... and {len(self.target_faults) - 20} more target faults (JUnit has them all)")
-        if self.recovery.outcome:
-            tr.write_line(self.recovery.outcome, yellow=True)
-        if self.stopped:
-            tr.write_line(f"stopped talking to the target: {self.stopped}", yellow=True)
-        hat = self.hat
-        if hat is not None:
-            p = hat.profile
-            exact = "" if hat.profile_exact else \
-                " - unknown version, judged as the nearest earlier release"
-            judged = " (--firmware)" if self.config.getoption("firmware") else ""
-            tr.write_line(f"target {self.url}: firmware {_firmware_of(hat)} judged as profile "
-                          f"{p.name}{judged}{exact}")
-        tr.write_line(f"JUnit: {self.junit.path}   transcripts: {self.transcripts}")
+        if self.results:
+            write_summary(terminalreporter, self)
 
 
 _run_key = pytest.StashKey[Run]()
-
-
-def _firmware_of(hat: Hat) -> str:
-    """What the target runs (its `version` answer); the profile it is judged as may differ."""
-    return getattr(hat.session, "version_string", "") or hat.profile.version_string
 
 
 def _failure_line(report: Any) -> str:
@@ -460,14 +408,14 @@ def _conformance_case(request: Any, _run: Run) -> Any:
     path = os.path.join(_run.transcripts, transcript_name(item.nodeid) + ".jsonl")
     p = hat.profile
     item.user_properties.extend([
-        ("firmware", _firmware_of(hat)),
+        ("firmware", firmware_of(hat)),
         ("profile", p.name if hat.profile_exact else f"{p.name} (nearest earlier)"), ("transcript", path)])
     if between:
         verdict.note(f"unknown build between {between[0].name} and {between[1].name}: judged by the "
                      "document; where they differ, informational")
     elif not hat.profile_exact:
         verdict.note(f"unknown firmware version; judged as {p.name}, the nearest earlier release")
-    writer = TranscriptWriter(path, {"firmware": _firmware_of(hat), "target": _run.url, "case": item.nodeid,
+    writer = TranscriptWriter(path, {"firmware": firmware_of(hat), "target": _run.url, "case": item.nodeid,
                                      "requirements": ids, "profile": p.name})
     _run.tee.switch(writer)
     waited = getattr(hat.session, "waited_hat_ms", 0.0)   # H10: see Session.note_wait
