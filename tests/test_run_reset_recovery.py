@@ -62,6 +62,7 @@ def test_a_hung_hat_is_reset_once_and_the_run_goes_on(tmp_path):
     assert after, "the hang came too late in the subset to show the run going on"
     assert {n: hung[n] for n in after} == {n: clean[n] for n in after}
     assert "reset the HAT once; it answers again" in out
+    assert "reset: reset the HAT once; it answers again" in (tmp_path / "hung" / "index.html").read_text()
     assert code == 3          # the target faulted, and nothing failed the protocol
 
 
