@@ -38,6 +38,8 @@ __all__ = ["add_arguments", "main", "detect_profile", "opener_for", "is_fresh", 
 DEFAULT_OUT = os.path.join("reports", "fuzz")
 DEFAULT_TARGET = "inprocess"
 _FRESH_SCHEMES = ("inprocess", "emulator", "cmd")   # every open starts a new, freshly booted HAT
+# A finding whose run began on a target that earlier runs left (kept open) says so.
+_KEPT_OPEN = "a target earlier runs had left open; a freshly started one may not reproduce it"
 # On a wire the firmware's 8192-byte TX ring must never fill: one exchange may print this much.
 OUT_LIMIT = 6000
 
@@ -230,6 +232,7 @@ def run(args: argparse.Namespace, primary: Optional[Callable[[], Target]] = None
         header = [f"target: {target}"] + ([f"against: {args.against}"] if args.against else []) + [
             f"release: {release}", f"seed: {seed}  run seed: {f.run_seed}  budget: {budget}",
             f"reproduced: {f.reproduced}/{f.attempts} replays",
+            *([] if f.finding.details.get("fresh", True) else [f"began on: {_KEPT_OPEN}"]),
             f"reproduce: {shlex.join(reproduce_cmd)}",
             f"replay: {shlex.join(['buildhat-conformance', 'script', '--target', target, script_path])}",
             f"finding: {f.finding.message[:300]}"]
@@ -279,6 +282,8 @@ def _summary(result: CampaignResult, stats: Stats, productions, files, junit: st
         again = f", seen {f.also_seen} more time(s)" if f.also_seen else ""
         print(f"  FINDING [{f.oracle}] (reproduced {f.reproduced}/{f.attempts}{again}): "
               f"{f.finding.message[:400]}")
+        if not f.finding.details.get("fresh", True):
+            print(f"      began on {_KEPT_OPEN}")
         for what, path in files.get(f.oracle, {}).items():
             print(f"      {what}: {path}")
     for finding, tries in result.unconfirmed:
@@ -289,7 +294,7 @@ def _summary(result: CampaignResult, stats: Stats, productions, files, junit: st
         print("  interrupted (Ctrl-C): the figures and findings above cover what ran")
 
 
-_HEADER = re.compile(r"^;; (target|against|release): (.*)$", re.M)
+_HEADER = re.compile(r"^;; (target|against|release|began on): (.*)$", re.M)
 _ORACLE_OF = re.compile(r"^fuzz finding \((\w+)\)")
 
 
@@ -332,6 +337,8 @@ def reproduce(args: argparse.Namespace, primary: Optional[Callable[[], Target]] 
         print(f"reproduced ({hits}/{attempts} replays) on {where}: [{first.oracle}] {first.message[:400]}")
     else:
         print(f"not reproduced (0/{attempts} replays) on {where}")
+        if "began on" in recorded and is_fresh(target):
+            print(f"  the finding began on {recorded['began on']}")
     for f in others[:1]:
         print(f"  {len(others)} replay(s) failed otherwise, first: [{f.oracle}] {f.message[:300]}")
     return 1 if first is not None else 0

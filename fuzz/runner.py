@@ -475,5 +475,6 @@ class Runner:
     def fail(self, oracle: str, message: str, details: dict) -> None:
         traces = [s.link.trace.copy() for s in self.sides]
         profiles = [s.profile.name for s in self.sides]
-        raise_finding(oracle, message, traces, dict(details, profiles=profiles))
+        # ``fresh``: the run began on a freshly started target (not one earlier runs left open).
+        raise_finding(oracle, message, traces, dict(details, profiles=profiles, fresh=self.fresh))
 

@@ -70,6 +70,17 @@ def _coast_script(path: pathlib.Path) -> pathlib.Path:
     return path
 
 
+def test_not_reproduced_on_a_fresh_target_recalls_a_finding_that_began_on_a_kept_open_one(tmp_path):
+    script = _coast_script(tmp_path / "coast.script")
+    text = script.read_text(encoding="utf-8")
+    script.write_text(";; began on: a target earlier runs had left open; a freshly started one may not "
+                      "reproduce it\n" + text, encoding="utf-8")
+    res = _fuzz("--reproduce", str(script), "--target", "inprocess:R7", "--confirm", "1")
+    assert res.returncode == 0, res.stdout + res.stderr
+    assert res.stdout.startswith("not reproduced (0/1 replays)")
+    assert "the finding began on a target earlier runs had left open" in res.stdout, res.stdout
+
+
 def test_reproduce_says_reproduced_with_exit_1_and_not_reproduced_with_exit_0(tmp_path):
     script = _coast_script(tmp_path / "fate.script")
     bad = _fuzz("--reproduce", str(script), "--target", _proxy_url("wrong"), "--confirm", "2")

@@ -58,3 +58,23 @@ def test_a_combi_the_run_cleared_is_known_again():
     still expects that report (the oracle is not switched off by what run 1 left)."""
     finding = _runs([b"combi 0 1 0 2 0 3 0\r"], [b"combi 0\r", b"select 0\r"])
     assert finding is None, finding.message
+
+
+@pytest.mark.parametrize("fresh", [True, False])
+def test_a_finding_says_whether_its_run_began_on_a_fresh_target(fresh):
+    """The finding's script and summary say when the run began on a HAT earlier runs had left,
+    where a fresh `fuzz --reproduce` may not reproduce it (fuzz/cli.py reads this flag)."""
+    import importlib.util
+    import pathlib
+    spec = importlib.util.spec_from_file_location(
+        "planted_faults", pathlib.Path(__file__).parent / "planted" / "faults.py")
+    faults = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(faults)
+    empty = {0: None, 1: None, 2: None, 3: None}
+    target = InProcessTarget("R7", devices=empty, factory=faults.FAULTS["wrong"])
+    runner = Runner([("target", lambda: target, get_profile("R7"))], 0.3, fresh, devices=empty)
+    with pytest.raises(Finding) as caught:
+        runner.start()
+        runner.exchange([b"co\r"])          # the planted fault: `coast` answers Error
+    runner.close()
+    assert caught.value.details["fresh"] is fresh
