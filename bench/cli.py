@@ -80,6 +80,8 @@ def _groups(quick: bool) -> List[Group]:
         ("target that stops reading", lambda: target_faults.dead_target("deaf"), [
             (Figure("time to give up on a target that stops reading", "s", "<= 30 s", target=30.0),
              "declare_s")], 1),
+        ("hung HAT reset", target_faults.hung_and_reset, [
+            (Figure("time from a hung HAT to a passing case again (reset once)", "s"), "recover_s")], 1),
         ("flood memory", lambda: target_faults.flood_memory(20.0 if quick else target_faults.FLOOD_SECONDS), [
             (Figure("harness peak RSS, HAT flooding 3,000 lines/s", "MiB", "< 150 MB", target=143.0),
              "rss_mib"),

@@ -9,6 +9,9 @@ figures are blank and say why.
   reading its input) mid-run; the time from the start of the first case that met the fault to
   the run no longer talking to the target (``--max-target-faults``, default 5 in a row). Read
   from the run's JUnit file (per-case times).
+- *A hung HAT reset*: ``buildhat-conformance run`` on the emulator with its hung-firmware fault;
+  the time from the first case that met the hang to the first case that passed again after the
+  run's one reset (conformance/recovery.py).
 - *Memory under a flood*: ``buildhat-conformance script`` waiting while the HAT floods 3,000
   lines/s; the harness process's peak resident memory (VmHWM), and whether the transcript on
   disk holds every flooded line. The issue's figure is a 10-minute flood (< 150 MB); ``make
@@ -68,6 +71,34 @@ def dead_target(kind: str = "silent") -> Dict:
         raise RuntimeError(f"the {kind} HAT caused no target fault")
     return {"declare_s": sum(faults), "faults": len(faults), "wall_s": wall,
             "note": f"{len(faults)} target faults, then {not_run} cases not run; run {wall:.0f} s"}
+
+
+def hung_and_reset(hang_after: int = 60) -> Dict:
+    """Seconds from the first case that met a hung HAT (the emulator's ``?hang_after=N`` fault,
+    at real time) to the end of the first case that passed again after the run's one reset."""
+    target = f"emulator:?hang_after={hang_after}&speed=1"
+    with tempfile.TemporaryDirectory(prefix="bench-hang-") as tmp:
+        junit = os.path.join(tmp, "junit.xml")
+        subprocess.run([*_command("buildhat-conformance"), "run", "--target", target,
+                        "-k", "test_abbreviation", "--junit", junit],
+                       stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, timeout=600, cwd=tmp)
+        root = ET.parse(junit).getroot()
+        props = {p.get("name"): p.get("value") for p in root.iter("property")}
+        spent, faults, back = 0.0, 0, False
+        for case in root.iter("testcase"):
+            verdict = {p.get("name"): p.get("value") for p in case.iter("property")}.get("verdict")
+            if verdict == "target-fault":
+                faults += 1
+            if faults:
+                spent += float(case.get("time") or 0.0)
+                if verdict != "target-fault":
+                    back = True
+                    break
+    if not faults or not back:
+        raise RuntimeError(f"no recovery: {faults} target faults; "
+                           f"{props.get('stopped') or props.get('reset') or 'the hang came too late'}")
+    outcome = (props.get("reset") or "").split(" (after ")[0]
+    return {"recover_s": spent, "note": f"{faults} target faults, then {outcome}"}
 
 
 def _peak_rss_kib(pid: int) -> Optional[int]:

@@ -9,7 +9,9 @@ Options: ``--target URL`` (default ``emulator``), ``--firmware V`` (override det
 Target faults (conformance/target_fault.py) get the verdict ``target-fault``: a JUnit
 ``<error>`` whose message is one line saying what the target did. After N of them in a row the
 run stops talking to the target and every remaining case is reported ``not-run`` (a JUnit
-``<skipped>``) with the reason, so a hung HAT costs N cases, not the rest of the run.
+``<skipped>``) with the reason, so a hung HAT costs N cases, not the rest of the run. Before
+that, a target that can reset the HAT is reset once (conformance/recovery.py: ``--image`` and
+``--signature`` load the release again after it), and the run goes on if the HAT comes back.
 """
 from __future__ import annotations
 
@@ -17,25 +19,24 @@ import hashlib
 import os
 import re
 import time
-from collections import defaultdict
 from typing import Any, Dict, List, Optional, Tuple
 
 import pytest
 
-from ..protocol.requirements import requirements
 from .junit import Case, JUnitFile
 from .link import Hat
 from .needs import World
+from .recovery import RecoveryFailed, ResetRecovery
+from .summary import firmware_of, write_summary
 from .target_fault import TargetFault, fault_line, first_line, is_target_fault
 from .tee import TeeTarget, tee
-from .verdict import FAIL, INFO, KNOWN, NOT_RUN, PASS, SKIP, TARGET_FAULT, VERDICTS, UnknownBuild, Verdict
+from .verdict import FAIL, INFO, KNOWN, NOT_RUN, PASS, SKIP, TARGET_FAULT, UnknownBuild, Verdict
 
 DEFAULT_CASE_TIMEOUT = 120.0
 DEFAULT_MAX_TARGET_FAULTS = 5
 # The exit statuses every command shares (README): 0 conforms, 1 conformance failures, 2 usage
 # error, 3 target unreachable or faulted.
 EXIT_OK, EXIT_FAILED, EXIT_TARGET = 0, 1, 3
-FW_AREA = "Firmware facts (FW-)"
 
 _verdict_key = pytest.StashKey[Verdict]()
 _not_run_key = pytest.StashKey[str]()          # why the case was not run
@@ -59,7 +60,12 @@ def pytest_addoption(parser: Any) -> None:
     group.addoption("--max-target-faults", type=int, default=DEFAULT_MAX_TARGET_FAULTS,
                     help="after this many target faults in a row (silent, dead, restarted, garbled, not "
                          "reading) stop talking to the target and report the remaining cases as not-run "
-                         f"(default {DEFAULT_MAX_TARGET_FAULTS}; 0: never stop)")
+                         f"(default {DEFAULT_MAX_TARGET_FAULTS}; 0: never stop); a target that can reset "
+                         "the HAT is reset once first")
+    group.addoption("--image", default=None, metavar="FILE",
+                    help="the release's firmware image, loaded again if the run resets a dead HAT (a real "
+                         "HAT restarts in its bootloader); with --signature")
+    group.addoption("--signature", default=None, metavar="FILE", help="the image's 64-byte signature")
 
 
 def pytest_configure(config: Any) -> None:
@@ -83,15 +89,6 @@ def requirement_ids(item: Any) -> List[str]:
     for mark in item.iter_markers("req"):
         ids.extend(str(a) for a in mark.args)
     return ids
-
-
-def area_of(req_id: str) -> str:
-    if req_id.startswith("FW-"):
-        return FW_AREA
-    for r in requirements():
-        if r.id == req_id:
-            return r.area
-    return "Unknown IDs"
 
 
 def transcript_name(nodeid: str) -> str:
@@ -123,6 +120,8 @@ class Run:
         self.faults_in_a_row = 0
         self.stopped: Optional[str] = None      # why the run stopped talking to the target
         self.target_faults: List[Tuple[str, str]] = []    # (nodeid, what the target did)
+        self.recovery = ResetRecovery(config.getoption("image"), config.getoption("signature"))
+        self.reset_due: Optional[str] = None    # why the next case begins with the run's one reset
         self.junit = JUnitFile(config.getoption("conformance_junit"), "buildhat-conformance",
                                [("target", self.url)])
 
@@ -286,10 +285,47 @@ class Run:
         if self.stopped is None and (dead or self.max_target_faults and
                                      self.faults_in_a_row >= self.max_target_faults):
             why = "the target went away" if dead else f"{self.faults_in_a_row} target faults in a row"
-            self.stopped = f"{why}; the last: {what}"
-            self.junit.set_property("stopped", self.stopped)
-            if self.hat is not None:
-                self._close_quietly()
+            why = f"{why}; the last: {what}"
+            no_reset = self.recovery.why_not(self.tee) if self.tee is not None and self.hat is not None \
+                else "the target is closed"
+            if no_reset is None:
+                self.reset_due = why        # the next case begins with the run's one reset
+                return
+            self._stop(why if self.recovery.outcome is None else f"{why}; {no_reset}")
+
+    def _stop(self, why: str) -> None:
+        self.stopped = why
+        self.junit.set_property("stopped", self.stopped)
+        if self.hat is not None:
+            self._close_quietly()
+
+    def recover(self) -> None:
+        """The run's one reset of a HAT that stopped answering (conformance/recovery.py), its
+        bytes in their own transcript; the run goes on if the HAT comes back, else it stops."""
+        from ..harness.transcript import TranscriptWriter
+
+        due, self.reset_due = self.reset_due, None
+        assert self.hat is not None and self.tee is not None and due is not None
+        session = self.hat.session
+        writer = TranscriptWriter(os.path.join(self.transcripts, "_reset.jsonl"),
+                                  {"target": self.url, "firmware": firmware_of(self.hat), "case": "reset"})
+        self.tee.switch(writer)
+        since = session.mark()
+        recovered = False
+        try:
+            self.recovery.attempt(session)
+            self.hat.after_reset(since)
+            self.faults_in_a_row = 0
+            recovered = True
+        except RecoveryFailed:
+            pass        # the outcome says why, in one line
+        finally:
+            self.tee.switch(None)
+            writer.close()
+        outcome = self.recovery.outcome or "reset the HAT once"
+        self.junit.set_property("reset", f"{outcome} (after {due})")
+        if not recovered:
+            self._stop(f"{due}; {outcome}")
 
     def _close_quietly(self) -> None:
         # Stop talking to the target now: a hung HAT must not be written to (or waited for) again.
@@ -317,50 +353,11 @@ class Run:
         return EXIT_OK
 
     def pytest_terminal_summary(self, terminalreporter: Any) -> None:
-        tr = terminalreporter
-        if not self.results:
-            return
-        tr.section("conformance by requirement area")
-        per_area: Dict[str, Dict[str, int]] = defaultdict(lambda: defaultdict(int))
-        covered = set()
-        for cls, ids in self.results.values():
-            for rid in set(ids):
-                covered.add(rid)
-                per_area[area_of(rid)][cls] += 1
-        classes = VERDICTS
-        tr.write_line(f"{'area':<32}" + "".join(f"{c:>16}" for c in classes))
-        areas = [r.area for r in requirements()]
-        for area in sorted(per_area, key=lambda a: (areas.index(a) if a in areas else 99, a)):
-            tr.write_line(f"{area:<32}" + "".join(f"{per_area[area][c]:>16}" for c in classes))
-        all_ids = [r.id for r in requirements()]
-        missing = [rid for rid in all_ids if rid not in covered]
-        tr.write_line(f"requirement IDs with no test run: {len(missing)} of {len(all_ids)}"
-                      + (f" ({', '.join(missing)})" if missing else ""))
-        counts = {c: sum(1 for cls, _ in self.results.values() if cls == c) for c in VERDICTS}
-        tr.write_line("verdicts: " + ", ".join(f"{counts[c]} {c}" for c in VERDICTS if counts[c]))
-        for nodeid, what in self.target_faults[:20]:
-            tr.write_line(f"  {nodeid}: {what}")
-        if len(self.target_faults) > 20:
-            tr.write_line(f"  ... and {len(self.target_faults) - 20} more target faults (JUnit has them all)")
-        if self.stopped:
-            tr.write_line(f"stopped talking to the target: {self.stopped}", yellow=True)
-        hat = self.hat
-        if hat is not None:
-            p = hat.profile
-            exact = "" if hat.profile_exact else \
-                " - unknown version, judged as the nearest earlier release"
-            judged = " (--firmware)" if self.config.getoption("firmware") else ""
-            tr.write_line(f"target {self.url}: firmware {_firmware_of(hat)} judged as profile "
-                          f"{p.name}{judged}{exact}")
-        tr.write_line(f"JUnit: {self.junit.path}   transcripts: {self.transcripts}")
+        if self.results:
+            write_summary(terminalreporter, self)
 
 
 _run_key = pytest.StashKey[Run]()
-
-
-def _firmware_of(hat: Hat) -> str:
-    """What the target runs (its `version` answer); the profile it is judged as may differ."""
-    return getattr(hat.session, "version_string", "") or hat.profile.version_string
 
 
 def _failure_line(report: Any) -> str:
@@ -398,6 +395,8 @@ def _conformance_case(request: Any, _run: Run) -> Any:
     item.user_properties.extend([("requirements", ",".join(ids)), ("target", _run.url)])
     if _run.stopped is None and _run.tee is not None and _run.tee.dead:
         _run.stopped = f"the target went away ({first_line(_run.tee.dead)})"
+    if _run.stopped is None and _run.reset_due is not None:
+        _run.recover()
     if _run.stopped is not None:
         item.stash[_not_run_key] = _run.stopped
         pytest.skip(f"not run: {_run.stopped}")
@@ -409,14 +408,14 @@ def _conformance_case(request: Any, _run: Run) -> Any:
     path = os.path.join(_run.transcripts, transcript_name(item.nodeid) + ".jsonl")
     p = hat.profile
     item.user_properties.extend([
-        ("firmware", _firmware_of(hat)),
+        ("firmware", firmware_of(hat)),
         ("profile", p.name if hat.profile_exact else f"{p.name} (nearest earlier)"), ("transcript", path)])
     if between:
         verdict.note(f"unknown build between {between[0].name} and {between[1].name}: judged by the "
                      "document; where they differ, informational")
     elif not hat.profile_exact:
         verdict.note(f"unknown firmware version; judged as {p.name}, the nearest earlier release")
-    writer = TranscriptWriter(path, {"firmware": _firmware_of(hat), "target": _run.url, "case": item.nodeid,
+    writer = TranscriptWriter(path, {"firmware": firmware_of(hat), "target": _run.url, "case": item.nodeid,
                                      "requirements": ids, "profile": p.name})
     _run.tee.switch(writer)
     waited = getattr(hat.session, "waited_hat_ms", 0.0)   # H10: see Session.note_wait

@@ -107,6 +107,16 @@ class Resync:
             raise TargetFault(REBOOTED, "the HAT restarted during this case (its start-up banner came: "
                                         f"{self.session.events[banner].text!r})")
 
+    def after_reset(self, since: int) -> None:
+        """The run reset the HAT (conformance/recovery.py) at event index ``since``: the next
+        set-up waits for its start-up and restores the preconditions, as after a restart, without
+        counting it as one the HAT did by itself."""
+        self.rebooted = True
+        self._restart_asked = True
+        self._restart_at = since
+        self._scanned = self.session.mark()
+        self._powered_checked = False
+
     def babble(self) -> Optional[TargetFault]:
         """A target fault if the target babbled during this case: binary garbage, or a flood of
         lines no Build HAT prints that goes on while the host asks nothing. A check that failed

@@ -68,11 +68,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("-k", dest="keyword", default=None, help="only tests matching this pytest expression")
     parser.add_argument("--operator", action="store_true", help="ask a person for plug/unplug actions")
     parser.add_argument("--max-target-faults", type=int, default=None, metavar="N",
-                        help="after N target faults in a row stop talking to the target and report the "
-                             "remaining cases as not run (default 5; 0: never stop)")
+                        help="after N target faults in a row reset the HAT once if the target can (the "
+                             "emulator, or ?reset=gpio on a Raspberry Pi) and go on if it comes back; else "
+                             "stop talking to the target and report the remaining cases as not run "
+                             "(default 5; 0: never stop)")
     parser.add_argument("--image", default=None, metavar="FILE",
-                        help="load this firmware image through the HAT's bootloader before the suite "
-                             "(with --signature; as 'buildhat-conformance load')")
+                        help="load this firmware image through the HAT's bootloader before the suite, "
+                             "and again if the run resets a dead HAT (with --signature; as "
+                             "'buildhat-conformance load')")
     parser.add_argument("--signature", default=None, metavar="FILE", help="the image's 64-byte signature")
 
 
@@ -119,6 +122,9 @@ def pytest_argv(args: argparse.Namespace) -> List[str]:
         argv += ["-k", args.keyword]
     if getattr(args, "max_target_faults", None) is not None:
         argv += ["--max-target-faults", str(args.max_target_faults)]
+    if getattr(args, "image", None) and getattr(args, "signature", None):
+        # loaded before the suite (load_image_first) and again if the run resets a dead HAT
+        argv += ["--image", os.path.abspath(args.image), "--signature", os.path.abspath(args.signature)]
     if args.operator:
         argv += ["--operator", "-s"]
     return argv + extra

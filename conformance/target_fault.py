@@ -83,6 +83,10 @@ def describe_silence(received: bytes, events: Sequence[Any], waited_s: float) ->
         return TargetFault(GARBLED, f"{len(received):,} bytes of binary garbage and no answer to `version` "
                                     f"in {waited_s:.1f} s")
     unknown = sum(1 for e in events if getattr(e, "kind", "") == "unknown")
+    if unknown == 0:
+        # Only what a Build HAT prints, then nothing more: it stopped (hung) mid-answer.
+        return TargetFault(SILENT, f"{len(events):,} line(s) of Build HAT output, then no answer to "
+                                   f"`version` in {waited_s:.1f} s")
     return TargetFault(GARBLED, f"{len(events):,} lines ({unknown:,} of them no Build HAT output) but no "
                                 f"answer to `version` in {waited_s:.1f} s")
 

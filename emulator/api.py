@@ -16,6 +16,7 @@ from typing import Any, Callable, Dict, List, Mapping, Optional, Union
 from ..protocol.devices import DEFAULT_LAYOUT, format_device_spec, parse_device_spec
 from ..protocol.profiles import Profile, get_profile, load_profiles
 from .bootloader import Bootloader, bootloader_checksum
+from .hang import HangTrigger, Hung
 from .hat import DEFAULT_ADC, Hat
 from .reset_pins import HeldInReset
 from .uart import Uart
@@ -48,8 +49,11 @@ class Emulator:
                  devices: Optional[Mapping[int, DeviceSpec]] = None,
                  version_string: Optional[str] = None, bootloader: bool = False, seed: int = 0,
                  baud: Optional[int] = None, bootloader_key: Union[bytes, str, None] = None,
-                 record_events: bool = True):
+                 record_events: bool = True, hang_after: Optional[int] = None):
         self.profile: Profile = get_profile(firmware)
+        # Fault injection (emulator/hang.py): the firmware hangs after the host's Nth line, once.
+        self._hang = HangTrigger(hang_after)
+        self._signature: Optional[bytes] = None     # the running image's, kept over a reset
         self.devices = _layout(devices)
         self.version_string = version_string
         self.seed = seed
@@ -78,6 +82,7 @@ class Emulator:
 
     def _start_firmware(self, profile: Profile, signature: Optional[bytes] = None) -> None:
         self.profile = profile
+        self._signature = signature
         self.uart.resize(8192, 8192)
         self.machine = Hat(profile, self.uart, version_string=self.version_string,
                            signature=signature, event_sink=self._sink, now=self._now, seed=self.seed)
@@ -124,6 +129,12 @@ class Emulator:
         bootloader upload arrives whole). During the start-up nobody reads the ring and what
         does not fit is dropped, as on the HAT."""
         data = bytes(data)
+        cut = self._hang.split(data) if self.hat is not None else None
+        if cut is not None:
+            self.write(data[:cut])
+            self.hang()
+            self.uart.host_write(data[cut:])    # into the ring of a firmware that no longer reads
+            return
         if self.uart.baud is not None:
             self.uart.host_write(data)
             self.machine.poll()
@@ -231,7 +242,8 @@ class Emulator:
     # -- world -----------------------------------------------------------------------------
     def world(self, line: str) -> str:
         """A world action as written in a script (``@plug 1 0x30``), or ``@reset [bootloader]``,
-        ``@time``, ``@firmware``. Returns ``ok`` / ``ok <value>``; raises WorldError."""
+        ``@time``, ``@firmware``, ``@hang`` (fault injection). Returns ``ok`` / ``ok <value>``;
+        raises WorldError."""
         words = line.split()
         if not words:
             raise WorldError("empty action")
@@ -241,9 +253,16 @@ class Emulator:
                 raise WorldError("@reset takes nothing or 'bootloader'")
             self.reset(bootloader=bool(words[1:]))
             return "ok"
+        if head == "@hang":
+            if words[1:]:
+                raise WorldError("@hang takes nothing")
+            self.hang()
+            return "ok"
         if head == "@time":
             return f"ok {self._now}"
         if head == "@firmware":
+            if isinstance(self.machine, Hung):
+                return "ok hung"
             if isinstance(self.machine, HeldInReset):
                 return "ok reset"
             if self.in_bootloader:
@@ -262,6 +281,15 @@ class Emulator:
         """RESET held low (emulator/reset_pins.py): the chip stops until :meth:`reset` releases it."""
         self.machine = HeldInReset(self.uart, now=self._now)
 
+    def arm_hang(self, lines: int) -> None:
+        """Fault injection: hang once, after the host's next ``lines`` lines."""
+        self._hang = HangTrigger(lines)
+
+    def hang(self) -> None:
+        """The firmware stops (emulator/hang.py) until a reset."""
+        self.note("the firmware hangs (fault injection): nothing is read or printed until a reset")
+        self.machine = Hung(self.uart, now=self._now)
+
     def note(self, text: str) -> None:
         """A transcript ``note`` event at the current time (a remark by the tool)."""
         self._sink("note", self._now, {"text": text})
@@ -271,4 +299,4 @@ class Emulator:
         if bootloader:
             self._start_bootloader()
         else:
-            self._start_firmware(self.profile, signature=getattr(self.hat, "signature", None))
+            self._start_firmware(self.profile, signature=self._signature)

@@ -60,6 +60,9 @@ def build_parser() -> argparse.ArgumentParser:
                         "time before the link opens (its output went to no host)")
     p.add_argument("--speed", type=float, default=1.0, metavar="N", help="run N times faster than real time")
     p.add_argument("--baud", type=int, metavar="B", help="pace the serial link at B baud (B/10 bytes/s)")
+    p.add_argument("--hang-after", type=int, metavar="N",
+                   help="fault injection: the firmware hangs after the host's Nth line (once; reads and "
+                        "prints nothing until a reset, @reset or the RESET line); also @hang on --control")
     p.add_argument("--seed", type=int, default=0, metavar="N", help="seed for the device models' noise")
     p.add_argument("--strict-host", action="store_true",
                    help="exit with an error at the first host-lint finding")
@@ -99,6 +102,10 @@ def _check(args: argparse.Namespace, parser: argparse.ArgumentParser) -> None:
         parser.error(f"--speed must be positive, got {args.speed:g}")
     if args.baud is not None and args.baud <= 0:
         parser.error(f"--baud must be positive, got {args.baud}")
+    if args.hang_after is not None and args.hang_after < 1:
+        parser.error(f"--hang-after must be at least 1 line, got {args.hang_after}")
+    if args.hang_after is not None and args.script:
+        parser.error("--hang-after is for the real-time modes (a script has no reset to end the hang)")
     if args.link and not args.pty:
         parser.error("--link needs --pty")
     if args.script and args.control:
@@ -179,7 +186,8 @@ def _run_realtime(args: argparse.Namespace, devices: Dict[int, Optional[tuple]])
     try:
         emulator = Emulator(firmware=args.firmware, devices=devices, version_string=args.version_string,
                             bootloader=args.bootloader, seed=args.seed, baud=args.baud,
-                            bootloader_key=args.bootloader_key, record_events=False)
+                            bootloader_key=args.bootloader_key, record_events=False,
+                            hang_after=args.hang_after)
         if args.booted:
             # A HAT powered up before the host opened the port: what it printed then reached
             # nobody. Seconds of device set-up at real time become milliseconds of CPU.

@@ -7,7 +7,9 @@ per line, one reply per line:
   ``@data 0 1 05``, ``@motorfault 1 0``, ``@portfault 1``, ``@button 2 1``, ``@adc 2000``,
   ``@rate 0 10``, ``@hold 0 1``, ``@pos 0 90``  -> ``ok``
 - ``@reset`` / ``@reset bootloader``  -> ``ok``
-- ``@time`` -> ``ok <virtual ms>``; ``@firmware`` -> ``ok <version string>`` (or ``ok bootloader``)
+- ``@hang`` -> ``ok``: the firmware hangs until a reset (fault injection, emulator/hang.py)
+- ``@time`` -> ``ok <virtual ms>``; ``@firmware`` -> ``ok <version string>`` (or ``ok bootloader``,
+  ``ok hung``, ``ok reset``)
 - ``@speed`` -> ``ok <speed>``; ``@speed N`` sets it (real-time runners only)
 - ``@lint`` -> ``ok <JSON summary of the host-traffic lint>``
 - ``@settled`` -> ``ok 1`` once the start-up is done and the layout's devices are up, else ``ok 0``

@@ -1,5 +1,5 @@
-"""What answers on a session: firmware (and which profile judges it) or bootloader, and, when
-nothing sensible answers, a diagnosis in the user's terms.
+"""What answers on a session: firmware (and which profile judges it) or bootloader, found again
+after a reset or a load, and, when nothing sensible answers, a diagnosis in the user's terms.
 
 A mixin of :class:`~.session.Session` (it works on the session's own state: profile, notes,
 events); kept apart because choosing a profile and explaining a silent link are their own job.
@@ -9,7 +9,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any, List, Optional
 
 from ..protocol.profiles import Profile, get_profile, resolve_version
-from .errors import ExpectTimeout, TargetError
+from .errors import ExpectTimeout, NeedsCapability, TargetError
 from .events import Event
 from .matching import describe_events
 
@@ -23,6 +23,8 @@ class Identification:
 
     if TYPE_CHECKING:   # provided by Session
         target: Any
+        _splitter: Any
+        _io_lock: Any
         transcript: Any
         events: Any
         received: Any
@@ -35,6 +37,7 @@ class Identification:
         def fence(self, timeout: float = ...) -> List[Event]: ...
         def _transcript_t(self, t_ms: float) -> float: ...
         def now_ms(self) -> float: ...
+        def mark(self) -> int: ...
 
     profile: Optional[Profile]
     profile_exact: bool
@@ -73,6 +76,26 @@ class Identification:
             if self.transcript is not None:
                 with self._cond:
                     self.transcript.note(self._transcript_t(self.now_ms()), text)
+
+    def identify(self, timeout: float = 2.0) -> None:
+        """Find out again what answers (``profile`` / ``in_bootloader`` / ``version_string``),
+        e.g. after a firmware load; raises TargetError when nothing does."""
+        self._splitter.forget_pending()
+        self._detect(timeout)
+
+    def reset(self, bootloader: bool = False, timeout: float = 2.0) -> List[Event]:
+        """Reset the HAT through the target's control (into its bootloader if asked), then find
+        out again what answers (``profile`` / ``in_bootloader``). Returns the events of the
+        restart (banner, devices connecting ...) up to the detection."""
+        control = self.target.control
+        if control is None:
+            raise NeedsCapability("reset", self.target.url)
+        start = self.mark()
+        with self._io_lock:
+            control.reset(bootloader)
+        self._splitter.forget_pending()   # whatever was typed before the reset is gone
+        self._detect(timeout)
+        return self.events[start:]
 
     def _detect(self, timeout: float) -> None:
         self.drain(quiet=0.05, limit=1.0)  # stale output cannot fool the fence: a short drain is enough

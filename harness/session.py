@@ -61,6 +61,7 @@ class Session(Identification, Conversation):
     """The API of docs/DEVELOPING.md ("Session"), plus:
 
     ``mark()`` (an index for ``expect(..., since=)``), ``drain()``, ``reset(bootloader)``,
+    ``identify()`` (what answers, again), ``bytes_since(offset, timeout)`` (raw bytes),
     ``set_origin()`` / ``transcript_now()`` / ``attach_transcript(writer)`` (for runners that
     write the transcript once the firmware is known), ``version_string``, ``notes`` (remarks
     such as "unknown firmware version ..."), ``echo_on``, ``partial`` (output not yet ended by
@@ -405,6 +406,25 @@ class Session(Identification, Conversation):
         wait by other means than wait_ms/collect, e.g. for an event the HAT prints later)."""
         self.waited_hat_ms += max(0.0, float(hat_ms))
 
+    def bytes_since(self, offset: int, timeout: float) -> bytes:
+        """Received bytes from absolute ``offset`` on, waiting at most ``timeout`` seconds (wall
+        clock; HAT seconds / time_scale for virtual-time targets) for one to come. For a byte
+        protocol that is not a line per command, the bootloader's (harness/firmware/)."""
+        if self.virtual:
+            if len(self.received) <= offset and timeout > 0:
+                self._read_once(timeout)
+        else:
+            deadline = time.monotonic() + timeout
+            with self._cond:
+                while len(self.received) <= offset:
+                    self._check()
+                    left = deadline - time.monotonic()
+                    if left <= 0:
+                        break
+                    self._cond.wait(min(left, 0.25))
+        self._check()
+        return bytes(self.received[offset:])
+
     def mark(self) -> int:
         """The index the next event will have (for ``expect(..., since=mark)``)."""
         with self._cond:
@@ -426,17 +446,3 @@ class Session(Identification, Conversation):
             with self._cond:
                 self.transcript.note(self._transcript_t(self.now_ms()), f"world {line.strip()} -> {reply}")
         return reply
-
-    def reset(self, bootloader: bool = False, timeout: float = 2.0) -> List[Event]:
-        """Reset the HAT through the target's control (into its bootloader if asked), then find
-        out again what answers (``profile`` / ``in_bootloader``). Returns the events of the
-        restart (banner, devices connecting ...) up to the detection."""
-        control = self.target.control
-        if control is None:
-            raise NeedsCapability("reset", self.target.url)
-        start = self.mark()
-        with self._io_lock:
-            control.reset(bootloader)
-        self._splitter.forget_pending()   # whatever was typed before the reset is gone
-        self._detect(timeout)
-        return self.events[start:]

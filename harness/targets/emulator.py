@@ -152,7 +152,7 @@ class EmulatorTarget(PyserialTarget):
                  bootloader: bool = False, seed: Optional[int] = None, version_string: Optional[str] = None,
                  baud: Optional[int] = None, extra_args: Sequence[str] = (),
                  command: Union[str, Sequence[str], None] = None, startup_timeout: float = _STARTUP_TIMEOUT,
-                 booted: bool = False):
+                 booted: bool = False, hang_after: Optional[int] = None):
         super().__init__(url)
         self.firmware = "latest" if firmware in (None, "") else str(firmware)
         self.speed = speed
@@ -161,6 +161,7 @@ class EmulatorTarget(PyserialTarget):
         self.layout.update(self.devices)
         self.bootloader, self.seed, self.version_string = bootloader, seed, version_string
         self.booted = booted
+        self.hang_after = hang_after      # fault injection: the firmware hangs after this many lines
         if booted and bootloader:
             raise TargetError(f"{url}: booted starts the firmware; it cannot be combined with bootloader")
         self.wire_baud = baud
@@ -195,6 +196,8 @@ class EmulatorTarget(PyserialTarget):
             args += ["--version-string", self.version_string]
         if self.wire_baud is not None:
             args += ["--baud", str(self.wire_baud)]
+        if self.hang_after is not None:
+            args += ["--hang-after", str(self.hang_after)]
         return args + self.extra_args
 
     @property
@@ -364,8 +367,8 @@ def from_url(url: str, **options) -> EmulatorTarget:
 
     Options (keywords) override the URL: ``firmware``, ``speed``, ``devices`` ({port: spec},
     e.g. a script's layout), ``bootloader``, ``booted`` (start powered up, devices established),
-    ``seed``, ``version_string``, ``baud``,
-    ``extra_args``, ``command``, ``startup_timeout``.
+    ``seed``, ``version_string``, ``baud``, ``hang_after`` (fault injection: the firmware hangs
+    after the host's Nth line until a reset), ``extra_args``, ``command``, ``startup_timeout``.
     """
     rest = url[len("emulator"):]
     if rest and not rest.startswith(":") and not rest.startswith("?"):
@@ -387,7 +390,7 @@ def from_url(url: str, **options) -> EmulatorTarget:
             for v in vals:
                 p, spec = _device_option(v, url)
                 devices[p] = spec
-        elif key in ("seed", "baud"):
+        elif key in ("seed", "baud", "hang_after"):
             try:
                 kwargs[key] = int(vals[-1])
             except ValueError:
@@ -396,7 +399,7 @@ def from_url(url: str, **options) -> EmulatorTarget:
             kwargs[key] = vals[-1] not in ("0", "false", "no")
         else:
             raise TargetError(f"{url}: unknown option {key!r} "
-                              "(known: speed, device, seed, baud, bootloader, booted)")
+                              "(known: speed, device, seed, baud, bootloader, booted, hang_after)")
     if devices:
         kwargs["devices"] = devices
     if "devices" in options and options["devices"] is not None:

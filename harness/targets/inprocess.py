@@ -88,7 +88,7 @@ class InProcessTarget(Target):
     def __init__(self, firmware: Optional[str] = None, devices: Optional[Mapping[int, DeviceSpec]] = None,
                  seed: int = 0, baud: Optional[int] = None, scale: float = 1.0, boot: bool = True,
                  factory: Optional[Callable[..., HatModel]] = None, url: str = "inprocess",
-                 version_string: Optional[str] = None):
+                 version_string: Optional[str] = None, hang_after: Optional[int] = None):
         if scale <= 0:
             raise TargetError(f"inprocess: scale must be positive, got {scale}")
         self.url = url
@@ -97,6 +97,9 @@ class InProcessTarget(Target):
         self.boot = boot
         self.factory = factory
         self.version_string = version_string
+        if hang_after is not None and hang_after < 1:
+            raise TargetError(f"inprocess: hang_after must be at least 1 line, got {hang_after}")
+        self.hang_after = hang_after    # fault injection (emulator/hang.py), armed when opened
         self.emulator: Optional[HatModel] = None
         self.control = InProcessControl(self)
         self.capabilities = frozenset({"control", "virtual_time", "drive_events", "line_records"})
@@ -110,6 +113,11 @@ class InProcessTarget(Target):
         if self.emulator is not None:
             return
         self.emulator = self._booted_copy()
+        if self.hang_after is not None:
+            arm = getattr(self.emulator, "arm_hang", None)
+            if arm is None:
+                raise TargetError("inprocess: hang_after needs the emulator's own model, not a factory's")
+            arm(self.hang_after)
         self.drive_events = []
         self.line_records = []
         self.emulator.on_event(self._on_event)
@@ -245,17 +253,17 @@ def _parse_devices(values: List[str]) -> Dict[int, DeviceSpec]:
 
 
 def from_url(url: str, **options) -> InProcessTarget:
-    """``inprocess[:<release|latest>][?device=P=SPEC&seed=N&baud=B&scale=S&boot=0&version=TEXT]``."""
+    """``inprocess[:<release|latest>][?device=P=SPEC&seed=N&baud=B&scale=S&boot=0&version=TEXT&hang_after=N]``."""
     rest = url[len("inprocess"):] if url.startswith("inprocess") else url
     if rest and not rest.startswith((":", "?")):
         raise TargetError(f"not an inprocess URL: {url!r} (form: inprocess[:<release>][?options])")
     rest = rest[1:] if rest.startswith(":") else rest
     release, _, query = rest.partition("?")
     q = parse_qs(query, keep_blank_values=True)
-    unknown = set(q) - {"device", "seed", "baud", "scale", "boot", "version"}
+    unknown = set(q) - {"device", "seed", "baud", "scale", "boot", "version", "hang_after"}
     if unknown:
         raise TargetError(f"inprocess: unknown option(s) {sorted(unknown)} "
-                          "(known: device, seed, baud, scale, boot, version)")
+                          "(known: device, seed, baud, scale, boot, version, hang_after)")
     try:
         kwargs: Dict[str, Any] = dict(
             firmware=release or None,
@@ -265,6 +273,7 @@ def from_url(url: str, **options) -> InProcessTarget:
             scale=float(q["scale"][-1]) if "scale" in q else 1.0,
             boot=q["boot"][-1] not in ("0", "false", "no") if "boot" in q else True,
             version_string=q["version"][-1] if "version" in q else None,
+            hang_after=int(q["hang_after"][-1]) if "hang_after" in q else None,
         )
     except ValueError as exc:
         raise TargetError(f"inprocess: bad option value in {url!r}: {exc}") from None
