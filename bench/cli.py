@@ -28,7 +28,7 @@ QUICK_SUITE = "test_select"
 
 
 def _groups(quick: bool) -> List[Group]:
-    from . import cost, fidelity, firmware_load, suite, target_faults, throughput
+    from . import cost, fidelity, firmware_load, host_write, suite, target_faults, throughput
 
     lines = 100_000 if quick else 1_000_000
     # Seconds per measurement window: three 3 s windows give medians as steady as 5 s ones did
@@ -89,6 +89,16 @@ def _groups(quick: bool) -> List[Group]:
         ("memory", lambda: cost.memory_after_lines(lines), [
             (Figure(f"resident memory after {lines:,} lines", "MiB"), "rss_mib"),
             (Figure(f"memory growth over {lines:,} lines", "MiB"), "rss_growth_mib")], 1),  # deterministic
+        # Issue 14: a host writing faster than the wire, through the user's `buildhat-emulator --pty --baud`.
+        # write() returns early by what the link holds (a pty: 13-20 KB; docs/HOST-LIBRARIES.md); the
+        # HAT's answer comes no sooner than the wire's time.
+        ("host write at 115200 baud", host_write.host_write, [
+            (Figure("host write() of 51,000 B, pty at --baud 115200", "s", "wire 4.43 s; UART ~4.07 s"),
+             "write_s"),
+            (Figure("bytes not yet on the wire when write() returned", "B", "UART <= 4,096"), "held_bytes"),
+            (Figure("HAT's answer after the 51,000 B write", "s", ">= 4.43 s (the wire)", "higher", 4.43),
+             "answer_s"),
+            (Figure("version round trip at --baud 115200", "ms"), "version_rtt_ms")], None),
         ("firmware load", firmware_load.upload, [
             (Figure("upload of a 51 KB image (load, 115200 baud)", "s"), "upload_s"),
             (Figure("upload time above the wire's minimum", "%", "<= 5 %", target=5.0), "over_min_pct"),

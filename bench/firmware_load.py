@@ -20,7 +20,7 @@ from typing import Any, Dict, Tuple
 from ..protocol.image_checksum import image_with_checksum
 from ..protocol.profiles import get_profile
 
-__all__ = ["new_key", "sign", "release_sized_files", "upload"]
+__all__ = ["new_key", "sign", "release_sized_files", "upload", "installed_tool"]
 
 RELEASE = "R7"
 _LOADED = re.compile(r"loaded: firmware version (\S+).*\(upload ([0-9.]+) s, wire minimum ([0-9.]+) s\)")
@@ -62,7 +62,8 @@ def release_sized_files(folder: str, release: str = RELEASE) -> Tuple[str, str, 
     return img, sig, pem
 
 
-def _tool(name: str) -> str:
+def installed_tool(name: str) -> str:
+    """The path of ``name`` (a console script of this package) beside the running interpreter."""
     path = os.path.join(os.path.dirname(sys.executable), name)
     if not os.path.exists(path):
         raise RuntimeError(f"{name} is not installed beside {sys.executable}")
@@ -74,15 +75,15 @@ def upload() -> Dict[str, Any]:
     with tempfile.TemporaryDirectory() as tmp:
         img, sig, pem = release_sized_files(tmp)
         link = os.path.join(tmp, "hat")
-        emu = subprocess.Popen([_tool("buildhat-emulator"), "--pty", "--bootloader", "--bootloader-key", pem,
-                                "--link", link], stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True,
-                               start_new_session=True)
+        emu = subprocess.Popen([installed_tool("buildhat-emulator"), "--pty", "--bootloader",
+                                "--bootloader-key", pem, "--link", link], stdout=subprocess.PIPE,
+                               stderr=subprocess.DEVNULL, text=True, start_new_session=True)
         try:
             assert emu.stdout is not None
             emu.stdout.readline()                   # it prints the pty's path once it serves
             began = time.monotonic()
-            done = subprocess.run([_tool("buildhat-conformance"), "load", "--target", link, img, sig],
-                                  capture_output=True, text=True, timeout=120)
+            done = subprocess.run([installed_tool("buildhat-conformance"), "load", "--target", link, img,
+                                   sig], capture_output=True, text=True, timeout=120)
             total = time.monotonic() - began
         finally:
             emu.terminate()

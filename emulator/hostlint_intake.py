@@ -13,25 +13,23 @@ arrives, the bytes of every line not yet finished. Above the ring size the HAT w
 
 Short lines cost tens of microseconds and take longer than that on the wire, so no rate of ordinary
 commands can fill the ring (python-build-hat's own stress tests send 112 and 768 lines/s); only lines that
-cost more than they take to arrive (``list`` storms) can. The costs are the profile's ``main_loop_cost``
-(the emulator's stall-line model, docs/EMULATOR-MODELS.md); :data:`FALLBACK_COST` stands in for a profile
-without one.
+cost more than they take to arrive (``list`` storms) can. The costs are the emulator's stall-line model
+(:class:`~.pass_cost.PassCost` over the profile's ``main_loop_cost``, docs/EMULATOR-MODELS.md): the running
+profile's values, the default release's when no profile is known, and a ``list`` costs what the HAT's ports
+would print.
 """
 from __future__ import annotations
 
 from collections import deque
-from typing import Any, Deque, Dict, List, Optional, Tuple
+from typing import Any, Deque, List, Optional, Tuple
 
+from ..protocol.profiles import get_profile
+from .pass_cost import PassCost
 from .uart import RING_SIZE
 
-__all__ = ["IntakeModel", "WIRE_BYTES_PER_MS", "FALLBACK_COST", "LIST_BYTES_PER_DEVICE"]
+__all__ = ["IntakeModel", "WIRE_BYTES_PER_MS", "line_cost_ms"]
 
 WIRE_BYTES_PER_MS = 115200 / 10 / 1000      # FIRMWARE-FACTS §1: 115200 baud, 8N1
-# Microseconds per pass item, as the profiles' main_loop_cost names them (used when a profile has none).
-FALLBACK_COST: Dict[str, float] = {"line_us": 20, "text_byte_us": 0.15, "list_port_us": 20,
-                                   "list_device_us": 150, "list_byte_us": 0.7}
-# What ``list`` prints for one active device (its mode table): about 1.4 KB (4.2 KB for three, §5's capture).
-LIST_BYTES_PER_DEVICE = 1400
 _PORTS = 4
 
 
@@ -59,15 +57,14 @@ class IntakeModel:
 
 
 def line_cost_ms(profile: Any, raw: bytes, commands: List[str], hat: Optional[Any]) -> float:
-    """What running ``raw`` costs the HAT's main loop, in ms (the profile's ``main_loop_cost``, else
-    FALLBACK_COST)."""
-    cost = dict(FALLBACK_COST)
-    if profile is not None:
-        cost.update({k: v for k, v in (profile.features.get("main_loop_cost") or {}).items()
-                     if isinstance(v, (int, float))})
-    us = cost["line_us"] + cost["text_byte_us"] * len(raw)
-    if "list" in commands:
-        active = sum(1 for port in getattr(hat, "ports", ()) if getattr(port, "established", False))
-        per_device = cost["list_device_us"] + cost["list_byte_us"] * LIST_BYTES_PER_DEVICE
-        us += commands.count("list") * (cost["list_port_us"] * _PORTS + active * per_device)
+    """What running ``raw`` costs the HAT's main loop, in ms: the profile's cost model (the default
+    release's when ``profile`` is None); a ``list`` costs the dump of ``hat``'s ports as they are now
+    (without a HAT to ask, the four ports' fixed cost only)."""
+    cost = PassCost((profile if profile is not None else get_profile()).features)
+    us = cost.line_us + cost.text_byte_us * len(raw)
+    lists = commands.count("list")
+    if lists:
+        ports = getattr(hat, "ports", None)
+        list_us = cost.list_us(ports)[0] if ports else cost.list_port_us * _PORTS
+        us += lists * list_us
     return us / 1000.0

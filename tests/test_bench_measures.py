@@ -6,7 +6,7 @@ from __future__ import annotations
 import argparse
 import json
 
-from buildhat_conformance.bench import cli, suite, throughput
+from buildhat_conformance.bench import cli, host_write, suite, throughput
 from buildhat_conformance.bench.figures import Figure
 from buildhat_conformance.harness.session import Session
 from buildhat_conformance.harness.targets import make_target
@@ -71,3 +71,16 @@ def test_group_runs_are_capped_and_notes_kept(monkeypatch, tmp_path) -> None:
     data = json.loads(out.read_text())
     assert len(calls) == 1 and data["figures"][0]["note"] == "10 cases, 0 failed"
     assert data["meta"]["loadavg"]
+
+
+def test_host_write_figures_come_from_a_real_pty_and_the_wires_pace() -> None:
+    """The bench's host-write group, small: the user's `buildhat-emulator --pty --baud 115200` and a pyserial
+    host. Lower bounds only (a loaded machine is slower, never faster): the HAT answers no sooner than the
+    upload's wire time, and a round trip takes at least its request's and answer's bytes on the wire."""
+    payload = 6000                                   # 0.52 s at 115200 baud
+    res = host_write.host_write(payload=payload)
+    rate = host_write.BAUD / 10
+    assert res["answer_s"] >= payload / rate, res
+    assert 0 <= res["write_s"] <= res["flush_s"] <= res["answer_s"], res
+    assert res["version_rtt_ms"] >= (len(b"version\r") + len(b"Firmware version: ")) / rate * 1000, res
+    assert res["held_bytes"] == max(0.0, payload - res["write_s"] * rate)

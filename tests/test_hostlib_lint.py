@@ -176,3 +176,28 @@ def test_replies_that_overflow_the_transmit_ring_on_a_paced_wire_are_an_overrun(
     assert emu.uart.tx_dropped > 0                          # the emulator's ring model did drop output
     (finding,) = [f for f in lint.summary()["findings"] if f["kind"] == "overrun"]
     assert "transmit ring" in finding["detail"] and "dropped" in finding["detail"]
+
+
+def test_the_intake_costs_lines_with_the_profiles_own_cost_model() -> None:
+    """One source of truth: the lint's line cost is the profile's ``main_loop_cost`` data (the default
+    release's when no profile is known), and a `list` costs what the HAT's active devices print."""
+    import dataclasses
+
+    from buildhat_conformance.emulator.hostlint_intake import line_cost_ms
+    from buildhat_conformance.protocol.profiles import get_profile
+
+    r7 = get_profile("R7")
+    base = r7.features["main_loop_cost"]
+    assert line_cost_ms(r7, b"vin", ["vin"], None) == pytest.approx(
+        (base["line_us"] + 3 * base["text_byte_us"]) / 1000)
+    assert line_cost_ms(None, b"vin", ["vin"], None) == line_cost_ms(get_profile(), b"vin", ["vin"], None)
+    slower = dataclasses.replace(r7, features={**r7.features,
+                                               "main_loop_cost": {k: 2 * v for k, v in base.items()
+                                                                  if not k.startswith("_")}})
+    vin = line_cost_ms(r7, b"vin", ["vin"], None)
+    assert line_cost_ms(slower, b"vin", ["vin"], None) == pytest.approx(2 * vin)
+    idle, _ = booted("1737564117")
+    busy = Emulator(firmware="1737564117", devices={0: "0x30", 1: "0x3E", 2: "0x3D", 3: "none"})
+    busy.boot()
+    # §5: the list of a motor, a distance and a colour sensor stretches the pass past 2 ms (deltat=00000003).
+    assert line_cost_ms(r7, b"list", ["list"], busy.hat) > 2.0 > line_cost_ms(r7, b"list", ["list"], idle.hat)

@@ -10,8 +10,11 @@ The limit is small on purpose: a host that opens the pty late should not get min
 output (the kernel's own pty buffer holds about 20 KB more).
 
 Back-pressure (``--baud``): the runner reads no more host bytes than the wire carries, so what the
-host sends faster waits in the link itself: the pty's kernel buffer (about 18 KB on Linux) and then the
+host sends faster waits in the link itself: the pty's kernel buffers (13-20 KB on Linux) and then the
 host's write() blocks; on TCP the receive buffer is made small (``PACED_RCVBUF``) so the window closes.
+Nothing on the master's side shrinks what a pty holds (tcflow(TCOOFF) gating was tried: each release lets
+the writer fill it all at once), so a host's write() returns up to that much before the wire has carried
+it, where a UART's is early by its 4 KB transmit buffer (docs/HOST-LIBRARIES.md, measured figures).
 """
 from __future__ import annotations
 
