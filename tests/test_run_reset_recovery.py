@@ -27,12 +27,16 @@ from test_firmware_load import files, image_of  # noqa: E402
 BIN = pathlib.Path(sys.executable).parent
 FAKE_GPIOD = pathlib.Path(__file__).resolve().parent / "fake_gpiod"
 SUBSET = "shortest_resolving_prefix"        # 28 short cases
-MAX_FAULTS = 2
+# 14 of them, for the runs at real time: the hang (after the 60th line) still comes in the fifth or
+# sixth, and seven or more follow it.
+PI_SUBSET = SUBSET + " and not (pid or port or pwm or set or sel or sig or write or ver)"
+MAX_FAULTS = 1       # the first target fault already resets: shorter runs
 
 
-def run(tmp_path, name: str, target: str, *extra: str, env=None) -> tuple[int, str, dict, dict]:
+def run(tmp_path, name: str, target: str, *extra: str, env=None, keyword: str = SUBSET
+        ) -> tuple[int, str, dict, dict]:
     junit = tmp_path / name / "junit.xml"
-    proc = subprocess.run([str(BIN / "buildhat-conformance"), "run", "--target", target, "-k", SUBSET,
+    proc = subprocess.run([str(BIN / "buildhat-conformance"), "run", "--target", target, "-k", keyword,
                            "--max-target-faults", str(MAX_FAULTS), "--junit", str(junit), *extra],
                           capture_output=True, text=True, timeout=300, env=env)
     root = ET.parse(junit).getroot()
@@ -90,13 +94,15 @@ def pi_hat(tmp_path):
 def test_a_gpio_reset_lands_in_the_bootloader_and_the_release_is_loaded_again(tmp_path, pi_hat):
     target, env = pi_hat
     img, sig = files(tmp_path, image_of("R7"))
-    code, out, suite, verdicts = run(tmp_path, "pi", target, "--image", img, "--signature", sig, env=env)
+    code, out, suite, verdicts = run(tmp_path, "pi", target, "--image", img, "--signature", sig, env=env,
+                                     keyword=PI_SUBSET)
     faults = faulted(verdicts)
     assert 1 <= len(faults) <= MAX_FAULTS, out
     assert f"loaded {img} again; it answers again" in suite.get("reset", ""), suite
     names = list(verdicts)
     after = names[names.index(faults[-1]) + 1:]
-    assert after and all(verdicts[n] in ("pass", "known deviation", "informational") for n in after), verdicts
+    assert len(after) >= 5, verdicts
+    assert all(verdicts[n] in ("pass", "known deviation", "informational") for n in after), verdicts
     assert code == 3, out
 
 
@@ -109,7 +115,7 @@ def test_without_an_image_the_reset_cannot_bring_the_firmware_back(tmp_path, pi_
     with make_target(target.split("?")[0]) as plain:      # the release loaded by hand, once
         load_firmware(plain, FirmwareImage(image_of("R7"), bytes(64)), progress_stream=open(os.devnull, "w"),
                       tty=False)
-    code, out, suite, verdicts = run(tmp_path, "noimage", target, env=env)
+    code, out, suite, verdicts = run(tmp_path, "noimage", target, env=env, keyword=PI_SUBSET)
     assert "no --image/--signature to load the release again" in suite.get("stopped", ""), suite
     assert "reset the HAT once, in vain" in suite["reset"]
     faults = faulted(verdicts)
