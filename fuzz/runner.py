@@ -13,8 +13,9 @@ from ..protocol.profiles import Profile
 from .differential import compare_answers
 from .expect import Expect, LineFate, joined
 from .link import FENCE, Link, LinkTimeout
-from .model import HatModel, PortModel, expected_duty
+from .model import HatModel
 from .oracles import raise_finding
+from .portmodel import PortModel, expected_duty
 from .stream import MatchResult, Problem, allowed_kinds, match_stream, without_torn
 
 __all__ = ["Runner", "Side", "Stats", "PRELUDE", "DEBUG_OFF", "StepPlan", "plan_step", "output_groups"]

@@ -141,7 +141,7 @@ def test_float_parser_keeps_nine_digits():
 
 
 def test_expected_duty_follows_the_drive_path():
-    from buildhat_conformance.fuzz.model import expected_duty
+    from buildhat_conformance.fuzz.portmodel import expected_duty
     for release, line, duty in [("R7", b"plimit 1\rset -0.1\r", -26), ("R7", b"plimit 1\rset 0.1\r", 25),
                                 ("R7", b"on\r", 25), ("R7", b"set -5\r", -26), ("R7", b"plimit 1\ron\r", 255),
                                 ("R7", b"plimit 1\rset -1\r", -255), ("R3", b"plimit 0.5\rset 0.5\r", 127),
