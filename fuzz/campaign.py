@@ -33,7 +33,8 @@ from .grammar import grammar_for
 from .oracles import Finding
 from .reduce import reduce_finding
 from .replay import replay_script
-from .runner import Runner, Stats, output_groups
+from .runner import Runner, Stats
+from .stepplan import output_groups
 
 __all__ = ["Budget", "parse_budget", "CampaignConfig", "CampaignResult", "Confirmed", "run_campaign",
            "run_seed", "new_seed"]
