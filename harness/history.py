@@ -16,7 +16,7 @@ T = TypeVar("T")
 
 # Enough for any case of the suite many times over (a `list` with four devices is < 100 lines; a
 # long case at 3,000 lines/s for 5 s is 15,000), and for the bytes they hold: an event is a line
-# (at most 1 KiB, see events.LineSplitter), so the bytes bound is what limits garbage.
+# (at most 1 KiB, see line_splitter.LineSplitter), so the bytes bound is what limits garbage.
 MAX_EVENTS = 20_000
 MAX_EVENT_BYTES = 8 * 1024 * 1024
 MAX_BYTES = 8 * 1024 * 1024

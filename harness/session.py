@@ -30,9 +30,10 @@ from typing import Callable, List, Optional, Union
 from ..protocol.profiles import Profile, get_profile
 from .conversation import Conversation
 from .errors import NeedsCapability, SessionError, TargetError
-from .events import Event, LineSplitter
+from .events import Event
 from .history import ByteHistory, EventHistory
 from .identify import Identification
+from .line_splitter import LineSplitter
 from .matching import Match, describe_events
 from .sync import SyncResult
 from .targets.base import Target

@@ -71,7 +71,7 @@ def test_the_cli_refuses_a_hang_after_below_one():
 
 def test_a_hat_that_hangs_mid_answer_is_silent_not_garbled():
     from buildhat_conformance.conformance.target_fault import GARBLED, SILENT, describe_silence
-    from buildhat_conformance.harness.events import LineSplitter
+    from buildhat_conformance.harness.line_splitter import LineSplitter
 
     hat_lines = b"\r\nFirmware version: 1737564117 2025-01-22T16:41:57+00:00\r\n"
     events = LineSplitter().feed(hat_lines, 0.0)

@@ -6,7 +6,8 @@ import math
 
 import pytest
 
-from buildhat_conformance.harness.events import KINDS, LineSplitter, classify, expected_echo, parse_value
+from buildhat_conformance.harness.events import KINDS, classify, parse_value
+from buildhat_conformance.harness.line_splitter import LineSplitter, expected_echo
 
 # (line exactly as FIRMWARE-FACTS prints it, kind, fields that must be present)
 FACTS_LINES = [
