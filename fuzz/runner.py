@@ -15,19 +15,15 @@ from .expect import LineFate
 from .link import FENCE, Link, LinkTimeout
 from .model import HatModel
 from .oracles import raise_finding
-from .portmodel import PortModel, expected_duty
+from .statecheck import check_drive, expect_reports, observe
 from .stepplan import plan_step
-from .stream import MatchResult, Problem, allowed_kinds, match_stream, without_torn
+from .stream import Problem, allowed_kinds, match_stream, without_torn
 
 __all__ = ["Runner", "Side", "Stats", "PRELUDE"]
 
 # Puts any HAT into a state the model knows: echo and debug off, no selection, port 0.
 PRELUDE = b"echo 0\rdebug 0\rport 3\rselect\rport 2\rselect\rport 1\rselect\rport 0\rselect\r"
 _PRIORITY = ("liveness", "hygiene", "fate", "state")
-_LINK_KINDS = {"connecting", "established", "disconnected", "timeout", "checksum_error", "too_many_errors",
-               "framing_error"}
-_REPORT_FORMS = {"mode_data": lambda f: f"M{f['mode']}", "combi_data": lambda f: f"C{f['index']}",
-                 "var_data": lambda f: "V"}
 
 
 @dataclass
@@ -101,15 +97,6 @@ def _kinds_of(out: bytes) -> Set[str]:
             kind = _KINDS[shape] = line_kind(line)
         kinds.add(kind)
     return kinds
-
-
-
-
-def _selection(p: PortModel, selrate_engine: bool) -> str:
-    """A port's selection as a finding names it."""
-    form = "/".join(p.report_forms()) if p.mode >= 0 else "-"
-    return (f"mode {p.mode} form {form} rate {p.rate} "
-            f"(reporting {'on' if p.reporting(selrate_engine) else 'off'})")
 
 
 class Runner:
@@ -217,7 +204,7 @@ class Runner:
                 continue      # (the trace ends before the guard's `debug 0`, so before the fence line)
             res = match_stream(plan.expected, got, self._allowed(side, plan.debug))
             compared[-1] = without_torn(got, res)
-            self._observe(side, res, plan.states)
+            observe(side.model, res, plan.states, self.stats.count)
             side.model.ports[:] = plan.states[-1]   # reports seen (once-selections) move the model on
             self._judge(side, res.problems, {"step": b"".join(plan.datas), "expected": plan.expected,
                                              "received": got})
@@ -257,64 +244,12 @@ class Runner:
                 continue
             before = [p.copy() for p in side.model.ports]
             res = match_stream([], out, self._allowed(side))
-            self._observe(side, res, [ports])
+            observe(side.model, res, [ports], self.stats.count)
             side.model.ports[:] = ports
-            self._expect_reports(side, ms, before, res)
-            self._check_drive(side, ms, res)
+            expect_reports(side.model, ms, before, res, self.stats.count)
+            events = getattr(side.link.target, "drive_events", None)
+            check_drive(events, side.model, ms, res, self.stats.count)
             self._judge(side, res.problems, {"step": f"@wait {ms}", "received": out})
-
-    def _check_drive(self, side: Side, ms: int, res: MatchResult) -> None:
-        """State oracle on the drive, for targets that show it (the in-process emulator's
-        ``drive_events``): a port in direct-PWM mode with a known constant setpoint settles at the
-        duty §7.3 gives for it and the port's plimit (per release); a coasting port coasts."""
-        events = getattr(side.link.target, "drive_events", None)
-        if events is None or ms < 30:
-            return
-        changed = {ev.port for _i, ev in res.asynchronous if ev.kind in _LINK_KINDS}
-        last: Dict[int, object] = {}
-        for ev in events:
-            if ev.get("dir") == "pwm":
-                last[int(ev["port"])] = ev.get("value")
-        model = side.model
-        for port, p in enumerate(model.ports):
-            if p.device_modes <= 0 or port in changed or port not in last:
-                continue
-            want = expected_duty(side.profile, p, model.plimit)
-            if want is None:
-                continue
-            self.stats.count("state")
-            if last[port] != want:
-                limit = p.plimit if model.per_port_plimit else model.plimit
-                res.problems.append(Problem(
-                    "state", f"port {port} drives {last[port]!r}; direct PWM at setpoint "
-                             f"{p.constant} with plimit {limit}/65536 should drive {want!r}"))
-
-    def _expect_reports(self, side: Side, ms: int, before: List[PortModel], res: MatchResult) -> None:
-        """The other half of the state oracle: a plain `select <m>` on an established device that
-        has mode m must report within a wait that is long enough (first report about one period
-        after the first data, §6.2). Only clear cases are judged: no combi, no raw writes to the
-        device, no link change, a rate well inside the wait."""
-        if ms < 300:
-            return
-        seen = {(ev.port, _REPORT_FORMS[ev.kind](ev.fields)) for _i, ev in res.asynchronous
-                if ev.kind in _REPORT_FORMS}
-        changed = {ev.port for _i, ev in res.asynchronous if ev.kind in _LINK_KINDS}
-        for port, p in enumerate(before):
-            if not (p.known and not p.tampered and not p.var and 0 <= p.mode < min(p.device_modes, 8)
-                    and not p.combi.get(p.mode) and port not in changed):
-                continue
-            if side.model.selrate_engine:
-                if not 0 <= p.rate <= ms - 200:
-                    continue
-            elif p.once:
-                continue
-            self.stats.count("state")
-            forms = p.report_forms()
-            if not any((port, form) in seen for form in forms):
-                want = " or ".join(f"P{port}{form}" for form in forms)
-                res.problems.append(Problem(
-                    "state", f"port {port} has mode {p.mode} selected (rate {p.rate}) on an "
-                             f"established device, but no {want} report came in {ms} ms"))
 
     # -- checks --------------------------------------------------------------------------------
     def _note_kinds(self, out: bytes) -> None:
@@ -326,43 +261,6 @@ class Runner:
         if side.model.tainted:
             return side.allowed(None)
         return side.allowed(side.model.debug if debug is None else debug)
-
-    def _observe(self, side: Side, res: MatchResult, states: List[List[PortModel]]) -> None:
-        """The state oracle over asynchronous lines: reports only from selections that allow
-        them, in the selected form; connects and disconnects reset what the model knows."""
-        model = side.model
-        for _idx, ev in res.asynchronous:
-            port = ev.port
-            if port is None or not 0 <= port <= 3:
-                continue
-            if ev.kind in _LINK_KINDS:
-                ident = ev.fields.get("id")
-                type_id = ident if ev.kind == "established" and isinstance(ident, int) else None
-                # Every state of the step: which of them the line came after is not known.
-                for p in [model.ports[port]] + [s[port] for s in states]:
-                    p.link_changed(type_id)
-                continue
-            form_of = _REPORT_FORMS.get(ev.kind)
-            if form_of is None:
-                continue
-            self.stats.count("state")
-            form = form_of(ev.fields)
-            # The form follows the HAT's own selection and combi table (§6.1), whatever the
-            # device was sent (write1/write2 change what it sends, not how the HAT prints it).
-            sources = [s[port] for s in states
-                       if not s[port].known or (s[port].reporting(model.selrate_engine)
-                                                and form in s[port].report_forms())]
-            if not sources:
-                before, after = (_selection(s[port], model.selrate_engine) for s in (states[0], states[-1]))
-                whose = before if before == after else f"{before} before the step, {after} after it"
-                res.problems.append(Problem(
-                    "state", f"report {ev.text!r} from port {port}, whose selection is {whose}"))
-                continue
-            # The report ends the once-selection that printed it, the first that could have: a
-            # report already due when a later select ran belongs to the earlier one (§6.2).
-            for s in states:
-                if s[port].selection == sources[0].selection:
-                    model.report_seen(s[port])
 
     def _judge(self, side: Side, problems: List[Problem], details: dict) -> None:
         for oracle in ("hygiene", "fate", "state"):
