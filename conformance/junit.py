@@ -18,9 +18,11 @@ import re
 import time
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
-from typing import List, Optional, Sequence, Tuple
+from typing import Any, List, Optional, Sequence, Tuple
 
-__all__ = ["Case", "JUnitFile", "REWRITE_EVERY_S"]
+from .target_fault import first_line
+
+__all__ = ["Case", "JUnitFile", "REWRITE_EVERY_S", "failure_line"]
 
 REWRITE_EVERY_S = 0.2
 
@@ -129,3 +131,14 @@ class JUnitFile:
             fh.write("<?xml version='1.0' encoding='utf-8'?>\n<testsuites>" + text + "</testsuites>")
         os.replace(tmp, path)
         self._written_at = time.monotonic()
+
+
+def failure_line(report: Any) -> str:
+    """One line saying what failed: the exception's own message (pytest's "crash" line), never
+    the first line of the traceback (that is `hat = <...Hat object at 0x...>`)."""
+    crash = getattr(getattr(report, "longrepr", None), "reprcrash", None)
+    message = getattr(crash, "message", "") if crash is not None else ""
+    line = first_line(message) if message else first_line(report.longreprtext)
+    for prefix in ("Failed: ", "AssertionError: "):
+        line = line.removeprefix(prefix)
+    return line

@@ -23,7 +23,7 @@ from typing import Any, Dict, List, Optional, Tuple
 
 import pytest
 
-from .junit import Case, JUnitFile
+from .junit import Case, JUnitFile, failure_line
 from .link import Hat
 from .needs import World
 from .recovery import RecoveryFailed, ResetRecovery
@@ -246,7 +246,7 @@ class Run:
             case.details = report.longreprtext
         elif report.failed and case.outcome not in ("failed", "error"):
             case.outcome = "failed" if report.when == "call" else "error"
-            case.message = _failure_line(report)
+            case.message = failure_line(report)
             case.details = report.longreprtext
         elif report.skipped and case.outcome == "passed":
             case.outcome = "skipped"
@@ -358,17 +358,6 @@ class Run:
 
 
 _run_key = pytest.StashKey[Run]()
-
-
-def _failure_line(report: Any) -> str:
-    """One line saying what failed: the exception's own message (pytest's "crash" line), never
-    the first line of the traceback (that is `hat = <...Hat object at 0x...>`)."""
-    crash = getattr(getattr(report, "longrepr", None), "reprcrash", None)
-    message = getattr(crash, "message", "") if crash is not None else ""
-    line = first_line(message) if message else first_line(report.longreprtext)
-    for prefix in ("Failed: ", "AssertionError: "):
-        line = line.removeprefix(prefix)
-    return line
 
 
 # -- fixtures ------------------------------------------------------------------------------
