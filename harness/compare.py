@@ -22,6 +22,7 @@ import re
 from dataclasses import dataclass, field
 from typing import Callable, Dict, Iterable, List, Optional, Sequence, Tuple
 
+from .line_splitter import expected_echo
 from .transcript import CRLF, field_bytes
 
 __all__ = ["Rule", "RuleSet", "Unit", "Difference", "Comparison", "parse_rule", "parse_rule_option",
@@ -171,20 +172,33 @@ class Unit:
     partial: bool = False   # the stream ended before a CRLF (e.g. a final prompt)
     cls: str = ""
     after: Optional[Tuple[float, bytes]] = None   # the host event before it: (t, bytes)
-    host_index: Optional[int] = None              # how many host events came before it
+    host_index: Optional[int] = None              # the host line it answers (output_units)
 
 
 def output_units(events: Iterable[dict], since: float = 0.0) -> List[Unit]:
-    """The HAT's output from ``since`` on, as lines; partials join the line they begin."""
+    """The HAT's output from ``since`` on, as lines; partials join the line they begin.
+
+    Each line's ``host_index`` is the host line it answers: the HAT ends every host line with a
+    CRLF of its own (the blank line, or the echo when echo is on, FACTS §1) before that line's
+    answer, so the n-th such line starts the answer to the n-th host line. Counting the host
+    lines *sent* instead would tie an answer to whatever the host had typed by the time it
+    arrived, which differs between a recording and a replay on a loaded machine."""
     units: List[Unit] = []
     pending = bytearray()
     pending_t = 0.0
     after: Optional[Tuple[float, bytes]] = None
-    n_host = 0
+    typing = bytearray()            # host bytes since its last CR
+    echoes: List[bytes] = []        # what ends each host line sent: its echo (or nothing)
+    answered = 0                    # host lines whose ending CRLF has come
     for ev in events:
         if ev.get("dir") == "host":
-            after = (float(ev.get("t", 0)), field_bytes(ev, "bytes"))
-            n_host += 1
+            data = field_bytes(ev, "bytes")
+            after = (float(ev.get("t", 0)), data)
+            *ended, rest = data.split(b"\r")
+            for line in ended:
+                echoes.append(expected_echo(bytes(typing) + line))
+                typing.clear()
+            typing += rest
         if ev.get("dir") != "hat" or float(ev.get("t", 0)) < since:
             continue
         t = float(ev.get("t", 0))
@@ -195,10 +209,14 @@ def output_units(events: Iterable[dict], since: float = 0.0) -> List[Unit]:
         elif "line" in ev:
             data = bytes(pending) + field_bytes(ev, "line")
             pending.clear()
-            units.append(Unit(t, data.decode("utf-8", errors="replace"), after=after, host_index=n_host))
+            text = data.decode("utf-8", errors="replace")
+            if answered < len(echoes) and _PROMPTS.sub("", text).encode("utf-8", errors="replace") in (
+                    b"", echoes[answered]):
+                answered += 1
+            units.append(Unit(t, text, after=after, host_index=answered))
     if pending:
         units.append(Unit(pending_t, bytes(pending).decode("utf-8", errors="replace"), partial=True,
-                          after=after, host_index=n_host))
+                          after=after, host_index=answered))
     return units
 
 

@@ -121,6 +121,39 @@ def test_output_units_join_a_prompt_with_the_echo_that_follows():
     assert output_units(events, since=-100)[0].text == "Done initialising ports"
 
 
+def test_an_answer_belongs_to_its_host_line_however_fast_the_host_typed():
+    # Recorded: each answer before the next line was typed. Replayed on a loaded machine: the
+    # host typed all three lines before the first answer came. The answers are the same.
+    recorded = [
+        {"t": 0, "dir": "host", "bytes": "version\r"}, {"t": 1, "dir": "hat", "line": ""},
+        {"t": 1, "dir": "hat", "line": "Firmware version: 1"},
+        {"t": 2, "dir": "host", "bytes": "vin\r"}, {"t": 3, "dir": "hat", "line": ""},
+        {"t": 3, "dir": "hat", "line": "8.00 V"},
+        {"t": 4, "dir": "host", "bytes": "bias .4\r"}, {"t": 5, "dir": "hat", "line": ""},
+    ]
+    typed_ahead = [
+        {"t": 0, "dir": "host", "bytes": "version\r"}, {"t": 2, "dir": "host", "bytes": "vin\rbi"},
+        {"t": 3, "dir": "host", "bytes": "as .4\r"},
+        {"t": 5, "dir": "hat", "line": ""}, {"t": 5, "dir": "hat", "line": "Firmware version: 1"},
+        {"t": 5, "dir": "hat", "line": ""}, {"t": 5, "dir": "hat", "line": "8.00 V"},
+        {"t": 5, "dir": "hat", "line": ""},
+    ]
+    assert [u.host_index for u in output_units(recorded)] == [1, 1, 2, 2, 3]
+    assert [u.host_index for u in output_units(typed_ahead)] == [1, 1, 2, 2, 3]
+    assert run(output_units(recorded), output_units(typed_ahead)).ok
+    # The same answers under other host lines still differ: "8.00 V" answering `bias` is not it.
+    moved = typed_ahead[:6] + [typed_ahead[7], typed_ahead[6]]
+    assert [u.host_index for u in output_units(moved)] == [1, 1, 2, 3, 3]
+    assert not run(output_units(recorded), output_units(moved)).ok
+
+
+def test_with_echo_on_the_echo_ends_the_host_line():
+    events = [{"t": 0, "dir": "host", "bytes": "vin\rvin\r"}, {"t": 1, "dir": "hat", "line": "vin"},
+              {"t": 1, "dir": "hat", "line": "8.00 V"}, {"t": 1, "dir": "hat", "partial": "P0>"},
+              {"t": 1, "dir": "hat", "line": "vin"}, {"t": 1, "dir": "hat", "line": "8.00 V"}]
+    assert [u.host_index for u in output_units(events)] == [1, 1, 2, 2]
+
+
 @pytest.mark.parametrize("bad", ["vin", "vin=", "=exact", "vin=fuzzy", "vin=tolerance:x",
                                  "vin=pattern:(", "vin=exact:1", "vin=tolerance:-1"])
 def test_bad_rule_options_are_refused_with_a_reason(bad):
