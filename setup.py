@@ -9,8 +9,8 @@ import os
 from setuptools import setup
 
 ROOT = "buildhat_conformance"
-FOLDERS = ["protocol", "harness", "emulator", "conformance", "fuzz", "bench"]
-DATA = ["*.json", "*.txt", "*.md", "*.script", "*.jsonl", "*.html", "*.css", "*.pem", "*.bin"]
+FOLDERS = ["protocol", "harness", "emulator", "sil", "conformance", "fuzz", "bench"]
+DATA = ["*.c", "*.h", "*.json", "*.txt", "*.md", "*.script", "*.jsonl", "*.html", "*.css", "*.pem", "*.bin"]
 
 
 def packages():

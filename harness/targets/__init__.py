@@ -7,6 +7,7 @@
 | ``socket://``, ``rfc2217://``, ``loop://`` and other pyserial URLs | ``pyserial_url`` |
 | ``cmd:<command line>`` | ``cmd`` |
 | ``inprocess[:...]`` | ``inprocess`` |
+| ``sil:<tree or program>[?...]`` | ``sil`` (the real firmware in the loop) |
 
 Each module provides ``from_url(url, **options) -> Target``; it is imported only when its
 URL is used. :func:`make_target` builds a target; :func:`open_target` also opens it.
@@ -28,6 +29,7 @@ _PKG = __name__
 _SCHEMES: Dict[str, str] = {
     "emulator": "emulator",
     "inprocess": "inprocess",
+    "sil": "sil",
     "cmd": "cmd",
     "serial": "serial",
     "socket": "pyserial_url",
@@ -43,6 +45,7 @@ _FACTORIES: Dict[str, Callable[..., Target]] = {}
 _FORMS: List[Tuple[str, str]] = [
     ("emulator[:<release|latest>][?speed=N&device=P=SPEC]", "the reference emulator on a pty"),
     ("inprocess[:<release>][?device=P=SPEC]", "the reference emulator in this process, virtual time"),
+    ("sil:<firmware tree or built program>[?device=P=SPEC]", "the real firmware built for this host, virtual time"),
     ("/dev/ttyAMA0, /dev/serial0, /dev/ttyUSB0 ...", "a HAT on a local serial port"),
     ("serial:///dev/ttyAMA0?baud=115200", "the same, with options"),
     ("socket://HOST:PORT, rfc2217://HOST:PORT", "a HAT on another machine (ser2net)"),

@@ -1,0 +1,139 @@
+"""The real firmware in the loop: ``sil:TREE`` or ``sil:PROGRAM``, in virtual time.
+
+``TREE`` is a Build HAT firmware tree (a ``firmware-pico/`` folder, or a checkout that has
+one); it is built for the host with the project's stand-in on first use (cached; the same as
+``buildhat-conformance sil build``). ``PROGRAM`` is a program that build made. The devices on
+its ports are the emulator's device models, so world actions work as on ``inprocess``.
+
+URL options: ``device=P=SPEC`` (repeatable), ``seed=N``, ``booted=0`` (open before the
+start-up; default: open a HAT whose start-up is done), ``sanitize=address,undefined``,
+``coverage=1``, ``firmware=RELEASE`` (the release whose device-side timing the world uses;
+default: latest). Time is virtual, as on ``inprocess`` (nothing reads the wall clock);
+``speed=N`` runs it paced to the wall clock instead, N times real time, on a pseudo-terminal
+(``buildhat-emulator --sil``), for host libraries and timing checks.
+"""
+from __future__ import annotations
+
+import os
+from typing import Any, Dict, List, Optional
+from urllib.parse import parse_qs, unquote
+
+from .base import TargetError
+from .inprocess import HatModel, InProcessControl, InProcessTarget, _parse_devices
+
+__all__ = ["SilTarget", "SilControl", "from_url", "program_for"]
+
+
+class SilControl(InProcessControl):
+    # No bootloader: a firmware tree's bootloader is not built.
+    capabilities = frozenset({"plug", "unplug", "data", "motorfault", "portfault", "button", "adc", "rate",
+                              "hold", "pos", "reset", "layout", "virtual_time"})
+
+
+def program_for(where: str, sanitize: List[str], coverage: bool) -> str:
+    """The host program for a tree (built, or taken from the cache) or a given program."""
+    from ...sil.build import BuildError, build_tree
+    path = os.path.expanduser(where)
+    if os.path.isfile(path):
+        if not os.access(path, os.X_OK):
+            raise TargetError(f"sil:{where}: not an executable program (give a firmware tree or a built program)")
+        return os.path.abspath(path)
+    try:
+        return str(build_tree(path, sanitize=sanitize, coverage=coverage).program)
+    except BuildError as exc:
+        raise TargetError(f"sil: {exc}") from None
+
+
+class SilTarget(InProcessTarget):
+    """The firmware in a child process, the world in this one; one new HAT per open."""
+
+    def __init__(self, program: str, url: str, devices: Optional[Dict[int, Any]] = None, seed: int = 0,
+                 boot: bool = True, firmware: Optional[str] = None):
+        super().__init__(firmware=firmware, devices=devices, seed=seed, boot=boot, url=url,
+                         factory=self._make)
+        self.program = program
+        self.control = SilControl(self)
+        self.capabilities = frozenset({"control", "virtual_time", "drive_events"})
+
+    def _make(self, firmware: Optional[str] = None, devices: Optional[Dict[int, Any]] = None, seed: int = 0,
+              baud: Optional[int] = None) -> HatModel:
+        from pathlib import Path
+
+        from ...protocol.profiles import get_profile
+        from ...sil.build import program_version
+        from ...sil.hat import SilHat
+        release = firmware or program_version(Path(self.program))
+        try:
+            profile = get_profile(release)
+        except KeyError:
+            if firmware:
+                raise TargetError(f"sil: unknown release {firmware!r}") from None
+            profile = get_profile(None)       # a build the profiles do not know: latest timing
+        # The bootloader leaves the image's signature in RAM; a known release's is a fact.
+        signature = profile.signature if release and str(profile.number) == str(release) else None
+        return SilHat(self.program, devices=devices, seed=seed, features=profile.features,  # type: ignore[return-value]
+                      signature=signature)
+
+    def _booted_copy(self) -> HatModel:
+        hat = self._new()
+        if self.boot:
+            try:
+                hat.boot()
+            except RuntimeError as exc:
+                hat_close = getattr(hat, "close", None)
+                if hat_close is not None:
+                    hat_close()
+                raise TargetError(f"sil: {exc}") from None
+        return hat
+
+    def close(self) -> None:
+        hat = self.emulator
+        if hat is not None:
+            close = getattr(hat, "close", None)
+            if close is not None:
+                close()
+        super().close()
+
+    def read(self, timeout: float) -> bytes:
+        from ...sil.process import FirmwareDied
+        try:
+            return super().read(timeout)
+        except FirmwareDied as exc:
+            raise TargetError(exc.summary) from None
+
+
+_KNOWN = {"device", "seed", "booted", "boot", "sanitize", "coverage", "firmware", "speed"}
+
+
+def from_url(url: str, **options) -> Any:
+    rest = url[len("sil:"):] if url.startswith("sil:") else ""
+    where, _, query = rest.partition("?")
+    where = unquote(where)
+    if not where:
+        raise TargetError("sil: needs a firmware tree or a built program: sil:PATH[?options]")
+    q = parse_qs(query, keep_blank_values=True)
+    unknown = set(q) - _KNOWN
+    if unknown:
+        raise TargetError(f"sil: unknown option(s) {sorted(unknown)} (known: {', '.join(sorted(_KNOWN))})")
+    sanitize = [s for v in q.get("sanitize", []) for s in v.split(",") if s]
+    coverage = q.get("coverage", ["0"])[-1] not in ("0", "false", "no", "")
+    booted = q.get("booted", q.get("boot", ["1"]))[-1] not in ("0", "false", "no")
+    devices = options.pop("devices", None) or _parse_devices(q.get("device", []))
+    try:
+        seed = int(q["seed"][-1]) if "seed" in q else 0
+    except ValueError:
+        raise TargetError(f"sil: seed must be a whole number, got {q['seed'][-1]!r}") from None
+    firmware = q["firmware"][-1] if "firmware" in q else None
+    program = program_for(where, sanitize, coverage)
+    if "speed" in q:
+        from .emulator import from_url as emulator_from_url
+        speed = q["speed"][-1]
+        extra = "".join(f"&device={p}={_spec(s)}" for p, s in devices.items())
+        return emulator_from_url(f"emulator:latest?speed={speed}&sil={program}"
+                                 + ("&booted=1" if booted else "") + extra, **options)
+    return SilTarget(program, url, devices=devices, seed=seed, boot=booted, firmware=firmware, **options)
+
+
+def _spec(spec: Any) -> str:
+    from ...protocol.devices import format_device_spec
+    return format_device_spec(spec) if isinstance(spec, tuple) else str(spec)

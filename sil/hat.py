@@ -1,0 +1,228 @@
+"""A firmware in the loop as the harness drives a HAT model: bytes in, bytes out, virtual ms.
+
+:class:`SilHat` has the interface of the emulator's ``Emulator`` that the in-process target
+and the real-time runners use (``now``, ``write``, ``read``, ``advance``,
+``advance_until_output``, ``step``, ``boot``, ``world``, ``on_event``, ``reset``), but the HAT
+behind it is a firmware tree built for the host (``sil/build.py``) running in a child process
+(``sil/process.py``), with the emulator's device models around it (``sil/world.py``,
+:attr:`SilHat.outside`).
+
+Time: the firmware's clock is virtual nanoseconds; the harness sees milliseconds. Nothing
+reads the wall clock except the hang watchdog of the child process.
+A firmware that crashes or exits becomes a dead HAT: what it sent before stays readable,
+then :meth:`read` raises :class:`FirmwareDied` once with its report, and the HAT stays silent.
+"""
+from __future__ import annotations
+
+import re
+from typing import Any, Callable, Dict, List, Mapping, Optional
+
+from ..emulator.world import WorldError, perform_line
+from ..protocol.devices import DEFAULT_LAYOUT, parse_device_spec
+from .process import FirmwareDied, FirmwareProcess
+from .protocol import NS_PER_MS, encode
+from .world import SilWorld
+
+__all__ = ["SilHat", "FirmwareDied", "BOOT_LIMIT_MS"]
+
+BOOT_LIMIT_MS = 20000
+_CONNECTED = re.compile(rb"P([0-3]): (connected to passive ID|established serial communication)")
+Event = Dict[str, Any]
+
+
+class SilHat:
+    def __init__(self, program: str, devices: Optional[Mapping[int, Any]] = None, seed: int = 0,
+                 features: Optional[Mapping[str, Any]] = None, env: Optional[dict] = None,
+                 signature: Optional[bytes] = None):
+        layout: Dict[int, Any] = dict(DEFAULT_LAYOUT)
+        for port, spec in (devices or {}).items():
+            if not 0 <= int(port) <= 3:
+                raise ValueError(f"device port must be 0..3, got {port!r}")
+            layout[int(port)] = parse_device_spec(spec) if isinstance(spec, str) else spec
+        self.program, self.seed, self.features, self.env = program, seed, features, env
+        self.signature = signature        # what the bootloader leaves in RAM for `signature`
+        self.devices = layout
+        self.events: List[Event] = []
+        self._callbacks: List[Callable[[Event], None]] = []
+        self._out = bytearray()
+        self._seen = bytearray()          # output since power-on, for boot()'s connect lines
+        self._base_ns = 0                 # virtual time at the current process's power-on
+        self._now_ns = 0
+        self.died: Optional[FirmwareDied] = None
+        self._died_unreported = False
+        self.hung = False
+        self._start()
+
+    # -- the child process ---------------------------------------------------------------
+    def _start(self) -> None:
+        self._base_ns = self._now_ns
+        self._seen.clear()
+        self.outside = SilWorld(self.devices, seed=self.seed, features=self.features, event=self._event)
+        self.outside.base_ns = self._base_ns
+        if self.signature:
+            self.outside.send(encode("S", 0, bytes(self.signature)[:64]))
+        self.died, self.hung = None, False
+        try:
+            self.proc: Optional[FirmwareProcess] = FirmwareProcess(self.program, env=self.env)
+        except FirmwareDied as exc:
+            self.proc = None
+            self._die(exc)
+
+    def _die(self, exc: FirmwareDied) -> None:
+        self.died = exc
+        self._died_unreported = True
+        self.note(exc.summary)
+        if exc.report:
+            self._sink("crash", self.now, {"report": exc.report})
+        frames = getattr(exc, "frames", None) or []
+        for frame in frames:
+            self._take(frame)
+
+    def _run(self, end_ns: int, stop_on_output: bool) -> None:
+        """Run firmware and world up to ``end_ns`` (or the first output, if asked)."""
+        while self._now_ns < end_ns:
+            if self.proc is None or self.died is not None or self.hung:
+                self._now_ns = end_ns        # a dead or hung HAT: time passes, nothing happens
+                self.outside.take_outbox()
+                return
+            due = self.outside.next_due()
+            limit = end_ns if due == float("inf") else min(end_ns, int(due) * NS_PER_MS)
+            limit = max(limit, self._now_ns + 1)
+            try:
+                frames = self.proc.run(limit - self._base_ns, self.outside.take_outbox(),
+                                       yield_on_host_idle=stop_on_output)
+            except FirmwareDied as exc:
+                self._die(exc)
+                continue
+            self._now_ns = self._base_ns + self.proc.now
+            for frame in frames:
+                self._take(frame)
+            self.outside.tick_due(self.now)
+            if stop_on_output and self._out:
+                return
+
+    def _take(self, frame) -> None:
+        if frame.kind == "h":
+            self._out += frame.payload
+            self._seen += frame.payload
+        else:
+            self.outside.from_firmware(frame._replace(t=frame.t + self._base_ns))
+
+    # -- events ----------------------------------------------------------------------------
+    def _event(self, kind: str, t: int, fields: Dict[str, Any]) -> None:
+        self._sink(kind, t, fields)
+
+    def _sink(self, kind: str, t: int, fields: Dict[str, Any]) -> None:
+        event: Event = {"t": int(t), "dir": kind}
+        event.update(fields)
+        self.events.append(event)
+        for cb in list(self._callbacks):
+            cb(event)
+
+    def on_event(self, callback: Callable[[Event], None]) -> None:
+        self._callbacks.append(callback)
+
+    def note(self, text: str) -> None:
+        self._sink("note", self.now, {"text": text})
+
+    # -- the HatModel interface ------------------------------------------------------------
+    @property
+    def now(self) -> int:
+        return self._now_ns // NS_PER_MS
+
+    def write(self, data: bytes) -> None:
+        if self.proc is not None and self.died is None and not self.hung:
+            for i in range(0, len(data), 4096):
+                self.outside.send(encode("H", self._now_ns - self._base_ns, bytes(data[i:i + 4096])))
+
+    def host_room(self) -> Optional[int]:
+        return None
+
+    def read(self) -> bytes:
+        out = bytes(self._out)
+        self._out.clear()
+        if not out and self._died_unreported and self.died is not None:
+            self._died_unreported = False
+            raise self.died
+        return out
+
+    def advance(self, ms: int) -> None:
+        if ms < 0:
+            raise ValueError(f"cannot advance by a negative time ({ms} ms)")
+        self._run(self._now_ns + int(ms) * NS_PER_MS, stop_on_output=False)
+
+    def advance_until_output(self, ms: int) -> int:
+        start = self.now
+        if not self._out:
+            self._run(self._now_ns + max(0, int(ms)) * NS_PER_MS, stop_on_output=True)
+        return self.now - start
+
+    def step(self) -> None:
+        self.advance(1)
+
+    def idle_until(self) -> float:
+        return self.now + 1
+
+    def settled(self) -> bool:
+        if b"Done initialising ports" not in self._seen:
+            return False
+        up = {int(m.group(1)) for m in _CONNECTED.finditer(bytes(self._seen))}
+        return all(spec is None or port in up for port, spec in self.devices.items())
+
+    def boot(self, limit_ms: int = BOOT_LIMIT_MS) -> int:
+        start = self.now
+        while not self.settled():
+            if self.died is not None:
+                raise RuntimeError(f"start-up failed: {self.died.summary}")
+            if self.now - start >= limit_ms:
+                raise RuntimeError(f"start-up not finished after {limit_ms} ms")
+            self.advance(10)
+        self.outside.restart_grace(self.now)
+        return self.now - start
+
+    # -- world actions -----------------------------------------------------------------------
+    def world(self, line: str) -> str:
+        """A world action as written in a script, or ``@reset``, ``@hang``, ``@time``, ``@firmware``."""
+        words = line.split()
+        if not words:
+            raise WorldError("empty action")
+        head = words[0]
+        if head == "@reset":
+            if words[1:] == ["bootloader"]:
+                raise WorldError("@reset bootloader: a firmware tree's bootloader is not modelled "
+                                 "(the sil: target runs the firmware only)")
+            if words[1:]:
+                raise WorldError("@reset takes nothing here")
+            self.reset()
+            return "ok"
+        if head == "@hang":
+            self.hung = True
+            self.note("the firmware hangs (fault injection): nothing is read or printed until a reset")
+            return "ok"
+        if head == "@time":
+            return f"ok {self.now}"
+        if head == "@firmware":
+            if self.died is not None:
+                return "ok dead"
+            return "ok hung" if self.hung else "ok sil"
+        perform_line(self.outside, line)
+        if head == "@plug":
+            self.devices[int(words[1])] = parse_device_spec(" ".join(words[2:]))
+        elif head == "@unplug":
+            self.devices[int(words[1])] = None
+        return "ok"
+
+    def reset(self, bootloader: bool = False) -> None:
+        """Power-cycle the HAT: a new firmware process, the same layout, time goes on."""
+        if bootloader:
+            raise WorldError("a firmware tree's bootloader is not modelled")
+        self.close()
+        self._start()
+
+    def arm_hang(self, lines: int) -> None:
+        raise WorldError("hang_after is not available on a sil: target (use @hang)")
+
+    def close(self) -> None:
+        if self.proc is not None:
+            self.proc.quit()
+            self.proc = None

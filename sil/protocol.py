@@ -1,0 +1,67 @@
+"""Frames between the world (this package, Python) and a firmware built with the stand-in (C).
+
+Both directions use one header, ``<BBHIQ``: type (one ASCII letter), port, payload length,
+4 spare bytes, time in virtual nanoseconds; the payload follows. ``standin/link.c`` is the
+other end. The firmware runs only between a run frame and the yield frame that answers it.
+
+World -> firmware (upper case):
+
+| type | port | time | payload | meaning |
+|---|---|---|---|---|
+| ``R`` | - | run limit | flags (bit 0: yield when the command port falls idle) | run |
+| ``H`` | - | earliest start | bytes | bytes from the host on the command port (paced at its baud) |
+| ``P`` | port | earliest start | baud (u32), bytes | bytes from the port's device |
+| ``C`` | port | now | - | the device stopped sending: bytes not yet on the wire are dropped |
+| ``I`` | port | - | signature (u16), RX line level when the device is idle (u8) | the device's ID lines |
+| ``G`` | - | - | port-power OK (u8), motor-power OK (u8) | the two fault pins (1 = no fault) |
+| ``F`` | port | - | 3 bytes | the port driver's fault registers 0x4D-0x4F |
+| ``A`` | - | - | raw (u16) | the ADC reading of the input voltage |
+| ``S`` | - | - | 64 bytes | what the bootloader left at 0x2003FF00 (the image signature) |
+| ``Q`` | - | - | - | exit (coverage data is written) |
+
+Firmware -> world (lower case):
+
+| type | port | time | payload | meaning |
+|---|---|---|---|---|
+| ``y`` | - | now | ``SIL1`` on the first | yield: the firmware waits for the world |
+| ``h`` | - | end of the byte | 1 byte | a byte to the host |
+| ``p`` | port | end of the byte | baud (u32), byte | a byte to the port's device |
+| ``u`` | port | now | on (u8), baud (u32) | the port's receiver was switched on/off |
+| ``d`` | port | now | duty (i16, -255..255), driven (u8; 0 = outputs off) | the motor driver's output |
+| ``f`` | port | now | - | the driver's fault latch was cleared |
+| ``o`` | - | now | on (u8) | port power switched |
+| ``l`` | - | now | bits (u8) | the two status LEDs |
+"""
+from __future__ import annotations
+
+import struct
+from typing import Iterator, NamedTuple
+
+__all__ = ["HEADER", "HELLO", "Frame", "encode", "decode", "NS_PER_MS"]
+
+HEADER = struct.Struct("<BBHIQ")
+HELLO = b"SIL1"
+NS_PER_MS = 1_000_000
+
+
+class Frame(NamedTuple):
+    kind: str
+    port: int
+    t: int          # virtual ns
+    payload: bytes
+
+
+def encode(kind: str, t: int = 0, payload: bytes = b"", port: int = 0) -> bytes:
+    if len(payload) > 0xFFFF:
+        raise ValueError(f"frame payload too long ({len(payload)} bytes)")
+    return HEADER.pack(ord(kind), port, len(payload), 0, max(0, int(t))) + payload
+
+
+def decode(buf: bytes) -> Iterator[Frame]:
+    """Every whole frame in ``buf`` (which must hold whole frames only)."""
+    i, n, size = 0, len(buf), HEADER.size
+    while i + size <= n:
+        kind, port, length, _spare, t = HEADER.unpack_from(buf, i)
+        i += size
+        yield Frame(chr(kind), port, t, bytes(buf[i:i + length]))
+        i += length

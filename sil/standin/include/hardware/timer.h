@@ -1,0 +1,2 @@
+/* Stand-in for the pico-sdk header of this name: everything is in sil_sdk.h. */
+#include "sil_sdk.h"

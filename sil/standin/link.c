@@ -1,0 +1,123 @@
+/* The link to the world: frames on stdin (from the world) and stdout (to it).
+ *
+ * Every frame is a 16-byte header (type, port, payload length, 4 spare bytes, time in ns;
+ * little-endian) and its payload. The firmware runs only between a run frame ('R') and the
+ * yield frame ('y') it answers with; in between it owns the clock. The frame types and their
+ * payloads are listed once, in sil/protocol.py, which the Python side reads.
+ */
+#include "sil.h"
+
+#include <errno.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+uint64_t link_limit;
+int link_yield_on_host_idle;
+
+struct header {
+    uint8_t type, port;
+    uint16_t len;
+    uint32_t spare;
+    uint64_t t;
+};
+
+static uint8_t out[1 << 16];
+static size_t out_len;
+
+static void write_all(const uint8_t *p, size_t n) {
+    while (n > 0) {
+        ssize_t k = write(1, p, n);
+        if (k < 0 && errno == EINTR) continue;
+        if (k <= 0) _exit(0);          /* the world has gone: nothing left to run for */
+        p += k;
+        n -= (size_t)k;
+    }
+}
+
+void link_flush(void) {
+    write_all(out, out_len);
+    out_len = 0;
+}
+
+void link_emit(uint8_t type, uint8_t port, uint64_t t, const void *data, uint16_t len) {
+    struct header h = {type, port, len, 0, t};
+    if (out_len + sizeof h + len > sizeof out) link_flush();
+    memcpy(out + out_len, &h, sizeof h);
+    out_len += sizeof h;
+    if (len) memcpy(out + out_len, data, len);
+    out_len += len;
+}
+
+static void read_all(uint8_t *p, size_t n) {
+    while (n > 0) {
+        ssize_t k = read(0, p, n);
+        if (k < 0 && errno == EINTR) continue;
+        if (k <= 0) _exit(0);
+        p += k;
+        n -= (size_t)k;
+    }
+}
+
+/* Obey the world's frames until it says run (or quit). */
+static void obey(void) {
+    static uint8_t payload[65536];
+    for (;;) {
+        struct header h;
+        read_all((uint8_t *)&h, sizeof h);
+        read_all(payload, h.len);
+        switch (h.type) {
+        case 'R':
+            link_limit = h.t;
+            link_yield_on_host_idle = h.len > 0 && (payload[0] & 1);
+            return;
+        case 'H': periph_host_bytes(h.t, payload, h.len); break;
+        case 'P':
+            if (h.len >= 4) {
+                uint32_t baud;
+                memcpy(&baud, payload, 4);
+                periph_port_bytes(h.port, h.t, baud, payload + 4, (uint16_t)(h.len - 4));
+            }
+            break;
+        case 'C': periph_port_cut(h.port, h.t); break;
+        case 'I':
+            if (h.len >= 3) {
+                uint16_t sig;
+                memcpy(&sig, payload, 2);
+                periph_set_id(h.port, sig, payload[2]);
+            }
+            break;
+        case 'G': if (h.len >= 2) periph_set_fault_pins(payload[0], payload[1]); break;
+        case 'F': if (h.len >= 3) periph_set_fault_regs(h.port, payload); break;
+        case 'A':
+            if (h.len >= 2) {
+                uint16_t raw;
+                memcpy(&raw, payload, 2);
+                periph_set_adc(raw);
+            }
+            break;
+        case 'S': memcpy((void *)0x2003ff00, payload, h.len < 256 ? h.len : 256); break;
+        case 'Q': link_flush(); exit(0);   /* exit(), not _exit(): coverage data is written */
+        default:
+            fprintf(stderr, "sil: unknown frame type 0x%02x from the world\n", h.type);
+            exit(70);
+        }
+    }
+}
+
+void link_yield(void) {
+    link_emit('y', 0, sil_now, NULL, 0);
+    link_flush();
+    obey();
+}
+
+static void flush_at_exit(void) { link_flush(); }
+
+void link_start(void) {
+    static const char hello[] = "SIL1";
+    atexit(flush_at_exit);
+    link_emit('y', 0, 0, hello, 4);
+    link_flush();
+    obey();
+}

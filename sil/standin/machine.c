@@ -1,0 +1,196 @@
+/* The virtual CPU: time, interrupts and idling for a firmware built for the host.
+ *
+ * The firmware's own files are compiled with -fsanitize-coverage=trace-pc, so the compiler
+ * calls __sanitizer_cov_trace_pc() at the start of every basic block. That call is the
+ * clock: each block costs NS_PER_BLOCK of virtual time, so loops that never call the SDK
+ * (a spin on a flag an interrupt sets) still move time, and interrupts are taken between
+ * blocks, as on the chip. Nothing here reads the wall clock; the same inputs give the same
+ * bytes at the same virtual times.
+ *
+ * Idling: a main loop that polls the timer and finds nothing to do would burn host CPU for
+ * every virtual microsecond. When two timer reads in a row were separated by the same number
+ * of blocks and nothing outside the CPU changed in between, the loop is polling; the clock
+ * then jumps to the next event or the next millisecond edge of the timer, whichever comes
+ * first. See sil/README.md for why this keeps behaviour unchanged.
+ */
+#include "sil.h"
+
+#include <stdlib.h>
+
+/* About five Cortex-M0+ instructions at the RP2040's clock: a typical basic block. */
+#define NS_PER_BLOCK 40
+/* How often (in blocks) a running program is checked for interrupts that a register write
+ * (which the stand-in cannot see as it happens) may have enabled: about 2.5 us. */
+#define IRQ_POLL_BLOCKS 64
+/* Reading the timer costs a register access. */
+#define NS_PER_TIMER_READ 20
+
+uint64_t sil_now;
+
+static uint64_t blocks;
+static uint64_t next_due;               /* when sil_service must run next */
+static int in_service, in_irq, yield_wanted;
+static irq_handler_t handlers[SIL_NUM_IRQS];
+static uint8_t enabled[SIL_NUM_IRQS], pending[SIL_NUM_IRQS];
+
+/* Timer-read idling (see above). */
+static int touched = 1, quiet_reads;
+static uint64_t last_read_blocks, last_interval, first_read_us;
+static int have_first_read;
+
+void sil_touch(void) { touched = 1; }
+
+void sil_request_yield(void) {
+    yield_wanted = 1;
+    next_due = sil_now;
+}
+
+void sil_wake(void) {
+    uint64_t e = periph_next_event();
+    next_due = e < link_limit ? e : link_limit;
+    if (yield_wanted) next_due = sil_now;
+}
+
+static int irq_wanted(uint num) {
+    return enabled[num] && handlers[num] && (pending[num] || periph_irq_level(num));
+}
+
+/* Take one interrupt, lowest number first (the NVIC's order at equal priority). */
+static int take_interrupt(void) {
+    for (uint num = 0; num < SIL_NUM_IRQS; num++) {
+        if (!irq_wanted(num)) continue;
+        pending[num] = 0;
+        in_irq = 1;
+        in_service = 0;                /* events and the world go on during a long handler */
+        periph_irq_enter(num);
+        handlers[num]();
+        periph_irq_exit(num);
+        in_service = 1;
+        in_irq = 0;
+        touched = 1;
+        return 1;
+    }
+    return 0;
+}
+
+void sil_service(void) {
+    if (in_service) return;
+    in_service = 1;
+    for (;;) {
+        periph_run_events();
+        if (yield_wanted || sil_now >= link_limit) {
+            yield_wanted = 0;
+            link_yield();
+            if (link_limit <= sil_now) link_limit = sil_now + 1;
+            continue;
+        }
+        if (!in_irq && take_interrupt()) continue;
+        break;
+    }
+    in_service = 0;
+    sil_wake();
+}
+
+static int any_irq_wanted(void) {
+    for (uint num = 0; num < SIL_NUM_IRQS; num++)
+        if (irq_wanted(num)) return 1;
+    return 0;
+}
+
+/* The compiler's per-block hook (see the file comment). */
+void __sanitizer_cov_trace_pc(void) {
+    sil_now += NS_PER_BLOCK;
+    blocks++;
+    if (sil_now >= next_due) {
+        if (!in_service) sil_service();
+    } else if ((blocks % IRQ_POLL_BLOCKS) == 0 && !in_irq && !in_service && any_irq_wanted()) {
+        sil_service();
+    }
+}
+
+void sil_spend(uint64_t ns) {
+    uint64_t end = sil_now + ns;
+    while (sil_now < end) {
+        uint64_t step = end - sil_now;
+        if (next_due > sil_now && next_due - sil_now < step) step = next_due - sil_now;
+        sil_now += step;
+        if (sil_now >= next_due) sil_service();
+    }
+}
+
+/* Jump over a polling loop's idle time (see the file comment). */
+static void skip_idle(void) {
+    sil_service();                    /* an interrupt that is due comes first */
+    if (touched) return;
+    /* The timer's millisecond edges are 1 us past each whole ms since the first read (a
+     * tick counts when the time is *greater* than the last edge); jump to the next one only:
+     * a loop that waits for a tick value must see every tick. */
+    uint64_t d = sil_now / 1000 - first_read_us;
+    uint64_t edge = (first_read_us + (d + 999) / 1000 * 1000 + 1) * 1000;
+    uint64_t target = edge < next_due ? edge : next_due;
+    if (target > sil_now) sil_now = target;
+    if (sil_now >= next_due) sil_service();
+}
+
+uint64_t time_us_64(void) {
+    uint64_t interval = blocks - last_read_blocks;
+    last_read_blocks = blocks;
+    if (!touched && interval == last_interval) quiet_reads++;
+    else quiet_reads = 0;
+    last_interval = interval;
+    touched = 0;
+    if (!have_first_read) {
+        have_first_read = 1;
+        first_read_us = sil_now / 1000;
+    } else if (quiet_reads >= 2) {
+        skip_idle();
+    }
+    sil_spend(NS_PER_TIMER_READ);
+    return sil_now / 1000;
+}
+
+uint32_t time_us_32(void) { return (uint32_t)time_us_64(); }
+absolute_time_t get_absolute_time(void) { return time_us_64(); }
+void busy_wait_us(uint64_t us) { sil_touch(); sil_spend(us * 1000); }
+void busy_wait_us_32(uint32_t us) { busy_wait_us(us); }
+void busy_wait_ms(uint32_t ms) { busy_wait_us((uint64_t)ms * 1000); }
+void sleep_us(uint64_t us) { busy_wait_us(us); }
+void sleep_ms(uint32_t ms) { busy_wait_ms(ms); }
+void tight_loop_contents(void) {}
+bool stdio_init_all(void) { return true; }
+
+void irq_set_exclusive_handler(uint num, irq_handler_t handler) {
+    if (num < SIL_NUM_IRQS) handlers[num] = handler;
+}
+
+void irq_set_enabled(uint num, bool on) {
+    if (num >= SIL_NUM_IRQS) return;
+    enabled[num] = on;
+    sil_touch();
+    if (on) sil_service();
+}
+
+void irq_set_pending(uint num) {
+    if (num >= SIL_NUM_IRQS) return;
+    pending[num] = 1;
+    sil_touch();
+    sil_service();
+}
+
+/* The firmware's critical sections: while "disabled", no interrupt is taken. */
+uint32_t save_and_disable_interrupts(void) {
+    uint32_t was = (uint32_t)in_irq;
+    in_irq = 1;
+    return was;
+}
+
+void restore_interrupts(uint32_t status) {
+    in_irq = (int)status;
+    if (!in_irq) sil_service();
+}
+
+__attribute__((constructor)) static void sil_power_on(void) {
+    periph_init();
+    link_start();                      /* the world's set-up frames, then its first run */
+    sil_wake();
+}
