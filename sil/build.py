@@ -29,7 +29,8 @@ PROGRAM = "firmware"
 VERSION_NOTE = "version.txt"
 COMMON = ["-std=gnu11", "-g", "-fno-omit-frame-pointer", "-fno-strict-aliasing"]
 # -fsanitize-coverage=trace-pc is the stand-in's clock (standin/machine.c).
-FIRMWARE = ["-fsanitize-coverage=trace-pc", "-mno-red-zone", "-w"]
+# -funsigned-char: plain char is unsigned in the ARM EABI the firmware is written for.
+FIRMWARE = ["-fsanitize-coverage=trace-pc", "-mno-red-zone", "-funsigned-char", "-w"]
 STANDIN = ["-Wall", "-Wextra"]
 
 

@@ -172,7 +172,7 @@ void irq_set_enabled(uint num, bool on) {
 
 void irq_set_pending(uint num) {
     if (num >= SIL_NUM_IRQS) return;
-    pending[num] = 1;
+    if (!periph_irq_pend(num)) pending[num] = 1;
     sil_touch();
     sil_service();
 }

@@ -44,6 +44,7 @@ struct wire {
 static void wire_push(struct wire *w, uint64_t start, uint32_t baud, const uint8_t *b, uint16_t n) {
     if (baud == 0) baud = 115200;
     uint64_t byte_ns = 10ull * 1000000000ull / baud;
+    if (start < sil_now) start = sil_now;          /* nothing arrives in the past */
     if (start < w->free_at) start = w->free_at;
     for (uint16_t i = 0; i < n; i++) {
         if (w->tail == w->cap) {
@@ -532,6 +533,14 @@ int periph_irq_level(uint num) {
     case PIO1_IRQ_1: return (pio_intr(1) & sil_pio_hw[1].inte1) != 0;
     default: return 0;
     }
+}
+
+/* A pending UART interrupt set by software is a request to look at the transmitter: it is
+ * kept as the transmit condition, so a receive-only call of the handler cannot swallow it. */
+int periph_irq_pend(uint num) {
+    if (num != UART0_IRQ) return 0;
+    cu.tx_irq = 1;
+    return 1;
 }
 
 /* The PL011's flag register says either "a byte to read" or "room to send", never both in

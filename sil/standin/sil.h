@@ -19,6 +19,7 @@ void sil_spend(uint64_t ns);           /* the CPU is busy (a bus transfer, a wai
 uint64_t periph_next_event(void);      /* earliest pending event time (UINT64_MAX: none) */
 void periph_run_events(void);          /* every event due at or before sil_now */
 int periph_irq_level(uint num);        /* the peripheral asserts interrupt num */
+int periph_irq_pend(uint num);         /* software set num pending: 1 if the peripheral keeps it */
 void periph_irq_enter(uint num);       /* set registers the handler reads */
 void periph_irq_exit(uint num);        /* take what the handler wrote */
 void periph_host_bytes(uint64_t t, const uint8_t *b, uint16_t n);
