@@ -16,13 +16,16 @@ that, a target that can reset the HAT is reset once (conformance/recovery.py: ``
 from __future__ import annotations
 
 import hashlib
+import json
 import os
 import re
+import sys
 import time
 from typing import Any, Dict, List, Optional, Tuple
 
 import pytest
 
+from ..harness.targets.base import TargetError
 from .junit import Case, JUnitFile, failure_line
 from .link import Hat
 from .needs import World
@@ -164,8 +167,34 @@ class Run:
                 self.hat.session.close()
             except Exception:  # noqa: BLE001 - closing a dead target must not mask the results
                 pass
+            self._firmware_coverage()
         if self.tee is not None and self.tee.between is not None:
             self.tee.between.close()
+
+    def _firmware_coverage(self) -> None:
+        """A ``sil:`` target built with coverage: the firmware's figure beside the JUnit file."""
+        target = getattr(self.tee, "inner", None)
+        measure = getattr(target, "firmware_coverage", None)
+        if measure is None:
+            return
+        try:
+            summary = measure()
+        except TargetError as exc:
+            print(f"\n{exc}", file=sys.stderr)
+            return
+        if summary is None:
+            return
+        path = os.path.join(os.path.dirname(os.path.abspath(self.junit.path)), "firmware-coverage.json")
+        with open(path, "w", encoding="utf-8") as out:
+            json.dump(summary.as_dict(), out, indent=1)
+        self.junit.set_property("firmware_coverage", f"lines {summary.line_percent:.1f}%, "
+                                                     f"branches {summary.branch_percent:.1f}%")
+        reporter = self.config.pluginmanager.get_plugin("terminalreporter")
+        for line in [""] + summary.text().splitlines():
+            if reporter is not None:
+                reporter.write_line(line)
+            else:
+                print(line, file=sys.stderr)
 
     # -- hooks -----------------------------------------------------------------------------
     @pytest.hookimpl(trylast=True)

@@ -35,6 +35,7 @@ SUBCOMMANDS = {
     "report": ("buildhat_conformance.harness.report.cli", "build the HTML report from JUnit files"),
     "load": ("buildhat_conformance.harness.firmware.cli", "load firmware through the HAT's bootloader"),
     "bench": ("buildhat_conformance.bench.cli", "benchmarks: timing, throughput, fidelity"),
+    "sil": ("buildhat_conformance.sil.cli", "the real firmware on this host: build a firmware tree (sil build)"),
 }
 
 _EPILOG = f"{TARGET_HELP[0].upper()}{TARGET_HELP[1:]}.\n{EXIT_STATUS_HELP[0].upper()}{EXIT_STATUS_HELP[1:]}."

@@ -15,7 +15,7 @@ default: latest). Time is virtual, as on ``inprocess`` (nothing reads the wall c
 from __future__ import annotations
 
 import os
-from typing import Any, Dict, List, Optional
+from typing import Any, Dict, List, Optional, Tuple
 from urllib.parse import parse_qs, unquote
 
 from .base import TargetError
@@ -30,28 +30,32 @@ class SilControl(InProcessControl):
                               "hold", "pos", "reset", "layout", "virtual_time"})
 
 
-def program_for(where: str, sanitize: List[str], coverage: bool) -> str:
-    """The host program for a tree (built, or taken from the cache) or a given program."""
+def program_for(where: str, sanitize: List[str], coverage: bool) -> Tuple[str, Any]:
+    """The host program for a tree (built, or taken from the cache) or a given program; and the
+    build (None for a given program)."""
     from ...sil.build import BuildError, build_tree
     path = os.path.expanduser(where)
     if os.path.isfile(path):
         if not os.access(path, os.X_OK):
             raise TargetError(f"sil:{where}: not an executable program (give a firmware tree or a built program)")
-        return os.path.abspath(path)
+        return os.path.abspath(path), None
     try:
-        return str(build_tree(path, sanitize=sanitize, coverage=coverage).program)
+        build = build_tree(path, sanitize=sanitize, coverage=coverage)
     except BuildError as exc:
         raise TargetError(f"sil: {exc}") from None
+    return str(build.program), build
 
 
 class SilTarget(InProcessTarget):
     """The firmware in a child process, the world in this one; one new HAT per open."""
 
     def __init__(self, program: str, url: str, devices: Optional[Dict[int, Any]] = None, seed: int = 0,
-                 boot: bool = True, firmware: Optional[str] = None):
+                 boot: bool = True, firmware: Optional[str] = None, build: Any = None):
         super().__init__(firmware=firmware, devices=devices, seed=seed, boot=boot, url=url,
                          factory=self._make)
         self.program = program
+        self.build = build          # the sil.build.Build when the URL named a tree
+        self.disposable = True      # every open starts a new firmware process
         self.control = SilControl(self)
         self.capabilities = frozenset({"control", "virtual_time", "drive_events"})
 
@@ -94,6 +98,16 @@ class SilTarget(InProcessTarget):
                 close()
         super().close()
 
+    def firmware_coverage(self) -> Optional[Any]:
+        """The firmware's coverage so far (a ``coverage=1`` build, after close), else None."""
+        if self.build is None or not self.build.coverage:
+            return None
+        from ...sil.coverage import coverage_summary
+        try:
+            return coverage_summary(self.build)
+        except RuntimeError as exc:
+            raise TargetError(f"sil: coverage: {exc}") from None
+
     def read(self, timeout: float) -> bytes:
         from ...sil.process import FirmwareDied
         try:
@@ -124,14 +138,18 @@ def from_url(url: str, **options) -> Any:
     except ValueError:
         raise TargetError(f"sil: seed must be a whole number, got {q['seed'][-1]!r}") from None
     firmware = q["firmware"][-1] if "firmware" in q else None
-    program = program_for(where, sanitize, coverage)
+    program, build = program_for(where, sanitize, coverage)
+    if build is not None and build.coverage:
+        from ...sil.coverage import reset_counts
+        reset_counts(build)          # the figure at the end is this run's, not the sum of all runs
     if "speed" in q:
         from .emulator import from_url as emulator_from_url
         speed = q["speed"][-1]
         extra = "".join(f"&device={p}={_spec(s)}" for p, s in devices.items())
         return emulator_from_url(f"emulator:latest?speed={speed}&sil={program}"
                                  + ("&booted=1" if booted else "") + extra, **options)
-    return SilTarget(program, url, devices=devices, seed=seed, boot=booted, firmware=firmware, **options)
+    return SilTarget(program, url, devices=devices, seed=seed, boot=booted, firmware=firmware, build=build,
+                     **options)
 
 
 def _spec(spec: Any) -> str:

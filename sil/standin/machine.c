@@ -28,7 +28,7 @@
 uint64_t sil_now;
 
 static uint64_t blocks;
-static uint64_t next_due;               /* when sil_service must run next */
+static uint64_t next_due = UINT64_MAX;  /* when sil_service must run next (never before power-on) */
 static int in_service, in_irq, yield_wanted;
 static irq_handler_t handlers[SIL_NUM_IRQS];
 static uint8_t enabled[SIL_NUM_IRQS], pending[SIL_NUM_IRQS];
@@ -189,7 +189,9 @@ void restore_interrupts(uint32_t status) {
     if (!in_irq) sil_service();
 }
 
-__attribute__((constructor)) static void sil_power_on(void) {
+/* Early (priority 101): instrumented constructors of the firmware's objects (gcov's) must find
+ * the clock stopped until the world has said how to run. */
+__attribute__((constructor(101))) static void sil_power_on(void) {
     periph_init();
     link_start();                      /* the world's set-up frames, then its first run */
     sil_wake();
