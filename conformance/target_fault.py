@@ -6,13 +6,14 @@ from __future__ import annotations
 
 from typing import Any, Optional, Sequence
 
-from ..harness.errors import NeedsCapability, NotReading, TargetError
+from ..harness.errors import NeedsCapability, NotReading, TargetCrashed, TargetError
 
 __all__ = ["TargetFault", "is_target_fault", "target_fault_of", "fault_line", "describe_silence",
            "garbled_reply", "first_line", "binary_count",
-           "SILENT", "DEAD", "REBOOTED", "GARBLED", "NOT_READING"]
+           "SILENT", "DEAD", "REBOOTED", "GARBLED", "NOT_READING", "CRASHED"]
 
 SILENT, DEAD, REBOOTED, GARBLED, NOT_READING = "silent", "dead", "rebooted", "garbled", "not reading"
+CRASHED = "crashed"      # the firmware itself crashed (a sil: target: a signal or a sanitizer report)
 
 
 class TargetFault(Exception):
@@ -48,6 +49,8 @@ def is_target_fault(exc: Optional[BaseException]) -> bool:
 
 def target_fault_of(exc: TargetError) -> TargetFault:
     """The target fault for a harness TargetError: it stopped reading, or it is gone."""
+    if isinstance(exc, TargetCrashed):
+        return TargetFault(CRASHED, str(exc))
     return TargetFault(NOT_READING if isinstance(exc, NotReading) else DEAD, str(exc))
 
 

@@ -78,6 +78,12 @@ class TeeTarget(Target):
             data = self.inner.read(timeout)
         except Exception as exc:
             self.dead = self.dead or f"{type(exc).__name__}: {exc}"
+            report = getattr(exc, "report", "")
+            if report:                   # a crashed firmware's whole report goes in the transcript
+                with self._lock:
+                    w = self._writer()
+                    if w is not None:
+                        w.note(self._now_ms(), report)
             raise
         with self._lock:
             w = self._writer()

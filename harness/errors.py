@@ -3,9 +3,9 @@ from __future__ import annotations
 
 from typing import Optional
 
-from .targets.base import NeedsCapability, NotReading, TargetError
+from .targets.base import NeedsCapability, NotReading, TargetCrashed, TargetError
 
-__all__ = ["TargetError", "NeedsCapability", "NotReading", "SessionError", "ExpectTimeout"]
+__all__ = ["TargetError", "TargetCrashed", "NeedsCapability", "NotReading", "SessionError", "ExpectTimeout"]
 
 
 class SessionError(RuntimeError):

@@ -306,8 +306,9 @@ class Session(Identification, Conversation):
         if self._error is not None:
             err = self._error
             if isinstance(err, TargetError):
-                raise TargetError(f"{err}\n{describe_events(self.events[self._cursor:], self.partial)}") \
-                    from err
+                again = type(err)(f"{err}\n{describe_events(self.events[self._cursor:], self.partial)}")
+                again.__dict__.update(err.__dict__)    # the same kind of fault, with what it carried
+                raise again from err
             raise TargetError(f"reading from {self.target.url} failed: {err!r}") from err
         if not self._opened or self._closed:
             raise SessionError("the session is not open (call open() first)")

@@ -44,6 +44,13 @@ def _first_report_line(text: str) -> str:
     return ""
 
 
+def _sanitizer(report: str) -> str:
+    for name in ("AddressSanitizer", "UndefinedBehaviorSanitizer", "LeakSanitizer"):
+        if name in report:
+            return name
+    return "UndefinedBehaviorSanitizer" if "runtime error" in report else "sanitizer"
+
+
 class FirmwareProcess:
     def __init__(self, program: str, env: Optional[dict] = None):
         self.program = program
@@ -134,7 +141,8 @@ class FirmwareProcess:
             died = FirmwareDied("crashed", f"the firmware crashed ({name})" + (f": {first}" if first else ""),
                                 report)
         elif code == 86 or "Sanitizer" in report or "runtime error" in report:
-            died = FirmwareDied("crashed", f"the firmware crashed: {first or 'sanitizer report'}", report)
+            died = FirmwareDied("crashed", f"the firmware crashed ({_sanitizer(report)}): "
+                                           f"{first or 'sanitizer report'}", report)
         else:
             died = FirmwareDied("exited", f"the firmware exited with status {code}"
                                 + (f": {first}" if first else ""), report)

@@ -25,6 +25,14 @@ class NotReading(TargetError):
     """The target stopped reading: a write did not complete within its deadline."""
 
 
+class TargetCrashed(TargetError):
+    """The HAT's firmware crashed (a signal, a sanitizer report): ``report`` is all it said."""
+
+    def __init__(self, message: str, report: str = ""):
+        super().__init__(message)
+        self.report = report
+
+
 class NeedsCapability(TargetError):
     """The test or script needs a world action the target cannot perform."""
 

@@ -18,7 +18,7 @@ import os
 from typing import Any, Dict, List, Optional, Tuple
 from urllib.parse import parse_qs, unquote
 
-from .base import TargetError
+from .base import TargetCrashed, TargetError
 from .inprocess import HatModel, InProcessControl, InProcessTarget, _parse_devices
 
 __all__ = ["SilTarget", "SilControl", "from_url", "program_for"]
@@ -113,6 +113,8 @@ class SilTarget(InProcessTarget):
         try:
             return super().read(timeout)
         except FirmwareDied as exc:
+            if exc.kind == "crashed":
+                raise TargetCrashed(exc.summary, exc.report) from None
             raise TargetError(exc.summary) from None
 
 
