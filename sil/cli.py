@@ -34,6 +34,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     build.add_argument("--sanitize", type=_sanitizers, default=[], metavar="LIST",
                        help="build with sanitizers: address, undefined (comma-separated)")
     build.add_argument("--coverage", action="store_true", help="build with gcov coverage of the firmware's files")
+    serve = sub.add_parser("serve", add_help=False,
+                           help="serve a firmware at wall-clock pace on a pty/TCP/stdio (see sil serve --help)")
+    serve.add_argument("rest", nargs=argparse.REMAINDER)
     cov = sub.add_parser("coverage", help="the firmware's line and branch coverage (a --coverage build)")
     cov.add_argument("tree", metavar="TREE", help="the firmware tree the build was made from")
     cov.add_argument("--sanitize", type=_sanitizers, default=[], metavar="LIST", help="as given to sil build")
@@ -44,6 +47,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def main(args: argparse.Namespace) -> int:
     if args.sil_command is None:
         raise UsageError("sil needs an action: sil build TREE (see sil --help)")
+    if args.sil_command == "serve":
+        from .serve import main as serve_main
+        return serve_main(args.rest)
     try:
         build = build_tree(args.tree, sanitize=args.sanitize, coverage=getattr(args, "coverage", True)
                            if args.sil_command == "build" else True)

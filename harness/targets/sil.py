@@ -145,15 +145,20 @@ def from_url(url: str, **options) -> Any:
         from ...sil.coverage import reset_counts
         reset_counts(build)          # the figure at the end is this run's, not the sum of all runs
     if "speed" in q:
-        from .emulator import from_url as emulator_from_url
-        speed = q["speed"][-1]
-        extra = "".join(f"&device={p}={_spec(s)}" for p, s in devices.items())
-        return emulator_from_url(f"emulator:latest?speed={speed}&sil={program}"
-                                 + ("&booted=1" if booted else "") + extra, **options)
+        # Paced to the wall clock: the firmware in its own real-time runner on a pty (sil/serve.py),
+        # reached like the emulator target (same process handling and control channel).
+        import sys
+
+        from .emulator import EmulatorTarget
+        try:
+            speed = float(q["speed"][-1])
+        except ValueError:
+            raise TargetError(f"sil: speed must be a number, got {q['speed'][-1]!r}") from None
+        if speed <= 0:
+            raise TargetError("sil: speed must be positive")
+        command = [sys.executable, "-m", "buildhat_conformance.sil.serve", program]
+        return EmulatorTarget(url, firmware=firmware or "latest", speed=speed, devices=devices or None,
+                              booted=booted, seed=seed, command=command, **options)
     return SilTarget(program, url, devices=devices, seed=seed, boot=booted, firmware=firmware, build=build,
                      **options)
 
-
-def _spec(spec: Any) -> str:
-    from ...protocol.devices import format_device_spec
-    return format_device_spec(spec) if isinstance(spec, tuple) else str(spec)

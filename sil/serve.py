@@ -1,0 +1,125 @@
+"""The real firmware in the loop at wall-clock pace, on a pty, TCP or stdio (``sil serve``).
+
+The counterpart of ``buildhat-emulator --pty`` for a firmware built with the stand-in: the same
+real-time loop, links and control channel (``emulator/runners``, ``emulator/control.py``), with
+a :class:`~.hat.SilHat` where the emulator's model would be. Host libraries drive it as they
+drive a HAT; the ``sil:...?speed=N`` target starts it. Options are the emulator's, so the
+emulator target's process handling serves both: ``--pty | --tcp [HOST:]PORT | --stdio``,
+``--speed N``, ``--device P=SPEC``, ``--booted``, ``--seed N``, ``--control PATH``,
+``--firmware RELEASE`` (the release whose device-side timing the world uses).
+A firmware that crashes or exits ends this program with status 3 and its report on stderr.
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import signal
+import sys
+from typing import Dict, List, Optional, Sequence
+
+from ..harness.cli_options import OneLineParser
+from .process import FirmwareDied
+
+__all__ = ["main", "build_parser"]
+
+
+def build_parser(prog: str = "buildhat-conformance sil serve") -> argparse.ArgumentParser:
+    p = OneLineParser(prog=prog, description="Serve a firmware built for this host at wall-clock pace.")
+    p.add_argument("program", metavar="TREE|PROGRAM", help="a firmware tree (built on first use) or a built program")
+    mode = p.add_mutually_exclusive_group(required=True)
+    mode.add_argument("--pty", action="store_true", help="serve on a new pseudo-terminal (prints its path)")
+    mode.add_argument("--tcp", metavar="[HOST:]PORT", help="serve on a TCP port (127.0.0.1 by default)")
+    mode.add_argument("--stdio", action="store_true", help="serve on stdin/stdout")
+    p.add_argument("--speed", type=float, default=1.0, metavar="N", help="N times real time (default 1)")
+    p.add_argument("--device", action="append", default=[], metavar="P=SPEC", help="a device on port P")
+    p.add_argument("--booted", action="store_true", help="start with the start-up done (devices established)")
+    p.add_argument("--seed", type=int, default=0, metavar="N", help="seed for the device models")
+    p.add_argument("--firmware", default=None, metavar="RELEASE", help="release whose device timing the world uses")
+    p.add_argument("--control", metavar="PATH|tcp:HOST:PORT", help="serve the control channel (world actions)")
+    p.add_argument("--sanitize", default="", metavar="LIST", help="with a tree: build with these sanitizers")
+    p.add_argument("--link", metavar="PATH", help="with --pty: also make PATH a symlink to the pty")
+    return p
+
+
+def _devices(values: List[str], parser: argparse.ArgumentParser) -> Dict[int, object]:
+    from ..protocol.devices import parse_device_spec
+    out: Dict[int, object] = {}
+    for v in values:
+        port, sep, spec = v.partition("=")
+        if not sep or not port.strip().isdigit() or not 0 <= int(port) <= 3:
+            parser.error(f"--device takes P=SPEC with P 0..3, got {v!r}")
+        try:
+            out[int(port)] = parse_device_spec(spec)
+        except (ValueError, KeyError) as exc:
+            parser.error(f"--device {v!r}: {exc.args[0]}")
+    return out
+
+
+def _hat(args: argparse.Namespace, parser: argparse.ArgumentParser):  # -> SilHat
+    from ..harness.targets.base import TargetError
+    from ..harness.targets.sil import SilTarget, program_for
+    try:
+        program, _build = program_for(args.program, [s for s in args.sanitize.split(",") if s], False)
+        target = SilTarget(program, f"sil:{program}", devices=_devices(args.device, parser), seed=args.seed,
+                           boot=False, firmware=args.firmware)
+        return target._new()
+    except TargetError as exc:
+        parser.error(str(exc))
+
+
+def main(argv: Optional[Sequence[str]] = None) -> int:
+    from ..emulator.control import ENV_TOKEN, ControlHandler, ControlServer
+    from ..emulator.hostlint import HostLint
+    from ..emulator.runners.clock import RealTimeClock
+    from ..emulator.runners.links import PtyLink, StdioLink, TcpLink
+    from ..emulator.runners.realtime import run_realtime
+
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if args.speed <= 0:
+        parser.error("--speed must be positive")
+    hat = _hat(args, parser)
+    link = control = None
+    signal.signal(signal.SIGTERM, lambda s, f: (_ for _ in ()).throw(SystemExit(128 + s)))
+    try:
+        if args.booted:
+            hat.boot()
+            hat.read()                       # printed to nobody: the host was not there yet
+        lint = HostLint(profile_of=lambda: None, strict=False)
+        clock = RealTimeClock(args.speed)
+        if args.control:
+            control = ControlServer(args.control, ControlHandler(hat, clock, lint),
+                                    token=os.environ.get(ENV_TOKEN) or None)
+            print(f"buildhat-conformance sil serve: {control.environment()}", file=sys.stderr, flush=True)
+        if args.pty:
+            link = PtyLink(args.link)
+            where = link.path
+        elif args.tcp:
+            link = TcpLink(args.tcp, paced=False)
+            where = link.address
+        else:
+            link = StdioLink()
+            where = "stdio"
+        if not args.stdio:
+            print(where, flush=True)
+        return run_realtime(hat, link, clock, control, None)
+    except FirmwareDied as exc:
+        print(f"buildhat-conformance sil serve: {exc.summary}", file=sys.stderr)
+        if exc.report:
+            print(exc.report, file=sys.stderr)
+        return 3
+    except RuntimeError as exc:           # the start-up never finished
+        print(f"buildhat-conformance sil serve: {exc}", file=sys.stderr)
+        return 3
+    except KeyboardInterrupt:
+        return 130
+    finally:
+        if control is not None:
+            control.close()
+        if link is not None:
+            link.close()
+        hat.close()
+
+
+if __name__ == "__main__":
+    sys.exit(main())
