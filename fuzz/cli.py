@@ -37,7 +37,8 @@ __all__ = ["add_arguments", "main", "detect_profile", "opener_for", "is_fresh", 
 
 DEFAULT_OUT = os.path.join("reports", "fuzz")
 DEFAULT_TARGET = "inprocess"
-_FRESH_SCHEMES = ("inprocess", "emulator", "cmd")   # every open starts a new, freshly booted HAT
+_FRESH_SCHEMES = ("inprocess", "emulator", "cmd", "sil")   # every open starts a new, freshly booted HAT
+_VIRTUAL_SCHEMES = ("inprocess", "sil")     # HAT time, not wall time: the in-process emulator, the firmware
 # A finding whose run began on a target that earlier runs left (kept open) says so.
 _KEPT_OPEN = "a target earlier runs had left open; a freshly started one may not reproduce it"
 # On a wire the firmware's 8192-byte TX ring must never fill: one exchange may print this much.
@@ -86,6 +87,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def _scheme(url: str) -> str:
     return url.split(":", 1)[0].split("?", 1)[0].lower()
+
+
+def _all_in_process(target: str, against: Optional[str]) -> bool:
+    return _scheme(target) == "inprocess" and (not against or _scheme(against) == "inprocess")
 
 
 def is_fresh(url: str) -> bool:
@@ -165,7 +170,7 @@ class Progress:
 def _config(args: argparse.Namespace, target: str, primary: Optional[Callable[[], Target]],
             secondary: Optional[Callable[[], Target]]) -> CampaignConfig:
     """The campaign ``args`` describe (openers may be given directly, e.g. planted-fault targets)."""
-    virtual = _scheme(target) == "inprocess" and (not args.against or _scheme(args.against) == "inprocess")
+    virtual = _scheme(target) in _VIRTUAL_SCHEMES and (not args.against or _scheme(args.against) in _VIRTUAL_SCHEMES)
     if args.fence_timeout is None:
         args.fence_timeout = 0.3 if virtual else 2.0
     families = tuple(f.strip() for f in args.families.split(",") if f.strip())
@@ -184,7 +189,7 @@ def _config(args: argparse.Namespace, target: str, primary: Optional[Callable[[]
     if open_secondary is not None:
         secondary_profile = detect_profile(open_secondary, args.fence_timeout)
     devices = getattr(args, "devices", None)
-    if devices is None and _scheme(target) == "inprocess":
+    if devices is None and _scheme(target) in _VIRTUAL_SCHEMES:
         layout = dict(DEFAULT_LAYOUT)
         layout.update(getattr(make_target(target), "devices", {}))
         devices = layout
@@ -196,7 +201,10 @@ def _config(args: argparse.Namespace, target: str, primary: Optional[Callable[[]
         wait_share=0.1 if virtual else 0.01,
         fresh=is_fresh(target) and (not args.against or is_fresh(args.against)),
         # Targets that take seconds to boot stay open from run to run (the prelude resets them).
-        keep_open=not virtual, out_limit=None if virtual else OUT_LIMIT, confirm=args.confirm,
+        # Only the in-process emulator empties its TX ring at once; the firmware in the loop (sil:)
+        # drains it at 115200 baud as on a HAT, so its ring can fill.
+        keep_open=not virtual, out_limit=None if _all_in_process(target, args.against) else OUT_LIMIT,
+        confirm=args.confirm,
         reduce_seconds=args.shrink_time, devices=devices)
 
 
@@ -260,7 +268,7 @@ def _summary(result: CampaignResult, stats: Stats, productions, files, junit: st
         # On a shared machine the wall-clock rate is what others leave over; this is the fuzzer's own.
         print(f"  this process: {result.cpu:.1f} s of CPU, "
               f"{stats.lines / result.cpu:.0f} lines per CPU second")
-    if _scheme(target) != "inprocess":
+    if _scheme(target) not in _VIRTUAL_SCHEMES:
         sent, recv = stats.sent_bytes / el, stats.recv_bytes / el
         print(f"  wire: sent {sent:.0f} B/s, received {recv:.0f} B/s; the busier direction carries "
               f"{100 * max(sent, recv) / WIRE_BYTES_PER_S:.0f} % of what 115200 baud can")
@@ -310,7 +318,7 @@ def reproduce(args: argparse.Namespace, primary: Optional[Callable[[], Target]] 
         raise ValueError(f"cannot read {path}: {exc.strerror}") from None
     target = args.target or recorded.get("target") or DEFAULT_TARGET
     against = args.against or recorded.get("against")
-    fence_s = args.fence_timeout if args.fence_timeout is not None else (0.3 if _scheme(target) == "inprocess"
+    fence_s = args.fence_timeout if args.fence_timeout is not None else (0.3 if _scheme(target) in _VIRTUAL_SCHEMES
                                                                          else 2.0)
     open_primary = primary or opener_for(target)
     profile = get_profile(args.profile) if args.profile else detect_profile(open_primary, fence_s)

@@ -9,6 +9,7 @@ gcov coverage (the firmware's files only; the data is written when the program e
 from __future__ import annotations
 
 import fcntl
+import functools
 import hashlib
 import os
 import re
@@ -110,6 +111,7 @@ def find_compiler() -> str:
     raise BuildError("no C compiler found: install gcc or clang (or set CC)")
 
 
+@functools.lru_cache(maxsize=8)
 def _compiler_version(cc: str) -> str:
     try:
         out = subprocess.run([cc, "--version"], capture_output=True, text=True, timeout=30)
