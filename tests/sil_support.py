@@ -1,0 +1,51 @@
+"""What the sil tests share: the firmware tree from shared/ and the user's command."""
+import os
+import pathlib
+import shutil
+import subprocess
+import sys
+from typing import List
+
+import pytest
+
+REPO = pathlib.Path(__file__).resolve().parent.parent
+# shared/ sits beside the checkout (as tests/conftest.py says); users never have it.
+SHARED = pathlib.Path(os.environ.get("BUILDHAT_SHARED", REPO.parent / "shared"))
+TREE = SHARED / "firmware" / "firmware-pico-1737564117"
+CLI = [sys.executable, "-m", "buildhat_conformance.harness.cli_dispatch"]
+
+
+def firmware_tree() -> pathlib.Path:
+    if not TREE.is_dir():
+        pytest.skip(f"no firmware tree at {TREE} (shared/ absent; set BUILDHAT_SHARED)")
+    if not (shutil.which("cc") or shutil.which("gcc") or shutil.which("clang")):
+        pytest.skip("no C compiler on this machine")
+    return TREE
+
+
+def copy_tree(dest: pathlib.Path) -> pathlib.Path:
+    shutil.copytree(firmware_tree(), dest)
+    return dest
+
+
+def plant(tree: pathlib.Path, name: str, old: str, new: str) -> None:
+    """Change one place of a copied tree's C file (the test's own planted regression)."""
+    path = tree / name
+    text = path.read_text()
+    assert text.count(old) == 1, f"{old!r} is not in {name} exactly once"
+    path.write_text(text.replace(old, new))
+
+
+def cli(*args: str, cache: pathlib.Path, timeout: float = 600) -> subprocess.CompletedProcess:
+    env = dict(os.environ, BUILDHAT_SIL_CACHE=str(cache))
+    return subprocess.run(CLI + list(args), capture_output=True, text=True, env=env, timeout=timeout)
+
+
+def junit_verdicts(path: pathlib.Path) -> List[tuple]:
+    import xml.etree.ElementTree as ET
+    out = []
+    for case in ET.parse(path).getroot().iter("testcase"):
+        props = {p.get("name"): p.get("value") for p in case.iter("property")}
+        message = next((c.get("message") or "" for c in case if c.tag in ("failure", "error", "skipped")), "")
+        out.append((case.get("name"), props.get("verdict"), message))
+    return out
