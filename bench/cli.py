@@ -28,7 +28,7 @@ QUICK_SUITE = "test_select"
 
 
 def _groups(quick: bool) -> List[Group]:
-    from . import cost, fidelity, firmware_load, host_write, suite, target_faults, throughput
+    from . import cost, fidelity, firmware_load, host_write, sil, suite, target_faults, throughput
 
     lines = 100_000 if quick else 1_000_000
     # Seconds per measurement window: three 3 s windows give medians as steady as 5 s ones did
@@ -99,6 +99,19 @@ def _groups(quick: bool) -> List[Group]:
             (Figure("HAT's answer after the 51,000 B write", "s", ">= 4.43 s (the wire)", "higher", 4.43),
              "answer_s"),
             (Figure("version round trip at --baud 115200", "ms"), "version_rtt_ms")], None),
+        # Issue 22: the real firmware built for this host (sil:), through the user's commands.
+        ("suite on the firmware, virtual time", lambda: sil.suite(real_time=False, keyword=k), [
+            (Figure("suite wall time against sil: (virtual time)", "s", "<= 20 s", target=20.0), "wall_s")], 2),
+        ("suite on the firmware, real time", lambda: sil.suite(real_time=True, keyword=k), [
+            (Figure("suite wall time against sil:?speed=1", "s"), "wall_s")], 1),
+        ("fuzz on the firmware", lambda: sil.fuzz(seconds=fuzz_secs), [
+            (Figure("fuzz lines/s against sil:", "lines/s", ">= 2,000", "higher", 2000.0), "lines_per_s")],
+         None),
+        ("firmware coverage", lambda: sil.coverage(fuzz_seconds=20.0 if quick else 60.0), [
+            (Figure("firmware line coverage, whole suite", "%", ">= 90 %", "higher", 90.0), "suite_line_pct"),
+            (Figure("firmware branch coverage, whole suite", "%"), "suite_branch_pct"),
+            (Figure("firmware line coverage, one fuzz campaign", "%"), "fuzz_line_pct"),
+            (Figure("firmware branch coverage, one fuzz campaign", "%"), "fuzz_branch_pct")], 1),
         ("firmware load", firmware_load.upload, [
             (Figure("upload of a 51 KB image (load, 115200 baud)", "s"), "upload_s"),
             (Figure("upload time above the wire's minimum", "%", "<= 5 %", target=5.0), "over_min_pct"),
