@@ -18,7 +18,7 @@ ANCHOR = re.compile(r"(?<![\w-])fb-[a-z0-9]+(?:-[a-z0-9]+)*")
 
 
 def cite(anchors: Iterable[str]) -> str:
-    """``docs/FIRMWARE-BEHAVIOUR.md#fb-a, #fb-b``: one reference a reader can follow."""
+    """``docs/FIRMWARE-BEHAVIOUR.md#fb-on-off, #fb-doc-on-off``: one reference a reader can follow."""
     names = list(anchors)
     if not names:
         return DOC
