@@ -14,7 +14,7 @@ import pytest
 from shared_material import BEHAVIOUR_DOC, facts_text
 
 from buildhat_conformance.conformance.deviations import deviations
-from buildhat_conformance.protocol.behaviour import ANCHOR, DOC, anchors_in, cite
+from buildhat_conformance.protocol.behaviour import ANCHOR, DOC, anchors_in, cite, section_text
 
 REPO = pathlib.Path(__file__).resolve().parent.parent
 PACKAGE_TOPS = ("protocol", "harness", "emulator", "conformance", "fuzz", "bench", "buildhat_conformance")
@@ -73,6 +73,22 @@ def test_every_known_deviation_names_sections_that_exist():
     # what the report and the JUnit messages print for them
     assert deviations()["BIAS-REMOVED"].reference == cite(raw["deviations"]["BIAS-REMOVED"]["behaviour"])
     assert cite(["fb-pwm", "fb-on-off"]) == f"{DOC}#fb-pwm, #fb-on-off" and cite([]) == DOC
+
+
+def test_the_package_carries_the_document_and_quotes_whole_sections():
+    """protocol/FIRMWARE-BEHAVIOUR.md (installed as package data) is the document itself, and a cited
+    section is quoted whole: an inline anchor gives its list item, a line anchor its part."""
+    assert (REPO / "protocol" / "FIRMWARE-BEHAVIOUR.md").read_text(encoding="utf-8") == behaviour_doc.text()
+    on_off = section_text("fb-on-off")
+    assert on_off.startswith("- `on` / `off`") and on_off.endswith("True of every release.")
+    assert "<a id" not in on_off and "`set <x>`" not in on_off
+    assert section_text("fb-r1-passive").count("\n  - ") == 3        # the nested items come along
+    assert "P0: pv=0.995000" in section_text("fb-debug-pid")          # and the block under an item
+    data = section_text("fb-data-lines")
+    assert data.startswith("### 7.1") and "Modes 8 to 15 never report" in data and "7.2" not in data
+    assert section_text("fb-no-such-section") == ""
+    for d in deviations().values():
+        assert all(section_text(a) for a in d.behaviour), d.key
 
 
 def _user_strings(path: pathlib.Path) -> Iterator[Tuple[int, str]]:
