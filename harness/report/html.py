@@ -213,7 +213,7 @@ def _quoted_sections(where: str) -> str:
     texts = [text for text in (section_text(a) for a in anchors_in(where)) if text]
     if not texts:
         return ""
-    return f"<details><summary>what it says</summary><pre>{_e(chr(10).join(texts))}</pre></details>"
+    return f"<details><summary>what it says</summary><pre>{_e((chr(10) * 2).join(texts))}</pre></details>"
 
 
 def _plots_section(plots: List[Plot]) -> str:
