@@ -14,17 +14,19 @@ from shared_material import SKIP_PREFIX  # noqa: E402
 
 
 def pytest_terminal_summary(terminalreporter: Any) -> None:
-    """Say why tests skipped for want of ``../shared`` (a user's clone has none): one line per
-    reason, e.g. ``3 skipped: no ../shared (the facts document itself)``."""
+    """Say why tests skipped, one line per reason: ``3 skipped: no ../shared (the facts document
+    itself)`` (a user's clone has no ``../shared``), ``2 skipped: chromium is not installed ...``."""
     why: collections.Counter = collections.Counter()
     for report in terminalreporter.stats.get("skipped", []):
         longrepr = getattr(report, "longrepr", None)
-        reason = longrepr[2] if isinstance(longrepr, tuple) and len(longrepr) == 3 else ""
+        reason = longrepr[2] if isinstance(longrepr, tuple) and len(longrepr) == 3 else "(no reason given)"
         reason = reason.removeprefix("Skipped: ")
         if reason.startswith(SKIP_PREFIX):
-            why[reason.split(":", 1)[0]] += 1
+            why[reason.split(":", 1)[0] + " (set BUILDHAT_SHARED to run them)"] += 1
+        else:
+            why[reason.split(";", 1)[0]] += 1
     for reason, n in sorted(why.items()):
-        terminalreporter.write_line(f"{n} skipped: {reason} (set BUILDHAT_SHARED to run them)")
+        terminalreporter.write_line(f"{n} skipped: {reason}")
 
 
 # Under ``make test`` (pytest-xdist, ``--dist loadgroup``): a module that defines a module-scoped
