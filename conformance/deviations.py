@@ -11,6 +11,8 @@ from functools import lru_cache
 from importlib import resources
 from typing import Dict, FrozenSet, Tuple
 
+from ..protocol.behaviour import cite
+
 __all__ = ["Deviation", "deviations", "deviation", "expected_keys"]
 
 
@@ -18,7 +20,7 @@ __all__ = ["Deviation", "deviations", "deviation", "expected_keys"]
 class Deviation:
     key: str
     requirement: str
-    facts: str
+    behaviour: Tuple[str, ...]   # anchors of docs/FIRMWARE-BEHAVIOUR.md that explain it
     profiles: FrozenSet[str]
     document: str
     firmware: str
@@ -27,14 +29,19 @@ class Deviation:
     def applies_to(self, profile_name: str) -> bool:
         return profile_name in self.profiles
 
+    @property
+    def reference(self) -> str:
+        """Where a reader finds the explanation: ``docs/FIRMWARE-BEHAVIOUR.md#fb-...``."""
+        return cite(self.behaviour)
+
 
 @lru_cache(maxsize=1)
 def deviations() -> Dict[str, Deviation]:
     data = resources.files(__name__.rpartition(".")[0]).joinpath("deviations.json")   # in this package
     text = data.read_text(encoding="utf-8")
     raw = json.loads(text)["deviations"]
-    return {key: Deviation(key, d["requirement"], d["facts"], frozenset(d["profiles"]), d["document"],
-                           d["firmware"], d.get("explain", "")) for key, d in raw.items()}
+    return {key: Deviation(key, d["requirement"], tuple(d["behaviour"]), frozenset(d["profiles"]),
+                           d["document"], d["firmware"], d.get("explain", "")) for key, d in raw.items()}
 
 
 def deviation(key: str) -> Deviation:
@@ -45,5 +52,5 @@ def deviation(key: str) -> Deviation:
 
 
 def expected_keys(profile_name: str) -> Tuple[str, ...]:
-    """Every deviation key FIRMWARE-FACTS lists for this release."""
+    """Every deviation key deviations.json lists for this release."""
     return tuple(sorted(k for k, d in deviations().items() if d.applies_to(profile_name)))

@@ -84,7 +84,7 @@ def test_ambiguous_prefix_resolves_by_table_order(hat: Hat, motor_port: int, ver
     # The document says nothing about ambiguous prefixes: an observation, not a verdict on the
     # document, but it must be what the facts say this release does (FW-ABBREV-ORDER).
     assert out.ran, (f"`{prefix}` (prefix of {', '.join(names)}) should run {first}, the earliest in "
-                     f"the table (FIRMWARE-FACTS §2); seen {out.seen}")
+                     f"the table (docs/FIRMWARE-BEHAVIOUR.md#fb-matching); seen {out.seen}")
     verdict.inform(f"`{prefix}` is a prefix of {', '.join(names)}: the document leaves it open; "
                    f"{hat.profile.name} runs {first}, the earliest in its table")
 

@@ -42,7 +42,7 @@ def test_vin_prints_volts_with_two_decimals(hat: Hat) -> None:
     m = re.fullmatch(rb"\r\n([0-9]+)\.([0-9]{2}) V\r\n", raw)
     assert m, f"vin answered {raw!r}"
     volts = int(m.group(1)) + int(m.group(2)) / 100
-    assert 0 <= volts <= 18.80, "the ADC cannot read more than 18805 mV (FACTS §4.4)"
+    assert 0 <= volts <= 18.80, "the ADC cannot read more than 18805 mV (docs/FIRMWARE-BEHAVIOUR.md#fb-vin)"
 
 
 def _adc_for(last_digit: int) -> int:
@@ -90,7 +90,8 @@ def test_four_ports_numbered_0_to_3(hat: Hat) -> None:
 def test_ledmode_accepts_its_values_silently(hat: Hat, verdict: Verdict, mode: str) -> None:
     raw = hat.exchange(f"ledmode {mode}").raw
     hat.exchange("ledmode -1")
-    assert raw == b"\r\n", "ledmode prints nothing (out-of-range values are clamped, FACTS §3)"
+    assert raw == b"\r\n", \
+        "ledmode prints nothing (out-of-range values are clamped, docs/FIRMWARE-BEHAVIOUR.md#fb-clamping)"
     verdict.inform("the LED colours themselves are not observable on the command port")
 
 

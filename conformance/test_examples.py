@@ -145,7 +145,8 @@ def test_light_matrix_without_host_power(hat: Hat, world: World, verdict: Verdic
     texts = [e.text for e in hat.since(mark)]
     lost = any(re.match(rf"P{p}: (timeout|disconnected)", t) for t in texts)
     if hat.feature("matrix_autopower"):
-        assert not lost, "R4/R6/R7 power the matrix themselves when it is established (FACTS §7.1)"
+        assert not lost, "R4/R6/R7 power the matrix themselves when it is established " \
+                         "(docs/FIRMWARE-BEHAVIOUR.md#fb-led-matrix)"
     else:
         verdict.inform("without auto-power the matrix " + ("disconnected" if lost else "stayed") +
                        " within 3 s; how soon a real matrix gives up is the device's behaviour")

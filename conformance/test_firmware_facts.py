@@ -59,7 +59,7 @@ def test_button_events(hat: Hat, world: World) -> None:
     if hat.feature("button_events"):
         assert events == [f"P{p}: button pressed", f"P{p}: button released"], events
     else:
-        assert not events, "R1 reports no button events (FACTS §5)"
+        assert not events, "R1 reports no button events (docs/FIRMWARE-BEHAVIOUR.md#fb-button)"
 
 
 @pytest.mark.req("FW-PORT-PLIMIT", "CMD-PLIMIT")

@@ -56,7 +56,8 @@ def test_echo_and_prompt_as_in_appendix_a(hat: Hat) -> None:
 @pytest.mark.req("CMD-ECHO")
 def test_echo_defaults_off_and_any_nonzero_enables(hat: Hat) -> None:
     assert hat.exchange("").raw == b"\r\n", "echo is off by default (only the CRLF every CR gives)"
-    assert hat.exchange("echo 5").raw == b"\r\nP0>", "any non-zero value enables echo (FACTS §1)"
+    assert hat.exchange("echo 5").raw == b"\r\nP0>", \
+        "any non-zero value enables echo (docs/FIRMWARE-BEHAVIOUR.md#fb-echo)"
     assert hat.exchange("").raw == b"\r\nP0>"
     hat.exchange("echo 0")
 

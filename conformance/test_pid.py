@@ -169,7 +169,8 @@ def test_unwrap_across_plus_minus_180(hat: Hat, world: World, verdict: Verdict, 
                      seen=f"data {raws} gave pv {runs}")
     model = Unwrapper(1, 360, first_sample=hat.feature("unwrap_init") == "first_sample")
     if model.first_sample:
-        assert runs[0] == raws[0], "R6+: the first sample after `pid` is taken as it is (FACTS §7.2)"
+        assert runs[0] == raws[0], \
+            "R6+: the first sample after `pid` is taken as it is (docs/FIRMWARE-BEHAVIOUR.md#fb-unwrap-r6)"
 
 
 @pytest.mark.req("FW-PID-DIFF", "CMD-PID-UNWRAP")

@@ -149,7 +149,7 @@ def test_combi_and_the_selection(hat: Hat, motor_port: int) -> None:
         else reports(hat, p, 400)
     hat.exchange("select ; combi 1")
     if hat.feature("combi_clears_selection"):
-        assert not after, "R5+: combi stops the reports (FACTS §6.2)"
+        assert not after, "R5+: combi stops the reports (docs/FIRMWARE-BEHAVIOUR.md#fb-select-resend)"
     else:
         assert after, "R1-R4: combi leaves the selection alone"
 
@@ -177,7 +177,8 @@ def test_modes_of_a_device_with_more_than_eight(hat: Hat, world: World, verdict:
 def test_write_accepts_hex_bytes(hat: Hat, motor_port: int, line: str, verdict: Verdict) -> None:
     reply = hat.exchange(f"port {motor_port} ; {line}")
     assert reply.raw == b"\r\n"
-    verdict.note("what reaches the device is only visible on the device side (FACTS §8)")
+    verdict.note("what reaches the device is only visible on the device side "
+                 "(docs/FIRMWARE-BEHAVIOUR.md#fb-device-messages)")
 
 
 @pytest.mark.req("CMD-WRITE1", "FW-ERROR")

@@ -42,7 +42,7 @@ def test_semicolon_right_after_a_name_ends_the_name(hat: Hat, motor_port: int) -
     hat.exchange("echo 1")
     raw = hat.exchange("port;2").raw
     hat.exchange("echo 0 ; port 0")
-    assert raw == b"port;2\r\nP2>", "`port;2` is `port 2` (FACTS §2)"
+    assert raw == b"port;2\r\nP2>", "`port;2` is `port 2` (docs/FIRMWARE-BEHAVIOUR.md#fb-matching)"
     start_quiet_pid(hat, motor_port)
     reply = hat.exchange("set;0.25")
     lines = pid_lines(reports_after(hat, motor_port), motor_port)

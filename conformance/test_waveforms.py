@@ -184,6 +184,7 @@ def test_period_and_phase_are_clamped(hat: Hat, motor_port: int) -> None:
 @pytest.mark.req("CMD-SET-TRIANGLE", "FW-ERROR")
 def test_bad_waveform_changes_nothing(hat: Hat, motor_port: int) -> None:
     seen, _e, _t, reply = capture(hat, motor_port, "set t 0 1 1e3 0", 3)
-    assert reply.raw == b"\r\nError\r\n" and not seen, "the generator must be unchanged (FACTS §3)"
+    assert reply.raw == b"\r\nError\r\n" and not seen, \
+        "the generator must be unchanged (docs/FIRMWARE-BEHAVIOUR.md#fb-errors)"
     for line in ("set sine0 1 0.2 0", "set pulse 1 0 2", "set square 0 1 0.2"):
         assert hat.exchange(line).raw == b"\r\nError\r\n", line

@@ -72,7 +72,7 @@ class Verdict:
             pytest.fail(f"{key}: neither the document ({dev.document}) nor the known behaviour of "
                         f"{self.profile_name} ({dev.firmware}); seen: {seen}", pytrace=False)
         pytest.fail(f"{key}: the document requires: {dev.document}; {self.profile_name} is not known to "
-                    f"deviate here (FIRMWARE-FACTS {dev.facts}); seen: {seen}", pytrace=False)
+                    f"deviate here ({dev.reference}); seen: {seen}", pytrace=False)
 
     def inform(self, note: str) -> None:
         """Mark the case informational: it measured something the document does not bound."""

@@ -34,11 +34,12 @@ __all__ = ["HatModel", "UNSPECIFIED", "CR", "LINE_MAX"]
 
 CR, LF, BS, DEL, NUL = 0x0D, 0x0A, 0x08, 0x7F, 0x00
 _RUBOUTS = re.compile(rb"([\x08\x7f])")
-LINE_MAX = 256            # CMDBUFLEN (§1)
+LINE_MAX = 256            # the line buffer (FIRMWARE-BEHAVIOUR.md#fb-line-buffer)
 
-# Situations FIRMWARE-FACTS does not settle; a line that hits one is not judged on them.
+# Situations the facts (docs/FIRMWARE-BEHAVIOUR.md) do not settle; a line that hits one is not judged on them.
 UNSPECIFIED = {
-    "bs_when_full": "BS/DEL after the 256-byte buffer filled (§1 does not say whether it is discarded)",
+    "bs_when_full": "BS/DEL after the 256-byte buffer filled (docs/FIRMWARE-BEHAVIOUR.md#fb-line-buffer "
+                    "does not say whether it is discarded)",
 }
 
 

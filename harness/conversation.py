@@ -21,7 +21,7 @@ FENCE_KINDS = ("version", "bootloader_version")
 
 
 def _restart_line(e: Event) -> bool:
-    """the first line of a start-up banner (FACTS §5, §9)"""
+    """the first line of a start-up banner (FIRMWARE-BEHAVIOUR.md#fb-async, #fb-bootloader)"""
     return e.kind == "banner" and e.fields.get("stage") == "help_hint"
 
 

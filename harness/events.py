@@ -1,7 +1,8 @@
 """The line classifier: every line the command port prints becomes one typed :class:`Event`.
 
 The patterns are data (the ``LINE_PATTERNS`` table of (kind, regex, field parser)), taken
-from FIRMWARE-FACTS §4-§9. The first matching row wins, so more specific rows come first.
+from FIRMWARE-BEHAVIOUR.md (#fb-commands to #fb-bootloader). The first matching row wins, so
+more specific rows come first.
 Prompts (``P0>``, ``BHBL> ``) arrive without CRLF; :class:`~.line_splitter.LineSplitter`
 turns a byte stream into complete lines and prompts, and recognises the echo of the host's lines.
 """

@@ -1,5 +1,5 @@
 """From received bytes to events: complete CRLF lines, prompts (which have no CRLF), and the
-echo of the host's own lines (FIRMWARE-FACTS §1). Each complete line is then classified by
+echo of the host's own lines (FIRMWARE-BEHAVIOUR.md#fb-line). Each complete line is then classified by
 :func:`~.events.classify`.
 """
 from __future__ import annotations
@@ -16,9 +16,10 @@ BOOTLOADER_PROMPT = b"BHBL> "
 
 
 def expected_echo(sent: bytes) -> bytes:
-    """What the line editor echoes for the bytes of one host line (CR excluded), FACTS §1:
-    each stored byte as is; BS/DEL remove the last byte and echo BS SP BS (nothing when
-    the buffer is empty); bytes past the 256-byte buffer are dropped silently."""
+    """What the line editor echoes for the bytes of one host line, CR excluded
+    (FIRMWARE-BEHAVIOUR.md#fb-line): each stored byte as is; BS/DEL remove the last byte and
+    echo BS SP BS (nothing when the buffer is empty); bytes past the 256-byte buffer are
+    dropped silently."""
     buf, out = bytearray(), bytearray()
     for b in sent:
         if b in (0x08, 0x7F):

@@ -49,7 +49,7 @@ def _output_bytes(ev: dict) -> bytes:
 
 
 def _starts_reply(line: bytes, host: bytes) -> bool:
-    """Whether an output line is the CRLF that ``host``'s CR produced (FIRMWARE-FACTS §1: the CR
+    """Whether an output line is the CRLF that ``host``'s CR produced (FIRMWARE-BEHAVIOUR.md#fb-line: the CR
     always gives CRLF, so every reply starts with it): an empty line with echo off, the echoed
     text (after any prompt still on the line) with echo on."""
     sent = host.rstrip(b"\r")

@@ -52,7 +52,7 @@ def _tool_version() -> str:
 
 
 def ready_lines(layout: dict) -> List[str]:
-    """The start-up lines that show the layout is up (FIRMWARE-FACTS §5): each active device
+    """The start-up lines that show the layout is up (FIRMWARE-BEHAVIOUR.md#fb-async): each active device
     established, each passive device connected; with no device, the end of port initialisation."""
     out = []
     for port, spec in sorted(layout.items()):

@@ -1,12 +1,13 @@
 """Finding our own reply by content, not by counting line endings.
 
 The ordinary fence (``version``, see :meth:`Session.fence`) knows which CRLF answers which host
-line by counting: one CRLF per CR (FIRMWARE-FACTS §1). One lost or extra line ending on the link
+line by counting: one CRLF per CR (FIRMWARE-BEHAVIOUR.md#fb-line). One lost or extra line ending on the link
 and every later count is off. A *sync* puts a token in the stream that only its own reply can
 contain, so it finds that reply whatever came before: garbage, a lost CRLF, a reboot.
 
-How the token comes back (FACTS §1): with echo on every stored byte is echoed as it arrives; a
-NUL ends what the parser reads, so bytes after it are stored and echoed but never parsed. So
+How the token comes back (FIRMWARE-BEHAVIOUR.md#fb-line): with echo on every stored byte is echoed
+as it arrives; a NUL ends what the parser reads, so bytes after it are stored and echoed but never
+parsed. So
 the sync sends ``echo 1⏎`` and then ``echo 0 ; version<NUL><token>⏎``: the HAT echoes the whole
 second line (echo was on while it arrived), then CRLF, then runs ``echo 0`` and ``version``, and
 prints no prompt (echo is off by then). Its reply is therefore the line ending in NUL + token,

@@ -1,5 +1,5 @@
-"""The bootloader's image checksum (FIRMWARE-FACTS §9): computed by the host for ``load``,
-checked by the bootloader (and by the emulator's bootloader)."""
+"""The bootloader's image checksum (FIRMWARE-BEHAVIOUR.md#fb-image-checksum): computed by the host
+for ``load``, checked by the bootloader (and by the emulator's bootloader)."""
 from __future__ import annotations
 
 __all__ = ["bootloader_checksum", "image_with_checksum"]

@@ -1,6 +1,7 @@
 """Firmware release profiles (R1..R7) as data: command tables, help text, features.
 
-The JSON beside this module is transcribed from FIRMWARE-FACTS.md §0, §2, §4.3 and §11.
+The JSON beside this module is transcribed from the facts: FIRMWARE-BEHAVIOUR.md#fb-releases,
+#fb-command-table, #fb-help, #fb-versions.
 A new firmware release is a new entry in ``profiles.json``, not new code.
 """
 from __future__ import annotations
@@ -123,8 +124,8 @@ def resolve_version(number: int) -> tuple[Profile, bool]:
 
 @cache
 def passive_signature_ids(table: str) -> tuple[dict, int, int, int]:
-    """FIRMWARE-FACTS §7.4: (signature -> passive ID, active mask, active value, active ID) of
-    the passive-ID scan's table ``table`` (a profile's ``passive_signature_table``)."""
+    """FIRMWARE-BEHAVIOUR.md#fb-debug-signatures: (signature -> passive ID, active mask, active value,
+    active ID) of the passive-ID scan's table ``table`` (a profile's ``passive_signature_table``)."""
     raw = _raw()["passive_signature_tables"]
     ids = {int(sig, 16): pid for sig, pid in raw[table].items()}
     return ids, int(raw["active_mask"], 16), int(raw["active_value"], 16), int(raw["active_id"])
@@ -152,5 +153,5 @@ def undecided_features(earlier: Profile, later: Profile) -> frozenset:
 
 
 def bootloader_data() -> dict:
-    """Bootloader facts (FIRMWARE-FACTS §9): prompt, command order, help text, limits."""
+    """Bootloader facts (FIRMWARE-BEHAVIOUR.md#fb-bootloader): prompt, command order, help text, limits."""
     return dict(_raw()["bootloader"])

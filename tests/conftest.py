@@ -1,21 +1,32 @@
+import collections
 import functools
-import os
 import pathlib
 import re
+import sys
 from typing import Any
 
 import pytest
 
 REPO = pathlib.Path(__file__).resolve().parent.parent
-# shared/ sits beside the checkout (../shared); tests that read the original facts skip without it.
-SHARED = pathlib.Path(os.environ.get("BUILDHAT_SHARED", REPO.parent / "shared"))
+sys.path.insert(0, str(REPO / "tests"))     # the helpers beside the tests (shared_material, ...)
+
+from shared_material import SKIP_PREFIX  # noqa: E402
 
 
-@pytest.fixture(scope="session")
-def shared_dir() -> pathlib.Path:
-    if not SHARED.is_dir():
-        pytest.skip(f"shared/ not found at {SHARED} (set BUILDHAT_SHARED)")
-    return SHARED
+def pytest_terminal_summary(terminalreporter: Any) -> None:
+    """Say why tests skipped, one line per reason: ``3 skipped: no ../shared (the facts document
+    itself)`` (a user's clone has no ``../shared``), ``2 skipped: chromium is not installed ...``."""
+    why: collections.Counter = collections.Counter()
+    for report in terminalreporter.stats.get("skipped", []):
+        longrepr = getattr(report, "longrepr", None)
+        reason = longrepr[2] if isinstance(longrepr, tuple) and len(longrepr) == 3 else "(no reason given)"
+        reason = reason.removeprefix("Skipped: ")
+        if reason.startswith(SKIP_PREFIX):
+            why[reason.split(":", 1)[0] + " (set BUILDHAT_SHARED to run them)"] += 1
+        else:
+            why[reason.split(";", 1)[0]] += 1
+    for reason, n in sorted(why.items()):
+        terminalreporter.write_line(f"{n} skipped: {reason}")
 
 
 # Under ``make test`` (pytest-xdist, ``--dist loadgroup``): a module that defines a module-scoped

@@ -13,6 +13,7 @@ import re
 import struct
 from typing import Dict, List, Optional
 
+import behaviour_doc
 import pytest
 
 from buildhat_conformance.emulator import Emulator
@@ -158,45 +159,17 @@ def _check(h: Hat, out: bytes, name: str, profile: str, help_texts) -> None:
     assert h.ran() == [name]
 
 
-def _shortest_table(facts: str):
-    """The rows of §2 "Shortest prefix that resolves to each command": name -> 3 cells."""
-    sec = facts.split("**Shortest prefix that resolves to each command**", 1)[1]
-    sec = sec.split("**Ambiguous prefixes", 1)[0]
-    rows = {}
-    for line in sec.splitlines():
-        cells = [c.strip() for c in line.strip().strip("|").split("|")]
-        if len(cells) != 4 or cells[0] in ("Command", "") or set(cells[0]) <= set("-"):
-            continue
-        rows[cells[0]] = cells[1:]
-    return rows
+@pytest.fixture(scope="module")
+def behaviour_text() -> str:
+    # The project's account of the facts (docs/FIRMWARE-BEHAVIOUR.md); tests/test_behaviour_doc.py
+    # checks its help texts and prefix table against the original facts where ../shared exists.
+    return behaviour_doc.text()
 
 
 @pytest.fixture(scope="module")
-def facts_text(shared_dir) -> str:
-    return (shared_dir / "protocol" / "FIRMWARE-FACTS.md").read_text(encoding="utf-8")
-
-
-@pytest.fixture(scope="module")
-def help_texts(facts_text) -> Dict[str, bytes]:
-    return help_texts_from_facts(facts_text)
-
-
-def help_texts_from_facts(facts: str) -> Dict[str, bytes]:
-    """§4.3's help texts, per profile, as wire bytes (every line CRLF; R5 = R1–R4 + 2 lines)."""
-    sec = facts.split("### 4.3 Help text", 1)[1].split("### 4.4", 1)[0]
-    new = sec.split("**R6–R7**", 1)[1].split("```", 2)[1]
-    old = sec.split("**R1–R4 (the 2021 profile)**", 1)[1].split("```", 2)[1]
-    r5_extra = re.findall(r"`(  (?:selrate )?<selrate>[^`]*)`", sec.split("**R5**", 1)[1])
-    assert len(r5_extra) == 2, r5_extra
-
-    def lines(block: str) -> List[str]:
-        return block.strip("\n").split("\n")
-
-    r5 = lines(old)
-    r5.insert(next(i for i, x in enumerate(r5) if x.startswith("  selonce <selmode> ")) + 1, r5_extra[0])
-    last_f4 = max(i for i, x in enumerate(r5) if x.strip() == "f4=float")
-    r5.insert(last_f4 + 1, r5_extra[1])
-    texts = {"R6-R7": lines(new), "R1-R4": lines(old), "R5": r5}
+def help_texts(behaviour_text) -> Dict[str, bytes]:
+    """The help text of each profile as wire bytes (every line CRLF)."""
+    texts = behaviour_doc.help_lines(behaviour_text)
     out = {}
     for name in ALL:
         key = "R6-R7" if name in R6_R7 else ("R5" if name == "R5" else "R1-R4")
@@ -208,8 +181,8 @@ COLUMNS = {"R1": 0, "R2": 0, "R3": 0, "R4": 0, "R5": 1, "R6": 2, "R7": 2}
 
 
 @pytest.fixture(scope="module")
-def shortest(facts_text):
-    rows = _shortest_table(facts_text)
+def shortest(behaviour_text):
+    rows = behaviour_doc.shortest_table(behaviour_text)
     assert len(rows) == 28, sorted(rows)     # 28 rows in the facts table (help ... signature)
     return rows
 

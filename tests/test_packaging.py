@@ -7,6 +7,7 @@ import re
 import sys
 
 import pytest
+from shared_material import need_shared
 
 REPO = pathlib.Path(__file__).resolve().parent.parent
 FORMATS = ("SCENARIO-SCRIPT.md", "TRANSCRIPT.md")
@@ -20,10 +21,11 @@ USER_FILES = [p for top in USER_TOPS for p in (REPO / top).rglob("*")
 
 
 @pytest.mark.parametrize("name", FORMATS)
-def test_formats_documents_are_the_interchange_formats(shared_dir, name):
+def test_formats_documents_are_the_interchange_formats(name):
     """docs/formats/ is the project's copy of the interchange formats: word for word."""
     ours = (REPO / "docs" / "formats" / name).read_bytes()
-    assert ours == (shared_dir / "formats" / name).read_bytes(), \
+    original = need_shared("formats", name, what="the originals of docs/formats/")
+    assert ours == original.read_bytes(), \
         f"docs/formats/{name} differs from shared/formats/{name}: copy it again"
 
 

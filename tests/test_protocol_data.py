@@ -1,7 +1,10 @@
-"""The profile and device data must say what FIRMWARE-FACTS and devices.json say."""
+"""The profile and device data must say what the facts (as docs/FIRMWARE-BEHAVIOUR.md carries
+them) and devices.json say."""
 import json
 
+import behaviour_doc
 import pytest
+from shared_material import need_shared
 
 from buildhat_conformance.protocol import devices, profiles
 
@@ -21,17 +24,16 @@ def test_help_text_sizes_match_facts(name, nbytes, nlines):
     assert len(p.help_bytes) == nbytes
 
 
-def test_version_strings_appear_in_facts(shared_dir):
-    facts = (shared_dir / "protocol" / "FIRMWARE-FACTS.md").read_text(encoding="utf-8")
+def test_version_strings_are_the_documents_releases():
+    releases = behaviour_doc.section(behaviour_doc.text(), "fb-releases")
     for p in profiles.load_profiles().values():
-        assert f"`{p.version_string}`" in facts
+        assert f"| {p.name} | {p.number} | `{p.version_string}` |" in releases
 
 
-def test_help_texts_are_the_facts_blocks(shared_dir):
-    facts = (shared_dir / "protocol" / "FIRMWARE-FACTS.md").read_text(encoding="utf-8")
-    for name in ("R1", "R7"):
-        block = "\n".join(profiles.get_profile(name).help_lines) + "\n"
-        assert block in facts
+def test_help_texts_are_the_documents_blocks():
+    texts = behaviour_doc.help_lines(behaviour_doc.text())
+    for name, key in (("R1", "R1-R4"), ("R4", "R1-R4"), ("R5", "R5"), ("R6", "R6-R7"), ("R7", "R6-R7")):
+        assert list(profiles.get_profile(name).help_lines) == texts[key], name
 
 
 def test_command_tables_give_the_facts_shortest_prefixes():
@@ -52,8 +54,9 @@ def test_unknown_version_uses_nearest_earlier():
         profiles.get_profile("1234")
 
 
-def test_device_catalogue_is_the_shared_copy(shared_dir):
-    shared = json.loads((shared_dir / "protocol" / "devices.json").read_text(encoding="utf-8"))
+def test_device_catalogue_is_the_shared_copy():
+    original = need_shared("protocol", "devices.json", what="the original of protocol/devices.json")
+    shared = json.loads(original.read_text(encoding="utf-8"))
     assert devices.catalogue() == shared
 
 

@@ -153,7 +153,14 @@ def test_failures_group_by_first_differing_line_and_the_report_says_so(tmp_path)
     legend = text[text.index("id=legend"):]
     for sign in ("<code>obs</code>", "<code>K</code>", "<code>I</code>", "<code>T</code>", "<code>N</code>"):
         assert sign in legend
+    assert "a section of docs/FIRMWARE-BEHAVIOUR.md" in legend
     assert "object at 0x" not in text
+    # the known deviation cites the project's behaviour document and quotes what it says there
+    dev = text[text.index("id=deviations"):text.index("id=plots")]
+    assert "<code>docs/FIRMWARE-BEHAVIOUR.md#fb-command-table, #fb-doc-bias</code>" in dev
+    quoted = dev[dev.index("<summary>what it says</summary><pre>"):]
+    assert "On R6+ `bias` is `Error` (`pwmparams` replaced it)" in quoted and "&lt;a id=" not in quoted
+    assert "FIRMWARE-FACTS" not in text
 
 
 def test_changes_since_the_previous_run_of_the_same_target(tmp_path) -> None:
@@ -201,4 +208,6 @@ def test_every_known_deviation_is_explained_for_the_report() -> None:
 
     for key, d in deviations().items():
         assert d.explain and d.explain.endswith(".") and len(d.explain) < 400, key
-        assert re.fullmatch(r"§\d+(\.\d+)?(, §\d+(\.\d+)?)*", d.facts), (key, d.facts)
+        # explained by anchors of docs/FIRMWARE-BEHAVIOUR.md (tests/test_behaviour_doc.py: they exist)
+        assert d.behaviour and all(re.fullmatch(r"fb-[a-z0-9-]+", a) for a in d.behaviour), key
+        assert d.reference.startswith("docs/FIRMWARE-BEHAVIOUR.md#" + d.behaviour[0]), key

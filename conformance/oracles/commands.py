@@ -1,4 +1,4 @@
-"""Command-name resolution: the document's rule and the firmware's rule (FIRMWARE-FACTS §2).
+"""Command-name resolution: the document's rule and the firmware's rule (FIRMWARE-BEHAVIOUR.md#fb-matching).
 
 Both are computed from a command table (a profile's ``commands``), never from a hard-coded
 list of answers, so a new release's table brings its own expectations.

@@ -1,4 +1,4 @@
-"""The firmware's float printer (FIRMWARE-FACTS §6.3), step by step in float32."""
+"""The firmware's float printer (FIRMWARE-BEHAVIOUR.md#fb-float), step by step in float32."""
 from __future__ import annotations
 
 from .float32 import f32, f32_bits

@@ -1,6 +1,6 @@
 """The ``list`` dump: a grammar for the whole output and a renderer from the device catalogue.
 
-Layout from FIRMWARE-FACTS §4.4 (identical R1-R7) and devices.json ``_meta.list_rendering``.
+Layout from FIRMWARE-BEHAVIOUR.md#fb-list (identical R1-R7) and devices.json ``_meta.list_rendering``.
 The renderer builds a device's block from the catalogue's *fields* (modes, ranges, combi
 masks, PID constants), not from its pre-rendered ``hat_list_lines``, so the two can be
 checked against each other and against the wire.
@@ -58,7 +58,7 @@ _ACTIVE_FIELDS = [
     ("hwver", re.compile(r"  hwver  =" + _HEX8)),
     ("swver", re.compile(r"  swver  =" + _HEX8)),
 ]
-# An empty symbol keeps the space after '=' (FIRMWARE-FACTS §4.4): "SI = " then the symbol.
+# An empty symbol keeps the space after '=' (FIRMWARE-BEHAVIOUR.md#fb-list): "SI = " then the symbol.
 _MODE = re.compile(r"  M([0-9]|1[0-5]) (.+) SI = (.*)")
 _FORMAT = re.compile(r"    format count=([0-9]+) type=([0-3]) chars=([0-9]+) dp=([0-9]+)")
 _RANGE = re.compile(rf"    RAW: {_HEX8} {_HEX8}    PCT: {_HEX8} {_HEX8}    SI: {_HEX8} {_HEX8}")

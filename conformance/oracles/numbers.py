@@ -1,4 +1,4 @@
-"""The firmware's number parsers as a model (FIRMWARE-FACTS §3), for predicting what a
+"""The firmware's number parsers as a model (FIRMWARE-BEHAVIOUR.md#fb-arguments), for predicting what a
 command argument becomes. Each returns ``(value, end)`` or ``(None, start)`` on failure;
 ``end`` is just after the token *and* the spaces that follow it, as the firmware skips them."""
 from __future__ import annotations

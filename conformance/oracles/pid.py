@@ -1,4 +1,4 @@
-"""PID controller and process-variable unwrap, recomputed in float32 (FIRMWARE-FACTS §7.2).
+"""PID controller and process-variable unwrap, recomputed in float32 (FIRMWARE-BEHAVIOUR.md#fb-pid).
 
 The document fixes only the shape (Kp, Ki, Kd with a one-second time unit, integral clamped
 to the windup); FIRMWARE-FACTS gives the exact law: e = PV - SP, deadzone, de = (e - e_prev)/0.01,

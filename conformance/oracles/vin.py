@@ -1,4 +1,4 @@
-"""``vin`` output (FIRMWARE-FACTS §4.4): integer millivolts, a third decimal of 5 rounds down."""
+"""``vin`` output (FIRMWARE-BEHAVIOUR.md#fb-vin): integer millivolts, a third decimal of 5 rounds down."""
 from __future__ import annotations
 
 __all__ = ["adc_to_mv", "vin_text"]

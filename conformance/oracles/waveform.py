@@ -1,4 +1,5 @@
-"""The set-point generator, tick by tick (FIRMWARE-FACTS §7.1; shapes from the document's `set`).
+"""The set-point generator, tick by tick (FIRMWARE-BEHAVIOUR.md#fb-setpoint; shapes from the
+document's `set`).
 
 One ``tick()`` is one 10 ms controller update. The phase accumulator is float32 and the
 ``+ 0.01`` is done in double then rounded, which is why a 0.1 s pulse ends after 11 ticks.
@@ -12,7 +13,7 @@ from .float32 import f32
 
 __all__ = ["SINE_TABLE", "Generator", "ticks_until_done", "shape_value"]
 
-#: sin(2*pi*k/256) rounded to 5 decimals, as float32 (FIRMWARE-FACTS §7.1).
+#: sin(2*pi*k/256) rounded to 5 decimals, as float32 (FIRMWARE-BEHAVIOUR.md#fb-setpoint).
 SINE_TABLE = [f32(round(math.sin(2 * math.pi * k / 256), 5)) for k in range(256)]
 
 MIN_PERIOD, MAX_PERIOD = 0.02, 1e30

@@ -1,4 +1,4 @@
-"""Firmware load through the HAT's bootloader and HAT reset (FIRMWARE-FACTS §9).
+"""Firmware load through the HAT's bootloader and HAT reset (FIRMWARE-BEHAVIOUR.md#fb-bootloader).
 
 - :func:`read_firmware` (image + signature files) -> :class:`FirmwareImage`
 - :func:`load_firmware` (open target, image) -> :class:`LoadResult`; raises :class:`LoadError`

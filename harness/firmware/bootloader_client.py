@@ -1,4 +1,4 @@
-"""The host side of the bootloader protocol (FIRMWARE-FACTS §9) over a :class:`~.wire.Wire`.
+"""The host side of the bootloader protocol (FIRMWARE-BEHAVIOUR.md#fb-bootloader) over a :class:`~.wire.Wire`.
 
 ``identify`` (who answers ``version``: bootloader or firmware), ``clear``, ``upload_image``
 (``load <len> <checksum>`` then STX, the image, ETX), ``upload_signature`` (``signature 64``

@@ -1,5 +1,5 @@
 """``buildhat-conformance load --target URL IMAGE SIGNATURE``: load a firmware image through the
-HAT's bootloader (FIRMWARE-FACTS §9) and confirm it runs.
+HAT's bootloader (FIRMWARE-BEHAVIOUR.md#fb-bootloader) and confirm it runs.
 
 Exit status: 0 loaded and running; 2 a file is missing or unreadable, or the bootloader refuses
 it (image too large, signature length, signature that does not verify); 3 the target is

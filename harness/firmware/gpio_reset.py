@@ -1,7 +1,7 @@
 """Resetting a Build HAT from a Raspberry Pi: its RESET and BOOT0 lines through libgpiod v2.
 
 The HAT's RESET is on header GPIO 4 and BOOT0 on GPIO 22. The sequence is the one the
-official library uses (FIRMWARE-FACTS §9): BOOT0 held low (boot from flash, i.e. into the
+official library uses (FIRMWARE-BEHAVIOUR.md#fb-host-update): BOOT0 held low (boot from flash, i.e. into the
 bootloader; high would start the chip's own USB boot ROM), RESET low for 10 ms, high again,
 10 ms later both lines released, then 0.5 s for the bootloader to start. The firmware lives
 in RAM, so after any reset the HAT is in its bootloader (``BHBL>``) and needs ``load``.

@@ -1,4 +1,5 @@
-"""A firmware image and its signature, read from files, as ``load`` sends them (FIRMWARE-FACTS §9).
+"""A firmware image and its signature, read from files, as ``load`` sends them
+(FIRMWARE-BEHAVIOUR.md#fb-bootloader-load).
 
 The python-build-hat wheels bundle such a pair as ``buildhat/data/firmware.bin`` and
 ``signature.bin``. An image whose checksum is a release's (``protocol/profiles.json``) is

@@ -1,4 +1,5 @@
-"""Load a firmware image into a HAT through its bootloader, then confirm it runs (FIRMWARE-FACTS §9).
+"""Load a firmware image into a HAT through its bootloader, then confirm it runs
+(FIRMWARE-BEHAVIOUR.md#fb-bootloader).
 
 :func:`load_firmware` on an open target: find out what answers; if it is the firmware, reset
 the HAT into its bootloader where the target can (``reset_hat``: the emulator's control

@@ -69,7 +69,7 @@ def _triage(all_runs: List[Run], failures: List[Tuple[Run, Case]]) -> Triage:
                 changes[run.path] = None
         else:
             changes[run.path] = None
-    explained = {k: (d.explain, d.facts) for k, d in deviations().items()}
+    explained = {k: (d.explain, d.reference) for k, d in deviations().items()}
     statements = {r.id: r.statement for r in requirements()}
     return Triage(group_failures(failures), changes, explained, statements)
 

@@ -5,6 +5,7 @@ import datetime
 from dataclasses import dataclass, field
 from typing import Dict, List, Optional, Sequence, Tuple
 
+from ...protocol.behaviour import anchors_in, section_text
 from .coverage import Coverage
 from .html_triage import (
     by_requirement_section,
@@ -178,7 +179,7 @@ def _case_list(items: List[Tuple[Run, Case]], excerpts: Dict[int, List[str]]) ->
 def _deviations_section(items: List[Tuple[Run, Case]], excerpts: Dict[int, List[str]],
                         explained: Dict[str, Tuple[str, str]]) -> str:
     """Known deviations grouped by their key (the suite's ``deviations`` property), each
-    explained in a sentence with its FIRMWARE-FACTS section; the cases one click away."""
+    explained in a sentence with its sections of docs/FIRMWARE-BEHAVIOUR.md; the cases one click away."""
     if not items:
         return "<h2 id=deviations>Known deviations</h2><p class=muted>No known deviations were reported.</p>"
     groups: Dict[str, List[Tuple[Run, Case]]] = {}
@@ -188,20 +189,31 @@ def _deviations_section(items: List[Tuple[Run, Case]], excerpts: Dict[int, List[
             groups.setdefault(key.strip(), []).append((run, case))
     rows = []
     for key, members in sorted(groups.items()):
-        explain, facts = explained.get(key, ("(no explanation in deviations.json)", "?"))
+        explain, where = explained.get(key, ("(no explanation in deviations.json)", "?"))
         reqs = sorted({r for _run, c in members for r in c.requirements})
         tests = _tests_cell([(run.label, c) for run, c in members])
-        rows.append(f"<tr><td><code>{_e(key)}</code></td><td>{_e(explain)}</td><td>{_e(facts)}</td>"
+        rows.append(f"<tr><td><code>{_e(key)}</code></td><td>{_e(explain)}</td><td><code>{_e(where)}</code>"
+                    f"{_quoted_sections(where)}</td>"
                     f'<td class="n">{len(members)}</td><td>{_e(", ".join(reqs))}</td>'
                     f'<td class="tests">{_e(tests)}<details><summary>the case(s)</summary>'
                     f"{_case_list(members, excerpts)}</details></td></tr>")
     return (f"<h2 id=deviations>Known deviations ({len(items)} case(s), {len(groups)} kind(s))</h2>"
-            "<p class=muted>Where a release is known (FIRMWARE-FACTS) to differ from the 2021-10 document "
-            "and did exactly what the facts say: expected, not a finding.</p><table class=wide><colgroup>"
-            "<col style='width:15em'><col style='width:38%'><col style='width:7em'><col style='width:4.5em'>"
+            "<p class=muted>Where a release is known to differ from the 2021-10 document (the project's "
+            "docs/FIRMWARE-BEHAVIOUR.md, section by anchor) and did exactly what that says: expected, not a "
+            "finding.</p><table class=wide><colgroup>"
+            "<col style='width:15em'><col style='width:30%'><col style='width:24%'><col style='width:4.5em'>"
             "<col style='width:9em'><col></colgroup><tr><th>deviation</th><th>what it means</th>"
-            "<th>FACTS §</th><th>cases</th><th>requirements</th><th>tests</th></tr>"
+            "<th>explained in</th><th>cases</th><th>requirements</th><th>tests</th></tr>"
             f"{''.join(rows)}</table>")
+
+
+def _quoted_sections(where: str) -> str:
+    """The cited sections of docs/FIRMWARE-BEHAVIOUR.md, quoted (the package carries the document),
+    so the page explains a deviation without a file the reader may not have."""
+    texts = [text for text in (section_text(a) for a in anchors_in(where)) if text]
+    if not texts:
+        return ""
+    return f"<details><summary>what it says</summary><pre>{_e((chr(10) * 2).join(texts))}</pre></details>"
 
 
 def _plots_section(plots: List[Plot]) -> str:

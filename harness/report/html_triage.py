@@ -279,5 +279,5 @@ def legend_section() -> str:
         "run, numbered as in the runs table</td></tr>"
         "<tr><td>T fault, not run, known dev., info</td><td>the verdict columns: target fault, not run, "
         "known deviation, informational (above)</td></tr>"
-        "<tr><td>§N</td><td>a section of FIRMWARE-FACTS, the record of how each firmware release behaves"
-        "</td></tr></table>")
+        "<tr><td><code>…#fb-on-off</code></td><td>a section of docs/FIRMWARE-BEHAVIOUR.md, the project's "
+        "record of how each firmware release behaves, named by its anchor</td></tr></table>")

@@ -20,15 +20,16 @@ LETTER = {"pass": ".", "fail": "F", "target_fault": "T", "not_run": "N", "skip":
           "known_deviation": "K", "informational": "I"}
 
 MEANING = {
-    "pass": "the target did what the 2021-10 document (or, where it is silent, FIRMWARE-FACTS) says",
+    "pass": "the target did what the 2021-10 document (or, where it is silent, docs/FIRMWARE-BEHAVIOUR.md) "
+            "says",
     "fail": "the target answered, and the answer breaks the protocol: a finding against the target",
     "target_fault": "the target went silent, died, rebooted or garbled its output during the case: a fault "
                     "of the target or the link, not a verdict on the protocol",
     "not_run": "the case could not run (the target was gone before it started)",
     "skip": "the case needs something this target cannot do (a device plugged in, control of the "
             "supply...); the reason says what to connect",
-    "known_deviation": "the target did exactly what FIRMWARE-FACTS says this release does instead of the "
-                       "document: expected, not a regression",
+    "known_deviation": "the target did exactly what docs/FIRMWARE-BEHAVIOUR.md says this release does "
+                       "instead of the document: expected, not a regression",
     "informational": "a measurement the document does not bound (timing, rates); shown, never judged",
     "hole": "no test cites this requirement ID: a hole in the suite",
     "untested": "tests cite it, but none of them passed or failed here (all skipped or informational)",

@@ -95,13 +95,13 @@ def timing_plots(timing: Timing) -> List[Plot]:
         title = "Report period: time between data lines of one port"
         out.append(Plot(title, "periods", histogram(p, title, "ms between lines"), [
             f"{len(p)} intervals; median {p[len(p) // 2]:g} ms, min {p[0]:g} ms, max {p[-1]:g} ms "
-            "(FIRMWARE-FACTS §6.2: the reporting engine's period)"]))
+            "(docs/FIRMWARE-BEHAVIOUR.md#fb-reporting: the reporting engine's period)"]))
     if timing.lateness:
         late = timing.lateness
         worst = max(range(len(late)), key=lambda i: abs(late[i]))
         title = "pulse/ramp done: lateness after the requested period"
         out.append(Plot(title, "lateness", histogram(late, title, "ms after t0 + period"), [
             f"{len(late)} done line(s); lateness {min(late):g} .. {max(late):g} ms "
-            f"(worst: {timing.lateness_labels[worst]}); FIRMWARE-FACTS §7.1: the end comes after the "
-            "period's ticks, the first 0-10 ms after the command"]))
+            f"(worst: {timing.lateness_labels[worst]}); docs/FIRMWARE-BEHAVIOUR.md#fb-waveform-end: the end "
+            "comes after the period's ticks, the first 0-10 ms after the command"]))
     return out

@@ -16,7 +16,7 @@ from .base import NotReading, Target, TargetError
 
 __all__ = ["PyserialTarget", "SerialPort", "BAUD"]
 
-BAUD = 115200            # FIRMWARE-FACTS §1: UART0 at 115200 baud, 8N1, no flow control
+BAUD = 115200            # FIRMWARE-BEHAVIOUR.md#fb-uart: UART0 at 115200 baud, 8N1, no flow control
 _SLICE = 0.05            # the port's own read timeout; read() loops slices up to its timeout
 
 
