@@ -8,19 +8,17 @@ from typing import List
 
 import pytest
 
-REPO = pathlib.Path(__file__).resolve().parent.parent
-# shared/ sits beside the checkout (as tests/conftest.py says); users never have it.
-SHARED = pathlib.Path(os.environ.get("BUILDHAT_SHARED", REPO.parent / "shared"))
-TREE = SHARED / "firmware" / "firmware-pico-1737564117"
+from shared_material import need_shared
+
+TREE_NAME = "firmware-pico-1737564117"
 CLI = [sys.executable, "-m", "buildhat_conformance.harness.cli_dispatch"]
 
 
 def firmware_tree() -> pathlib.Path:
-    if not TREE.is_dir():
-        pytest.skip(f"no firmware tree at {TREE} (shared/ absent; set BUILDHAT_SHARED)")
+    tree = need_shared("firmware", TREE_NAME, what="a firmware tree")
     if not (shutil.which("cc") or shutil.which("gcc") or shutil.which("clang")):
         pytest.skip("no C compiler on this machine")
-    return TREE
+    return tree
 
 
 def copy_tree(dest: pathlib.Path) -> pathlib.Path:

@@ -1,6 +1,6 @@
 """sil/float_convert.py: the host build's float-to-integer conversions behave as the RP2040's.
 
-The chip's conversions saturate (FIRMWARE-FACTS §4.4: a negative range prints as 00000000);
+The chip's conversions saturate (docs/FIRMWARE-BEHAVIOUR.md#fb-list-ranges: a negative range prints as 00000000);
 x86's do not. A small C program is compiled, its assembly rewritten, assembled and run; each
 result must follow the chip's rule, computed here from the rule itself."""
 import shutil
