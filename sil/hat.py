@@ -14,6 +14,7 @@ then :meth:`read` raises :class:`FirmwareDied` once with its report, and the HAT
 """
 from __future__ import annotations
 
+import copy
 import re
 from typing import Any, Callable, Dict, List, Mapping, Optional
 
@@ -226,3 +227,22 @@ class SilHat:
         if self.proc is not None:
             self.proc.quit()
             self.proc = None
+
+    def copy(self) -> SilHat:
+        """This HAT as it is now, as a HAT of its own: the firmware process forks (its state,
+        clock and pending bytes come along) and the world is copied with it."""
+        if self.proc is None or self.died is not None:
+            raise RuntimeError("only a running firmware can be copied")
+        dup = SilHat.__new__(SilHat)
+        dup.__dict__.update({k: v for k, v in self.__dict__.items() if k not in ("proc", "outside", "_callbacks")})
+        dup.events, dup._callbacks = [], []
+        dup._out, dup._seen, dup.devices = bytearray(self._out), bytearray(self._seen), dict(self.devices)
+        dup.proc = self.proc.fork()
+        event = self.outside._event
+        self.outside._event = None             # the copy's world reports to the copy
+        try:
+            dup.outside = copy.deepcopy(self.outside)
+        finally:
+            self.outside._event = event
+        dup.outside._event = dup._event
+        return dup

@@ -1,15 +1,20 @@
 """One run of a firmware built with the stand-in: the child process and its frames.
 
 :class:`FirmwareProcess` starts the program, checks its hello, and runs it to a virtual time
-(:meth:`run`), returning what it did on the way. A program that exits, crashes (a sanitizer
+(:meth:`run`), returning what it did on the way. :meth:`fork` makes a copy of a running
+firmware at its current state (the program forks; the copy talks over a socket): a booted HAT
+is started once and copied for each fuzzing run. A program that exits, crashes (a sanitizer
 report, a signal) or stops answering raises :class:`FirmwareDied` with what it left on stderr:
-the first line says what happened, the rest is the whole report.
+the summary says what happened, ``report`` is all of it.
 """
 from __future__ import annotations
 
 import os
 import select
+import shutil
 import signal
+import socket
+import struct
 import subprocess
 import tempfile
 from typing import List, Optional, Sequence, Tuple
@@ -21,11 +26,13 @@ __all__ = ["FirmwareProcess", "FirmwareDied", "HANG_S"]
 # A firmware that has not yielded after this much wall time is taken as hung (an endless
 # loop inside an interrupt handler never gives the clock back).
 HANG_S = 20.0
+_SANITIZER_EXIT = 86
 
 
 class FirmwareDied(RuntimeError):
     """The firmware process ended or hung. ``kind`` is ``crashed`` (signal or sanitizer),
-    ``exited`` (it called exit) or ``hung``; ``report`` is its stderr."""
+    ``exited`` (it called exit) or ``hung``; ``report`` is its stderr; ``frames`` what it sent
+    before it died."""
 
     def __init__(self, kind: str, summary: str, report: str = ""):
         super().__init__(summary)
@@ -51,36 +58,82 @@ def _sanitizer(report: str) -> str:
     return "UndefinedBehaviorSanitizer" if "runtime error" in report else "sanitizer"
 
 
+def _sanitized_report(report: str) -> bool:
+    return "Sanitizer" in report or "runtime error" in report
+
+
 class FirmwareProcess:
     def __init__(self, program: str, env: Optional[dict] = None):
         self.program = program
-        self._stderr = tempfile.TemporaryFile()
+        self._tmp = tempfile.mkdtemp(prefix="sil-")
+        self._stderr_path = os.path.join(self._tmp, "stderr.txt")
         run_env = dict(os.environ if env is None else env)
         # A sanitizer report ends the program with a clear status (and no core dump).
-        run_env.setdefault("ASAN_OPTIONS", "abort_on_error=0:exitcode=86:detect_leaks=0")
-        run_env.setdefault("UBSAN_OPTIONS", "halt_on_error=1:exitcode=86:print_stacktrace=1")
+        run_env.setdefault("ASAN_OPTIONS", f"abort_on_error=0:exitcode={_SANITIZER_EXIT}:detect_leaks=0")
+        run_env.setdefault("UBSAN_OPTIONS", f"halt_on_error=1:exitcode={_SANITIZER_EXIT}:print_stacktrace=1")
+        self.proc: Optional[subprocess.Popen] = None
+        self.conn: Optional[socket.socket] = None
         try:
-            self.proc = subprocess.Popen([program], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
-                                         stderr=self._stderr, env=run_env, bufsize=0,
-                                         start_new_session=True)
+            with open(self._stderr_path, "wb") as err:
+                self.proc = subprocess.Popen([program], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                                             stderr=err, env=run_env, bufsize=0, start_new_session=True)
         except OSError as exc:
+            shutil.rmtree(self._tmp, ignore_errors=True)
             raise FirmwareDied("exited", f"cannot start {program}: {exc.strerror}") from None
+        assert self.proc.stdin is not None and self.proc.stdout is not None
+        self.pid = self.proc.pid
+        self._rfd, self._wfd = self.proc.stdout.fileno(), self.proc.stdin.fileno()
+        self._start()
+
+    def _start(self) -> None:
         self._buf = bytearray()
         self.now = 0
-        hello, frames = self._until_yield()
-        if hello.payload != HELLO:
-            self.kill()
-            raise FirmwareDied("exited", f"{program} is not a firmware built with the stand-in "
-                                         f"(hello {hello.payload!r})")
         self.ended: Optional[FirmwareDied] = None
+        hello, _frames = self._until("y")
+        if hello.payload[:4] != HELLO:
+            self.kill()
+            raise FirmwareDied("exited", f"{self.program} is not a firmware built with the stand-in "
+                                         f"(hello {hello.payload!r})")
+        self.now = hello.t
+
+    # -- copies ----------------------------------------------------------------------------
+    def fork(self) -> FirmwareProcess:
+        """A copy of this firmware as it is now (between two runs), as its own process."""
+        tmp = tempfile.mkdtemp(prefix="sil-")
+        path = os.path.join(tmp, "s")
+        listener = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+        try:
+            listener.bind(path)
+            listener.listen(1)
+            listener.settimeout(HANG_S)
+            stderr_path = os.path.join(tmp, "stderr.txt")
+            self.send(encode("K", 0, path.encode() + b"\0" + stderr_path.encode()))
+            answer, _frames = self._until("k")
+            pid = struct.unpack("<i", answer.payload[:4])[0]
+            if pid < 0:
+                raise FirmwareDied("exited", f"the firmware could not be copied (fork: {os.strerror(-pid)})")
+            conn, _ = listener.accept()
+        except (OSError, socket.timeout) as exc:
+            shutil.rmtree(tmp, ignore_errors=True)
+            raise FirmwareDied("exited", f"the firmware could not be copied: {exc}") from None
+        finally:
+            listener.close()
+        copy = FirmwareProcess.__new__(FirmwareProcess)
+        copy.program, copy._tmp, copy._stderr_path = self.program, tmp, stderr_path
+        copy.proc, copy.conn, copy.pid = None, conn, pid
+        copy._rfd = copy._wfd = conn.fileno()
+        copy._start()
+        return copy
 
     # -- frames ------------------------------------------------------------------------------
     def send(self, data: bytes) -> None:
+        view = memoryview(data)
         try:
-            assert self.proc.stdin is not None
-            self.proc.stdin.write(data)
-        except (BrokenPipeError, OSError):
-            raise self._died() from None
+            while view:
+                n = os.write(self._wfd, view)
+                view = view[n:]
+        except OSError:
+            raise self._died([]) from None
 
     def run(self, limit_ns: int, inputs: Sequence[bytes] = (), yield_on_host_idle: bool = False
             ) -> List[Frame]:
@@ -88,83 +141,123 @@ class FirmwareProcess:
         and return its frames (``self.now`` is where it stopped)."""
         flags = b"\x01" if yield_on_host_idle else b"\x00"
         self.send(b"".join(inputs) + encode("R", limit_ns, flags))
-        y, frames = self._until_yield()
+        y, frames = self._until("y")
         self.now = y.t
         return frames
 
-    def _until_yield(self) -> Tuple[Frame, List[Frame]]:
-        assert self.proc.stdout is not None
-        fd = self.proc.stdout.fileno()
+    def _until(self, kind: str) -> Tuple[Frame, List[Frame]]:
+        """Frames up to the first of ``kind`` (which is returned apart)."""
         buf, size = self._buf, HEADER.size
         frames: List[Frame] = []
         i = 0
         while True:
             while len(buf) - i >= size:
-                kind, port, length, _spare, t = HEADER.unpack_from(buf, i)
+                code, port, length, _spare, t = HEADER.unpack_from(buf, i)
                 if len(buf) - i < size + length:
                     break
-                payload = bytes(buf[i + size:i + size + length])
+                frame = Frame(chr(code), port, t, bytes(buf[i + size:i + size + length]))
                 i += size + length
-                frame = Frame(chr(kind), port, t, payload)
-                if frame.kind == "y":
+                if frame.kind == kind:
                     del buf[:i]
                     return frame, frames
                 frames.append(frame)
-            ready, _, _ = select.select([fd], [], [], HANG_S)
+            ready, _, _ = select.select([self._rfd], [], [], HANG_S)
             if not ready:
+                del buf[:i]
                 self.kill()
-                raise FirmwareDied("hung", f"the firmware gave no answer for {HANG_S:.0f} s of wall time "
-                                           f"(an endless loop where time cannot pass)", self.stderr_text())
-            chunk = os.read(fd, 1 << 16)
+                died = FirmwareDied("hung", f"the firmware gave no answer for {HANG_S:.0f} s of wall time "
+                                            f"(an endless loop where time cannot pass)", self.stderr_text())
+                died.frames = frames
+                self.ended = died
+                raise died
+            try:
+                chunk = os.read(self._rfd, 1 << 16)
+            except OSError:
+                chunk = b""
             if not chunk:
                 del buf[:i]
-                died = self._died()
-                died.frames = frames        # what it sent before it died is kept
-                raise died
+                raise self._died(frames)
             buf += chunk
 
     # -- ending ------------------------------------------------------------------------------
     def stderr_text(self) -> str:
-        self._stderr.seek(0)
-        return self._stderr.read().decode("utf-8", "replace")
-
-    def _died(self) -> FirmwareDied:
         try:
-            code = self.proc.wait(timeout=5)
-        except subprocess.TimeoutExpired:
-            self.kill()
-            code = self.proc.wait()
+            with open(self._stderr_path, "rb") as fh:
+                return fh.read().decode("utf-8", "replace")
+        except OSError:
+            return ""
+
+    def _exit_code(self) -> Optional[int]:
+        if self.proc is not None:
+            try:
+                return self.proc.wait(timeout=5)
+            except subprocess.TimeoutExpired:
+                self.kill()
+                return self.proc.wait()
+        return None                       # a copy is not our child: its report says what happened
+
+    def _died(self, frames: List[Frame]) -> FirmwareDied:
+        code = self._exit_code()
         report = self.stderr_text()
         first = _first_report_line(report)
-        if code < 0:
+        if code is not None and code < 0:
             name = signal.Signals(-code).name if -code in signal.Signals._value2member_map_ else str(-code)
             died = FirmwareDied("crashed", f"the firmware crashed ({name})" + (f": {first}" if first else ""),
                                 report)
-        elif code == 86 or "Sanitizer" in report or "runtime error" in report:
+        elif code == _SANITIZER_EXIT or _sanitized_report(report):
             died = FirmwareDied("crashed", f"the firmware crashed ({_sanitizer(report)}): "
                                            f"{first or 'sanitizer report'}", report)
+        elif code is None:
+            died = FirmwareDied("exited", "the firmware ended" + (f": {first}" if first else ""), report)
         else:
             died = FirmwareDied("exited", f"the firmware exited with status {code}"
                                 + (f": {first}" if first else ""), report)
+        died.frames = frames
         self.ended = died
         return died
 
     def kill(self) -> None:
-        if self.proc.poll() is None:
+        if self.proc is not None:
+            if self.proc.poll() is None:
+                try:
+                    os.killpg(self.proc.pid, signal.SIGKILL)
+                except OSError:
+                    self.proc.kill()
+                self.proc.wait()
+        else:
             try:
-                os.killpg(self.proc.pid, signal.SIGKILL)
+                os.kill(self.pid, signal.SIGKILL)
             except OSError:
-                self.proc.kill()
-            self.proc.wait()
+                pass
+        self._close_fds()
+
+    def _close_fds(self) -> None:
+        if self.conn is not None:
+            self.conn.close()
+            self.conn = None
+        if self.proc is not None:
+            for f in (self.proc.stdin, self.proc.stdout):
+                if f is not None:
+                    try:
+                        f.close()
+                    except OSError:
+                        pass
 
     def quit(self, timeout: float = 10.0) -> None:
         """Let the firmware exit cleanly (coverage data is written), else kill it."""
-        if self.proc.poll() is None:
-            try:
-                assert self.proc.stdin is not None
-                self.proc.stdin.write(encode("Q"))
-                self.proc.stdin.close()
-                self.proc.wait(timeout=timeout)
-            except (OSError, subprocess.TimeoutExpired):
-                self.kill()
-        self._stderr.close()
+        gone = False
+        try:
+            if self.ended is None:
+                self.send(encode("Q"))
+                if self.proc is not None:
+                    self.proc.wait(timeout=timeout)
+                    gone = True
+                else:                     # a copy: its end of the socket closes when it has exited
+                    gone = bool(select.select([self._rfd], [], [], timeout)[0])
+        except (OSError, FirmwareDied, subprocess.TimeoutExpired):
+            pass
+        if gone:
+            self._close_fds()
+        else:
+            self.kill()
+        shutil.rmtree(self._tmp, ignore_errors=True)

@@ -18,12 +18,14 @@ World -> firmware (upper case):
 | ``A`` | - | - | raw (u16) | the ADC reading of the input voltage |
 | ``S`` | - | - | 64 bytes | what the bootloader left at 0x2003FF00 (the image signature) |
 | ``Q`` | - | - | - | exit (coverage data is written) |
+| ``K`` | - | - | socket path, NUL, stderr path | fork a copy of this HAT, which connects to the socket |
 
 Firmware -> world (lower case):
 
 | type | port | time | payload | meaning |
 |---|---|---|---|---|
-| ``y`` | - | now | ``SIL1`` on the first | yield: the firmware waits for the world |
+| ``y`` | - | now | ``SIL1`` on the first (a copy adds its pid, i32) | yield: the firmware waits for the world |
+| ``k`` | - | now | the copy's pid (i32; negative: errno) | answer to ``K`` |
 | ``h`` | - | end of the byte | 1 byte | a byte to the host |
 | ``p`` | port | end of the byte | baud (u32), byte | a byte to the port's device |
 | ``u`` | port | now | on (u8), baud (u32) | the port's receiver was switched on/off |

@@ -14,14 +14,26 @@ default: latest). Time is virtual, as on ``inprocess`` (nothing reads the wall c
 """
 from __future__ import annotations
 
+import atexit
 import os
 from typing import Any, Dict, List, Optional, Tuple
 from urllib.parse import parse_qs, unquote
 
+from ...sil.process import FirmwareDied
 from .base import TargetCrashed, TargetError
 from .inprocess import HatModel, InProcessControl, InProcessTarget, _parse_devices
 
 __all__ = ["SilTarget", "SilControl", "from_url", "program_for"]
+
+
+_BOOTED_FIRMWARES: Dict[tuple, Any] = {}
+
+
+@atexit.register
+def _close_templates() -> None:
+    for hat in _BOOTED_FIRMWARES.values():
+        hat.close()
+    _BOOTED_FIRMWARES.clear()
 
 
 class SilControl(InProcessControl):
@@ -76,29 +88,44 @@ class SilTarget(InProcessTarget):
         from ...protocol.profiles import get_profile
         from ...sil.build import program_version
         from ...sil.hat import SilHat
-        release = firmware or program_version(Path(self.program))
+        built = program_version(Path(self.program))       # the release the tree's version.h names
         try:
-            profile = get_profile(release)
+            profile = get_profile(firmware if firmware not in (None, "") else built)
         except KeyError:
             if firmware:
                 raise TargetError(f"sil: unknown release {firmware!r}") from None
             profile = get_profile(None)       # a build the profiles do not know: latest timing
         # The bootloader leaves the image's signature in RAM; a known release's is a fact.
-        signature = profile.signature if release and str(profile.number) == str(release) else None
+        signature = None
+        if built:
+            try:
+                known = get_profile(built)
+                signature = known.signature if str(known.number) == built else None
+            except KeyError:
+                pass
         return SilHat(self.program, devices=devices, seed=seed, features=profile.features,  # type: ignore[return-value]
                       signature=signature)
 
     def _booted_copy(self) -> HatModel:
-        hat = self._new()
-        if self.boot:
+        if not self.boot:
+            return self._new()
+        # One booted firmware per program, layout and seed, kept for this process; every open
+        # is a copy of it (the process forks), so a fuzzing run starts in a millisecond.
+        key = (self.program, tuple(sorted(self.devices.items())), self.seed, self.firmware)
+        template = _BOOTED_FIRMWARES.get(key)
+        if template is None or template.died is not None:
+            template = self._new()
             try:
-                hat.boot()
+                template.boot()
             except RuntimeError as exc:
-                hat_close = getattr(hat, "close", None)
-                if hat_close is not None:
-                    hat_close()
+                template.close()
                 raise TargetError(f"sil: {exc}") from None
-        return hat
+            template.read()                   # printed while nobody listened
+            _BOOTED_FIRMWARES[key] = template
+        try:
+            return template.copy()
+        except FirmwareDied as exc:
+            raise TargetError(f"sil: {exc.summary}") from None
 
     def close(self) -> None:
         hat = self.emulator
@@ -119,7 +146,6 @@ class SilTarget(InProcessTarget):
             raise TargetError(f"sil: coverage: {exc}") from None
 
     def read(self, timeout: float) -> bytes:
-        from ...sil.process import FirmwareDied
         try:
             return super().read(timeout)
         except FirmwareDied as exc:

@@ -8,9 +8,12 @@
 #include "sil.h"
 
 #include <errno.h>
+#include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/socket.h>
+#include <sys/un.h>
 #include <unistd.h>
 
 uint64_t link_limit;
@@ -60,6 +63,41 @@ static void read_all(uint8_t *p, size_t n) {
     }
 }
 
+/* 'K': a copy of this HAT, as it is now, for another run (the world's snapshot of a booted
+ * HAT). The child connects to the world's socket and carries on from here over it; the parent
+ * answers 'k' with the child's pid and waits for the world as before. */
+static void fork_copy(const char *socket_path, const char *stderr_path) {
+    pid_t pid = fork();
+    if (pid < 0) {
+        int err = -errno;
+        link_emit('k', 0, sil_now, &err, sizeof err);
+        link_flush();
+        return;
+    }
+    if (pid > 0) {
+        int32_t child = (int32_t)pid;
+        link_emit('k', 0, sil_now, &child, sizeof child);
+        link_flush();
+        return;
+    }
+    out_len = 0;                                   /* the parent's unsent frames are not ours */
+    int fd = socket(AF_UNIX, SOCK_STREAM, 0);
+    struct sockaddr_un addr;
+    memset(&addr, 0, sizeof addr);
+    addr.sun_family = AF_UNIX;
+    strncpy(addr.sun_path, socket_path, sizeof addr.sun_path - 1);
+    if (fd < 0 || connect(fd, (struct sockaddr *)&addr, sizeof addr) != 0) _exit(71);
+    dup2(fd, 0);
+    dup2(fd, 1);
+    close(fd);
+    if (stderr_path[0] && !freopen(stderr_path, "w", stderr)) _exit(72);
+    int32_t self = (int32_t)getpid();
+    uint8_t hello[8] = {'S', 'I', 'L', '1'};
+    memcpy(hello + 4, &self, 4);
+    link_emit('y', 0, sil_now, hello, sizeof hello);
+    link_flush();
+}
+
 /* Obey the world's frames until it says run (or quit). */
 static void obey(void) {
     static uint8_t payload[65536];
@@ -99,6 +137,13 @@ static void obey(void) {
             break;
         case 'S': memcpy((void *)0x2003ff00, payload, h.len < 256 ? h.len : 256); break;
         case 'Q': link_flush(); exit(0);   /* exit(), not _exit(): coverage data is written */
+        case 'K': {                    /* payload: socket path, NUL, stderr path */
+            payload[h.len < sizeof payload ? h.len : sizeof payload - 1] = 0;
+            const char *sock = (const char *)payload;
+            size_t n = strlen(sock) + 1;
+            fork_copy(sock, n < h.len ? sock + n : "");
+            break;
+        }
         default:
             fprintf(stderr, "sil: unknown frame type 0x%02x from the world\n", h.type);
             exit(70);
@@ -117,6 +162,7 @@ static void flush_at_exit(void) { link_flush(); }
 void link_start(void) {
     static const char hello[] = "SIL1";
     atexit(flush_at_exit);
+    signal(SIGCHLD, SIG_IGN);                      /* copies ('K') are reaped by the system */
     link_emit('y', 0, 0, hello, 4);
     link_flush();
     obey();
