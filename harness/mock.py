@@ -24,7 +24,7 @@ from collections import deque
 from dataclasses import dataclass, field
 from typing import Callable, Deque, List, Optional, Tuple
 
-from .cli_options import UsageError
+from .cli_options import SPEED_HELP, UsageError
 from .pty import open_raw_pty
 from .transcript import CRLF, Transcript, field_bytes
 
@@ -313,9 +313,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                       "the first stdout line is its path")
     mode.add_argument("--tcp", metavar="[HOST:]PORT", help="serve on a TCP port (pyserial socket://)")
     parser.add_argument("--link", metavar="PATH", help="with --pty: also make this symlink to the device")
-    parser.add_argument("--speed", type=float,
-                        help="play the recorded delays this many times faster (default: the recording's "
-                             "time_scale, so the host sees the pace it saw)")
+    parser.add_argument("--speed", type=float, metavar="N",
+                        help=f"{SPEED_HELP}: the recorded delays (HAT time) play N times faster than real "
+                             "time (default: the recording's time_scale, so the host sees the pace it saw)")
     parser.add_argument("--strict", action="store_true",
                         help="stop with exit status 1 at the first host line that departs from the recording")
     parser.add_argument("--once", action="store_true", help="with --tcp: exit after the first client leaves")
