@@ -80,6 +80,15 @@ def parse(module: object, parser: argparse.ArgumentParser, argv: List[str]) -> a
     return args
 
 
+def command_parser(name: str, module: object) -> argparse.ArgumentParser:
+    """The parser of sub-command ``name`` (``module`` its imported module), as ``main`` uses it."""
+    parser = OneLineParser(prog=f"{PROG} {name}", description=SUBCOMMANDS[name][1])
+    getattr(module, "add_arguments")(parser)
+    # the command's own notes (if any), then its exit statuses
+    parser.epilog = " ".join(filter(None, [parser.epilog, exit_status_help(name)]))
+    return parser
+
+
 def main(argv: Optional[Sequence[str]] = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     if not argv:
@@ -91,7 +100,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         build_parser().parse_args(argv)    # --version, or one line naming the unknown command
         return EXIT_USAGE
     name = argv[0]
-    module_name, help_text = SUBCOMMANDS[name]
+    module_name = SUBCOMMANDS[name][0]
     try:
         module = importlib.import_module(module_name)
     except ModuleNotFoundError as exc:
@@ -99,11 +108,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
             _say(name, f"not available in this build ({exc.name})")
             return EXIT_USAGE
         raise
-    parser = OneLineParser(prog=f"{PROG} {name}", description=help_text)
-    module.add_arguments(parser)
-    # the command's own notes (if any), then its exit statuses
-    parser.epilog = " ".join(filter(None, [parser.epilog, exit_status_help(name)]))
-    args = parse(module, parser, argv[1:])
+    args = parse(module, command_parser(name, module), argv[1:])
     try:
         return int(module.main(args) or 0)
     except UsageError as exc:

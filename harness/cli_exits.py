@@ -37,7 +37,8 @@ EXIT_STATUSES: Dict[str, Tuple[Tuple[int, str], ...]] = {
              (2, _USAGE)),       # Ctrl-C or SIGTERM stops serving: 0
     "report": ((0, "written (or listed, pruned)"), (1, "with --check: a JUnit file would trip CI readers"),
                (2, _USAGE), _CTRL_C),
-    "load": ((0, "loaded and running"), (2, _USAGE + "; an image or signature the bootloader refuses"),
+    "load": ((0, "loaded and running"),
+             (2, "usage error (bad option, bad file) or an image or signature the bootloader refuses"),
              (3, _TARGET), _CTRL_C),
     "bench": ((0, "measured (a goal not met is in the table, not the status)"), (2, _USAGE), _CTRL_C),
     "buildhat-emulator": ((0, "the host side ended or the emulator was stopped"), (2, _USAGE),

@@ -103,6 +103,7 @@ def test_the_same_mistake_is_one_line_and_the_same_status(tmp_path, monkeypatch,
     rc, _out, err = _main(args, tmp_path, monkeypatch, capsys)
     assert "Traceback" not in err, err
     assert _one_line(err), f"{name}: {err!r}"
+    assert err.startswith(f"buildhat-conformance {args[0]}: "), f"{name}: not in the command's voice: {err!r}"
     assert rc == status, f"{name}: exit {rc}, stderr {err!r}"
     assert sorted(p.name for p in previous.parent.iterdir()) == ["junit.xml"], "a refused run wrote a report"
     assert previous.read_text(encoding="utf-8") == "<testsuites/>", "a refused run touched the report"
