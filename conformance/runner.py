@@ -73,7 +73,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="folder for the per-case transcripts (default: transcripts/ beside the JUnit "
                              "file)")
     parser.add_argument("-k", dest="keyword", default=None, metavar="EXPR",
-                        help="only the cases matching this pytest -k expression (e.g. 'select and not combi')")
+                        help="only the cases matching this pytest -k expression "
+                             "(e.g. 'select and not combi')")
     parser.add_argument("--operator", action="store_true", help="ask a person for plug/unplug actions")
     parser.add_argument("--max-target-faults", type=int, default=None, metavar="N",
                         help="after N target faults in a row reset the HAT once if the target can (the "

@@ -18,6 +18,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import sys
+from types import ModuleType
 from typing import List, Optional, Sequence, Tuple
 
 from .cli_exits import exit_status_help
@@ -66,13 +67,13 @@ def _split_at_dashes(argv: List[str]) -> Tuple[List[str], List[str]]:
     return argv[:at], argv[at + 1:]
 
 
-def parse(module: object, parser: argparse.ArgumentParser, argv: List[str]) -> argparse.Namespace:
+def parse(module: ModuleType, parser: argparse.ArgumentParser, argv: List[str]) -> argparse.Namespace:
     """The sub-command's arguments; a bad one exits 2 in one line (OneLineParser)."""
     if not getattr(module, "PASS_UNKNOWN_ARGS", False):
         return parser.parse_args(argv)
     before, after = _split_at_dashes(argv)
     args, unknown = parser.parse_known_args(before)
-    refused = getattr(module, "refused_arguments")(args, unknown)
+    refused = module.refused_arguments(args, unknown)
     if refused:
         hint = getattr(module, "UNKNOWN_ARGS_HINT", "")
         parser.error(f"unrecognized arguments: {' '.join(refused)}" + (f"; {hint}" if hint else ""))
@@ -80,10 +81,10 @@ def parse(module: object, parser: argparse.ArgumentParser, argv: List[str]) -> a
     return args
 
 
-def command_parser(name: str, module: object) -> argparse.ArgumentParser:
+def command_parser(name: str, module: ModuleType) -> argparse.ArgumentParser:
     """The parser of sub-command ``name`` (``module`` its imported module), as ``main`` uses it."""
     parser = OneLineParser(prog=f"{PROG} {name}", description=SUBCOMMANDS[name][1])
-    getattr(module, "add_arguments")(parser)
+    module.add_arguments(parser)
     # the command's own notes (if any), then its exit statuses
     parser.epilog = " ".join(filter(None, [parser.epilog, exit_status_help(name)]))
     return parser

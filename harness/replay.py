@@ -158,7 +158,8 @@ def write_transcript(transcript: Transcript, path: str) -> None:
 
 
 def replay(transcript: Transcript, target, plan: Optional[Plan] = None,  # type: ignore[no-untyped-def]
-           out: Optional[str] = None, boot_timeout: float = BOOT_TIMEOUT_S) -> Tuple[Transcript, float, List[str]]:
+           out: Optional[str] = None,
+           boot_timeout: float = BOOT_TIMEOUT_S) -> Tuple[Transcript, float, List[str]]:
     """Replay a recording on a target through the script runner; returns (what came back,
     slack in HAT ms for cutting real-time output, remarks). ``boot_timeout``: HAT seconds a
     booting target has to bring up the recording's layout."""
@@ -263,8 +264,9 @@ def main(args: argparse.Namespace) -> int:
     target = checked_target(args.target, layout=plan.layout)   # the recording's start-up layout
     missing = missing_capabilities(plan, target)
     if missing and not args.without_world:
-        print(f"buildhat-conformance replay: cannot replay {args.transcript} faithfully on {args.target}: the recording's world "
-              f"actions need {', '.join('@' + m for m in missing)} (from its {plan.world_source}), "
+        print(f"buildhat-conformance replay: cannot replay {args.transcript} faithfully on {args.target}: "
+              f"the recording's world actions need {', '.join('@' + m for m in missing)} "
+              f"(from its {plan.world_source}), "
               "which this target cannot perform. Use a target with a control channel (emulator, "
               "inprocess), or --without-world to send the host bytes alone.", file=sys.stderr)
         return 3

@@ -169,7 +169,8 @@ def test_help_is_plain_text_and_names_the_default_target(tmp_path, monkeypatch, 
 
 
 # -- one voice: a misspelt option, --help, --version and the README's option table -----------------
-CONFORMANCE_COMMANDS = ("run", "script", "targets", "fuzz", "record", "replay", "mock", "report", "load", "bench")
+CONFORMANCE_COMMANDS = ("run", "script", "targets", "fuzz", "record", "replay", "mock", "report", "load",
+                        "bench")
 # Each command with what it needs besides the option, and a misspelling of one of its own options
 # (misspelt as people do: letters swapped, one dropped; a prefix, as argparse's abbreviations took it).
 MISSPELT = {
@@ -227,7 +228,8 @@ def test_a_misspelt_option_is_one_line_in_the_commands_voice(tmp_path, monkeypat
 
 
 def test_buildhat_emulator_misspelt_option_and_missing_mode_are_one_line(capsys):
-    for misspelt, args in (("--versoin", ["--stdio", "--versoin"]), ("--firmwre", ["--firmwre", "R2", "--stdio"])):
+    for misspelt, args in (("--versoin", ["--stdio", "--versoin"]),
+                           ("--firmwre", ["--firmwre", "R2", "--stdio"])):
         rc, out, err = _emulator(args, capsys)
         _check_one_voice("buildhat-emulator", misspelt, rc, out, err)
     rc, out, err = _emulator(["--firmware", "R2"], capsys)     # no mode: 8 lines of usage before
@@ -258,8 +260,6 @@ def test_run_refuses_after_dashes_what_pytest_refuses_and_leaves_no_folder(tmp_p
 ])
 def test_which_arguments_run_hands_to_pytest_before_dashes(arg, refused):
     from buildhat_conformance.conformance.run_passthrough import refused_arguments
-
-    import argparse
 
     words = arg.split(" ", 1) if not arg.startswith("test_x") else [arg]
     assert bool(refused_arguments(argparse.Namespace(), words)) is refused, arg
@@ -380,7 +380,8 @@ def test_every_hidden_option_is_in_the_readme_table():
 
 def test_old_spellings_still_parse_to_the_same_value():
     cases = [("fuzz", ["--out", "D"], "out", "D"), ("fuzz", ["--profile", "R2"], "profile", "R2"),
-             ("bench", ["-k", "fuzz"], "only", "fuzz"), ("load", ["--transcript", "T", "i", "s"], "transcript", "T"),
+             ("bench", ["-k", "fuzz"], "only", "fuzz"),
+             ("load", ["--transcript", "T", "i", "s"], "transcript", "T"),
              ("buildhat-emulator", ["--stdio", "--transcript", "T"], "transcript", "T")]
     for prog, args, dest, value in cases:
         assert getattr(_parser(prog).parse_args(args), dest) == value, (prog, args)
