@@ -283,7 +283,11 @@ def serve_tcp(transcript: Transcript, host: str, port: int, speed: Optional[floa
     stop = stop or threading.Event()
     srv = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
     srv.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
-    srv.bind((host, port))
+    try:
+        srv.bind((host, port))
+    except OSError as exc:      # a port in use or not ours to take: the user's choice, one line
+        srv.close()
+        raise UsageError(f"--tcp {host}:{port}: {exc.strerror or exc}") from None
     srv.listen(1)
     srv.settimeout(0.2)
     (on_ready or (lambda p: print(p, flush=True)))(f"socket://{host}:{srv.getsockname()[1]}")

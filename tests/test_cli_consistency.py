@@ -388,3 +388,16 @@ def test_old_spellings_still_parse_to_the_same_value():
     # and the shown option's default still stands when the old one is not given
     assert _parser("fuzz").parse_args([]).out == os.path.join("reports", "fuzz")
     assert _parser("bench").parse_args([]).only == ""
+
+
+def test_a_busy_tcp_port_is_one_line(tmp_path):
+    """`mock --tcp` on a port already taken: one line, exit 2 (it was a traceback)."""
+    import socket
+
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen(1)
+        port = taken.getsockname()[1]
+        rc, out, err = _cli(["mock", TRANSCRIPT, "--tcp", f"127.0.0.1:{port}"], tmp_path)
+    assert rc == 2 and _one_line(err) and err.startswith("buildhat-conformance mock: --tcp"), (rc, err)
+    assert "Traceback" not in err and out == ""
