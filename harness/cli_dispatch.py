@@ -22,7 +22,7 @@ from types import ModuleType
 from typing import List, Optional, Sequence, Tuple
 
 from .cli_exits import exit_status_help
-from .cli_options import EXIT_TARGET, EXIT_USAGE, TARGET_HELP, OneLineParser, UsageError
+from .cli_options import EXIT_TARGET, EXIT_USAGE, OneLineParser, UsageError
 from .targets.base import TargetError
 from .version import __version__
 
@@ -40,8 +40,11 @@ SUBCOMMANDS = {
 }
 
 PROG = "buildhat-conformance"
-_EPILOG = (f"Every COMMAND takes --help, which ends with the exit statuses it returns. "
-           f"{TARGET_HELP[0].upper()}{TARGET_HELP[1:]}. {exit_status_help(PROG)}")
+_EPILOG = ("Every COMMAND takes --help, which ends with the exit statuses it returns. -t URL: the target; "
+           "by default emulator, which means emulator:latest?speed=10 (the reference emulator, latest "
+           "release, ten times real time; add ?speed=1 for real time), but in fuzz inprocess (the emulator "
+           "in its own process, in virtual time) and in load emulator:?bootloader=1; "
+           f"'{PROG} targets' lists the others. {exit_status_help(PROG)}")
 
 
 def build_parser() -> argparse.ArgumentParser:
