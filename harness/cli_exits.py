@@ -18,8 +18,8 @@ _CTRL_C = (130, "interrupted (Ctrl-C)")
 # command -> ((status, meaning), ...). "buildhat-conformance" is the dispatcher itself.
 EXIT_STATUSES: Dict[str, Tuple[Tuple[int, str], ...]] = {
     "buildhat-conformance": (
-        (0, "success (conforms)"), (1, "conformance failures (fuzz: a finding; replay: a difference)"), (2, _USAGE),
-        (3, _TARGET), _CTRL_C),
+        (0, "success (conforms)"), (1, "conformance failures (fuzz: a finding; replay: a difference)"),
+        (2, _USAGE), (3, _TARGET), _CTRL_C),
     "run": (
         (0, "conforms"), (1, "conformance failures (a fail, even if the target faulted later)"), (2, _USAGE),
         (3, "target unreachable or faulted (target faults or cases not run, and no failure)"),
