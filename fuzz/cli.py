@@ -53,9 +53,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "'buildhat-conformance targets' lists the others")
     parser.add_argument("--against", default=None, metavar="URL",
                         help="differential mode: send the same input to this second target and compare")
-    parser.add_argument("--budget", default="30s",
+    parser.add_argument("--budget", default="30s", metavar="TIME|Nx",
                         help="how long to fuzz: 60s / 2m / 1h (wall clock) or 500x (runs); default 30s")
-    parser.add_argument("--seed", type=int, default=None,
+    parser.add_argument("--seed", type=int, default=None, metavar="N",
                         help="campaign seed (default: chosen at random, printed and stored with the results)")
     parser.add_argument("--confirm", type=int, default=3, metavar="N",
                         help="replays of a failing run before it is reported (and with --reproduce); "
@@ -74,19 +74,19 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help=f"judge as this release ({RELEASE_HELP}) instead of the one the target "
                              "reports; to fuzz an emulator of a release, name it in the URL (inprocess:R2)")
     add_hidden_alias(parser, "--profile", dest="profile")
-    parser.add_argument("--families", default=",".join(FAMILIES),
+    parser.add_argument("--families", default=",".join(FAMILIES), metavar="NAME,...",
                         help=f"input families, comma-separated (default: {','.join(FAMILIES)})")
-    parser.add_argument("--steps", type=int, default=100, help="steps per run (default 100)")
-    parser.add_argument("--batch", type=int, default=32,
+    parser.add_argument("--steps", type=int, default=100, metavar="N", help="steps per run (default 100)")
+    parser.add_argument("--batch", type=int, default=32, metavar="N",
                         help="at most this many inputs sent back to back in one step, with one fence "
                              "(default 32)")
-    parser.add_argument("--waits", default="10,60,300",
+    parser.add_argument("--waits", default="10,60,300", metavar="MS,...",
                         help="HAT milliseconds the wait rule may let pass, comma-separated; empty: no "
                              "wait rule (default 10,60,300)")
-    parser.add_argument("--fence-timeout", type=float, default=None,
+    parser.add_argument("--fence-timeout", type=float, default=None, metavar="S",
                         help="HAT seconds a fence may take beyond the time its output needs on the wire "
                              "(default: 0.3 in-process, where nothing is slower than the wire; else 2)")
-    parser.add_argument("--shrink-time", type=float, default=30.0,
+    parser.add_argument("--shrink-time", type=float, default=30.0, metavar="S",
                         help="seconds a finding may spend being reduced by replaying smaller scripts "
                              "(default 30)")
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress line")
