@@ -15,6 +15,7 @@ import platform
 import time
 from typing import Callable, List, Optional, Tuple
 
+from ..harness.cli_options import add_hidden_alias
 from ..harness.version import __version__
 from .figures import Figure, render_table, write_json
 
@@ -120,10 +121,15 @@ def _groups(quick: bool) -> List[Group]:
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--runs", type=int, default=3, help="repetitions per group (medians reported)")
+    parser.add_argument("--runs", type=int, default=3, metavar="N",
+                        help="repetitions per group (medians reported; default 3)")
     parser.add_argument("--quick", action="store_true", help="one run each, shorter measurements")
-    parser.add_argument("-k", dest="only", default="", help="only groups whose name contains this text")
-    parser.add_argument("-o", "--output", default="reports/bench.json", help="where to write the figures")
+    # not -k: in `run` that is a pytest expression, here a plain piece of a group's name
+    parser.add_argument("--group", dest="only", default="", metavar="TEXT",
+                        help="only the groups whose name contains TEXT (e.g. fuzz)")
+    add_hidden_alias(parser, "-k", dest="only")
+    parser.add_argument("-o", "--output", default="reports/bench.json", metavar="FILE",
+                        help="where to write the figures (default %(default)s)")
     parser.add_argument("--cprofile", metavar="DIR", default=None,
                         help="also run each group under cProfile and write its hottest functions to DIR")
 
@@ -162,7 +168,7 @@ def main(args: argparse.Namespace) -> int:
     profile_dir = getattr(args, "cprofile", None)
     names = [group[0] for group in _groups(args.quick)]
     if args.only and not any(args.only in name for name in names):
-        raise UsageError(f"-k {args.only}: no benchmark group has it in its name ({'; '.join(names)})")
+        raise UsageError(f"--group {args.only}: no benchmark group has it in its name ({'; '.join(names)})")
     check_writable(args.output, "-o")        # before the minutes of measuring, not after
     if profile_dir:
         check_writable(profile_dir, "--cprofile", folder=True)

@@ -5,7 +5,8 @@ device, something listens, the release is known, --firmware is valid, something 
 a problem is one line and exit status 2 (usage) or 3 (unreachable), and no report is
 touched. Then pytest runs the installed ``conformance`` package in a child process (so a
 target that hangs or dies cannot take the caller with it), writes the JUnit file, and the
-HTML report is built. Options it does not know are passed to pytest unchanged.
+HTML report is built. pytest's own options go after ``--`` and are passed on unchanged
+(conformance/run_passthrough.py: which others still go on, and which are mistakes).
 
 The child and everything it starts end with this process: it has its own process group, a
 parent-death signal (harness/parent_death.py), and on Ctrl-C or SIGTERM it is told to stop,
@@ -27,14 +28,20 @@ from ..harness.cli_options import (
     DEFAULT_TARGET,
     EXIT_FAILED,
     EXIT_OK,
-    EXIT_STATUS_HELP,
     EXIT_TARGET,
+    RELEASE_HELP,
+    SPEED_HELP,
     add_target_option,
     expand_target,
 )
 from ..harness.parent_death import die_with_parent
+from .run_passthrough import PYTEST_HELP, UNKNOWN_ARGS_HINT, refused_arguments
 
+# The dispatcher (harness/cli_dispatch.py) hands on what follows `--`, and what refused_arguments
+# lets through, to pytest as `args.extra`.
 PASS_UNKNOWN_ARGS = True
+__all__ = ["add_arguments", "main", "pytest_argv", "suite_dir", "refused_arguments", "UNKNOWN_ARGS_HINT",
+           "PASS_UNKNOWN_ARGS"]
 EXIT_INTERRUPTED = 130
 _STOP_GRACE_S = 15.0       # the child closes the target and writes its files in this time
 # pytest's exit statuses: 0 all passed, 1 some failed, 2 interrupted, 3 internal error,
@@ -45,27 +52,29 @@ _XDIST_OPTIONS = {"--inventory", "-n", "--numprocesses", "--dist", "--tx", "-d",
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.description = (parser.description or "") + ". " + EXIT_STATUS_HELP[0].upper() + \
-        EXIT_STATUS_HELP[1:] + "."
+    parser.epilog = PYTEST_HELP
     add_target_option(parser, multiple=True,
                       extra_help="several: one xdist worker each, one merged report (docs/LAB.md; "
                                  "or --inventory FILE)")
     parser.add_argument("--speed", type=float, default=DEFAULT_SPEED, metavar="N",
-                        help=f"time scale of emulator URLs that give none (default {DEFAULT_SPEED:g})")
+                        help=f"{SPEED_HELP}, for emulator URLs that give no ?speed= (default "
+                             f"{DEFAULT_SPEED:g})")
     parser.add_argument("--firmware", default=None, metavar="RELEASE",
-                        help="judge as this release (R1..R7, a version number or latest) instead of the "
-                             "one the target reports; to run an emulator of a release, name it in the "
-                             "URL (emulator:R2)")
+                        help=f"judge as this release ({RELEASE_HELP}) instead of the one the target "
+                             "reports; to run an emulator of a release, name it in the URL (emulator:R2)")
     parser.add_argument("--inventory", default=None, metavar="FILE",
                         help="run against every HAT listed in FILE (one 'NAME URL' or 'URL' a line; "
                              "docs/LAB.md)")
-    parser.add_argument("--junit", default=None,
+    parser.add_argument("--junit", default=None, metavar="FILE",
                         help="JUnit XML output (default: a new run folder reports/runs/<time>-<target>/, "
                              "with reports/latest, reports/junit.xml and reports/index.html updated when "
                              "cases ran)")
-    parser.add_argument("--transcripts", default=None,
-                        help="folder for per-case transcripts (default: beside the JUnit file)")
-    parser.add_argument("-k", dest="keyword", default=None, help="only tests matching this pytest expression")
+    parser.add_argument("--transcripts", default=None, metavar="DIR",
+                        help="folder for the per-case transcripts (default: transcripts/ beside the JUnit "
+                             "file)")
+    parser.add_argument("-k", dest="keyword", default=None, metavar="EXPR",
+                        help="only the cases matching this pytest -k expression "
+                             "(e.g. 'select and not combi')")
     parser.add_argument("--operator", action="store_true", help="ask a person for plug/unplug actions")
     parser.add_argument("--max-target-faults", type=int, default=None, metavar="N",
                         help="after N target faults in a row reset the HAT once if the target can (the "
@@ -181,6 +190,27 @@ def _inventory_urls(path: str) -> List[str]:
     return [url for _name, url in found]
 
 
+def _missing_folders(path: str) -> List[str]:
+    """``path`` and those of its parents that do not exist yet, deepest first."""
+    missing: List[str] = []
+    path = os.path.abspath(path)
+    while not os.path.exists(path):
+        missing.append(path)
+        path = os.path.dirname(path)
+    return missing
+
+
+def _remove_if_empty(folders: List[str]) -> None:
+    """Take back the folders this run made (deepest first) if nothing was left in them."""
+    for path in folders:
+        try:
+            os.rmdir(path)
+        except FileNotFoundError:
+            continue
+        except OSError:
+            return      # not empty (a run wrote there): leave it and its parents
+
+
 def build_html_report(junit: str) -> None:
     """Write ``index.html`` beside the JUnit file; the suite's closing line has named it."""
     from ..harness.report import build_report
@@ -188,7 +218,7 @@ def build_html_report(junit: str) -> None:
     try:
         build_report([junit], os.path.join(os.path.dirname(junit), "index.html"))
     except Exception as exc:  # noqa: BLE001 - the report is extra; the verdict is the exit status
-        print(f"buildhat-conformance: HTML report not built: {exc}", file=sys.stderr)
+        print(f"buildhat-conformance run: HTML report not built: {exc}", file=sys.stderr)
 
 
 def _kill_group(pgid: int, sig: int) -> None:
@@ -266,12 +296,14 @@ def main(args: argparse.Namespace) -> int:
     from ..harness.report import runs
 
     preflight(args)   # before the run folder and the load: a mistake is one line, reports/ untouched
+    made = _missing_folders(os.path.join(runs.DEFAULT_ROOT, runs.RUNS)) if not args.junit else []
     folder = runs.start_for(args)        # None when --junit names the file explicitly
     if args.image or args.signature:
         status = load_image_first(args)
         if status:
             if folder is not None:
                 print(runs.finish(folder))   # no case ran: reports/ stays as it was
+                _remove_if_empty(made)
             return status
     # The suite's own folder is the rootdir; pytest.ini options of the caller's project are not ours.
     code, stopped_by = run_child(pytest_argv(args))
@@ -283,6 +315,7 @@ def main(args: argparse.Namespace) -> int:
         build_html_report(junit)
     if folder is not None:
         print(runs.finish(folder))
+        _remove_if_empty(made)     # nothing ran (e.g. pytest refused an option after --)
     if stopped_by is not None:
         return EXIT_INTERRUPTED
     return _PYTEST_TO_EXIT.get(code, EXIT_FAILED if code else EXIT_OK)

@@ -10,6 +10,7 @@ import argparse
 import os
 import signal
 import sys
+import textwrap
 from typing import Dict, List, Optional, Sequence
 
 __all__ = ["main", "build_parser"]
@@ -35,10 +36,18 @@ default layout: P0 0x30, P1 0x40, P2 passive 8, P3 none.
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(
+    # The options buildhat-conformance shares (README, "Options"): one line per mistake, no
+    # abbreviations (--version is not --version-string), -o/--output for the file it writes.
+    from ..harness.cli_exits import exit_status_help
+    from ..harness.cli_options import RELEASE_HELP, SPEED_HELP, OneLineParser, add_hidden_alias
+    from ..harness.version import __version__
+
+    p = OneLineParser(
         prog="buildhat-emulator", description="Reference emulator of the Raspberry Pi Build HAT "
         "firmware (releases R1..R7) on its serial command port.",
-        epilog=CONTROL_HELP, formatter_class=argparse.RawDescriptionHelpFormatter)
+        epilog=CONTROL_HELP + "\n" + textwrap.fill(exit_status_help("buildhat-emulator"), 104),
+        formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
     mode = p.add_mutually_exclusive_group(required=True)
     mode.add_argument("--pty", action="store_true", help="serve on a new pseudo-terminal (raw mode)")
     mode.add_argument("--tcp", metavar="[HOST:]PORT", help="serve on a TCP port (host 127.0.0.1 by default)")
@@ -46,8 +55,8 @@ def build_parser() -> argparse.ArgumentParser:
     mode.add_argument("--script", metavar="FILE", help="run a scenario script in virtual time; "
                       "transcript JSONL on stdout")
     p.add_argument("--link", metavar="PATH", help="with --pty: also make PATH a symlink to the pty")
-    p.add_argument("--firmware", default="latest", metavar="N|Rn|latest",
-                   help="firmware release: version number, R1..R7 or latest (default)")
+    p.add_argument("--firmware", default="latest", metavar="RELEASE",
+                   help=f"the firmware release to run: {RELEASE_HELP} (default latest)")
     p.add_argument("--version-string", metavar="S", help="text printed after 'Firmware version: '")
     p.add_argument("--device", action="append", default=[], metavar="P=SPEC",
                    help="device on port P at power-on (repeatable); SPEC as in a script's @device")
@@ -58,7 +67,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--booted", action="store_true",
                    help="start powered up: start-up done and the devices established, run in virtual "
                         "time before the link opens (its output went to no host)")
-    p.add_argument("--speed", type=float, default=1.0, metavar="N", help="run N times faster than real time")
+    p.add_argument("--speed", type=float, default=1.0, metavar="N", help=f"{SPEED_HELP} (default 1)")
     p.add_argument("--baud", type=int, metavar="B", help="pace the serial link at B baud (B/10 bytes/s)")
     p.add_argument("--hang-after", type=int, metavar="N",
                    help="fault injection: the firmware hangs after the host's Nth line (once; reads and "
@@ -70,9 +79,10 @@ def build_parser() -> argparse.ArgumentParser:
                    "(a Unix socket is mode 0600; TCP is loopback only and asks for the per-run token)")
     p.add_argument("--allow-remote", action="store_true",
                    help="let the TCP control channel listen on a non-loopback address")
-    p.add_argument("--transcript", metavar="FILE",
+    p.add_argument("-o", "--output", dest="transcript", metavar="FILE",
                    help="write every byte both ways, device events and host-lint findings (as notes) "
                         "to FILE as a JSONL transcript (with --script: instead of stdout)")
+    add_hidden_alias(p, "--transcript", dest="transcript")
     return p
 
 
@@ -118,7 +128,7 @@ def _check(args: argparse.Namespace, parser: argparse.ArgumentParser) -> None:
     if args.allow_remote and not (args.control or "").startswith("tcp:"):
         parser.error("--allow-remote is for a TCP control channel (--control tcp:HOST:PORT)")
     if args.transcript and args.stdio and args.transcript == "-":
-        parser.error("--transcript -: stdout is the serial link with --stdio; give a file")
+        parser.error("-o -: stdout is the serial link with --stdio; give a file")
     if args.tcp:
         from .runners.links import parse_tcp_address
         try:

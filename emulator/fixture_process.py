@@ -4,7 +4,7 @@ Standard library only at import time: this runs inside a host library's own test
 emulator itself is started as ``BUILDHAT_EMULATOR`` says (a command line, e.g. the ``buildhat-emulator``
 of another venv) or else with this interpreter (``python -m buildhat_conformance.emulator.cli``).
 
-Every run writes a JSONL transcript (``--transcript``) and the emulator's stderr (the host-lint report,
+Every run writes a JSONL transcript (``--output``) and the emulator's stderr (the host-lint report,
 a ``--strict-host`` stop) into ``keep_dir``, so a failed test can show them and keep them.
 """
 from __future__ import annotations
@@ -50,7 +50,7 @@ class EmulatorProcess:
         self.stderr_path = os.path.join(self.keep_dir, "emulator-stderr.txt")
         self.devices = dict(devices or {})
         cmd = _emulator_command() + ["--pty", "--control", self.control_path, "--speed", str(speed),
-                                     "--transcript", self.transcript_path]
+                                     "--output", self.transcript_path]
         if link is not None:
             cmd += ["--link", link]
         if firmware is not None:

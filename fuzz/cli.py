@@ -4,10 +4,11 @@
     buildhat-conformance fuzz -t /dev/serial0 --against emulator --budget 500x
     buildhat-conformance fuzz --reproduce reports/fuzz/fate.script -t emulator:R7
 
-Findings (one per oracle, confirmed by replays and reduced) are written to ``--out`` (default
-``reports/fuzz``): ``<oracle>.script`` (replay with ``--reproduce`` or ``buildhat-conformance script``),
-``<oracle>.<target>.jsonl`` transcripts and ``junit.xml``. Exit status: 0 no findings, 1 findings
-(with ``--reproduce``: 1 reproduced, 0 not), 2 usage errors, 3 a target that cannot be reached.
+Findings (one per oracle, confirmed by replays and reduced) are written to ``-o/--output`` (default
+``reports/fuzz``; ``--out`` is its old spelling): ``<oracle>.script`` (replay with ``--reproduce``
+or ``buildhat-conformance script``), ``<oracle>.<target>.jsonl`` transcripts and ``junit.xml``.
+Exit status: 0 no findings, 1 findings (with ``--reproduce``: 1 reproduced, 0 not), 2 usage
+errors, 3 a target that cannot be reached.
 """
 from __future__ import annotations
 
@@ -19,6 +20,7 @@ import sys
 import time
 from typing import Callable, Dict, Optional, Tuple
 
+from ..harness.cli_options import RELEASE_HELP, add_hidden_alias
 from ..harness.script import ScriptError, load_script
 from ..harness.targets import make_target
 from ..harness.targets.base import Target, TargetError
@@ -47,12 +49,14 @@ OUT_LIMIT = 6000
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("-t", "--target", default=None, metavar="URL",
-                        help=f"target URL (default: {DEFAULT_TARGET}; with --reproduce, the finding's own)")
+                        help=f"target URL (default: {DEFAULT_TARGET}, the emulator in this process, latest "
+                             "release, in virtual time; with --reproduce, the finding's own); "
+                             "'buildhat-conformance targets' lists the others")
     parser.add_argument("--against", default=None, metavar="URL",
                         help="differential mode: send the same input to this second target and compare")
-    parser.add_argument("--budget", default="30s",
+    parser.add_argument("--budget", default="30s", metavar="TIME|Nx",
                         help="how long to fuzz: 60s / 2m / 1h (wall clock) or 500x (runs); default 30s")
-    parser.add_argument("--seed", type=int, default=None,
+    parser.add_argument("--seed", type=int, default=None, metavar="N",
                         help="campaign seed (default: chosen at random, printed and stored with the results)")
     parser.add_argument("--confirm", type=int, default=3, metavar="N",
                         help="replays of a failing run before it is reported (and with --reproduce); "
@@ -61,28 +65,32 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="replay a finding's script against the target: prints reproduced (exit 1) "
                              "or not reproduced (exit 0)")
     parser.add_argument("--database", default=None, metavar="PATH",
-                        help="where failing runs are kept for the next campaign (default: <out>/.examples)")
+                        help="where failing runs are kept for the next campaign (default: DIR/.examples)")
     parser.add_argument("--no-database", action="store_true", help="do not read or save failing runs")
-    parser.add_argument("--out", default=DEFAULT_OUT, help=f"where findings go (default {DEFAULT_OUT})")
-    parser.add_argument("--junit", default=None, help="JUnit file (default: <out>/junit.xml)")
-    parser.add_argument("--firmware", "--profile", dest="profile", default=None, metavar="RELEASE",
-                        help="judge as this release (R1..R7); default: the one 'version' reports")
-    parser.add_argument("--families", default=",".join(FAMILIES),
+    parser.add_argument("-o", "--output", dest="out", default=DEFAULT_OUT, metavar="DIR",
+                        help=f"folder the findings go to (default {DEFAULT_OUT})")
+    add_hidden_alias(parser, "--out", dest="out")
+    parser.add_argument("--junit", default=None, metavar="FILE", help="JUnit file (default: DIR/junit.xml)")
+    parser.add_argument("--firmware", dest="profile", default=None, metavar="RELEASE",
+                        help=f"judge as this release ({RELEASE_HELP}) instead of the one the target "
+                             "reports; to fuzz an emulator of a release, name it in the URL (inprocess:R2)")
+    add_hidden_alias(parser, "--profile", dest="profile")
+    parser.add_argument("--families", default=",".join(FAMILIES), metavar="NAME,...",
                         help=f"input families, comma-separated (default: {','.join(FAMILIES)})")
-    parser.add_argument("--steps", type=int, default=100, help="steps per run (default 100)")
-    parser.add_argument("--batch", type=int, default=32,
+    parser.add_argument("--steps", type=int, default=100, metavar="N", help="steps per run (default 100)")
+    parser.add_argument("--batch", type=int, default=32, metavar="N",
                         help="at most this many inputs sent back to back in one step, with one fence "
                              "(default 32)")
-    parser.add_argument("--waits", default="10,60,300",
+    parser.add_argument("--waits", default="10,60,300", metavar="MS,...",
                         help="HAT milliseconds the wait rule may let pass, comma-separated; empty: no "
                              "wait rule (default 10,60,300)")
-    parser.add_argument("--fence-timeout", type=float, default=None,
+    parser.add_argument("--fence-timeout", type=float, default=None, metavar="S",
                         help="HAT seconds a fence may take beyond the time its output needs on the wire "
                              "(default: 0.3 in-process, where nothing is slower than the wire; else 2)")
-    parser.add_argument("--shrink-time", type=float, default=30.0,
+    parser.add_argument("--shrink-time", type=float, default=30.0, metavar="S",
                         help="seconds a finding may spend being reduced by replaying smaller scripts "
                              "(default 30)")
-    parser.add_argument("--quiet", action="store_true", help="no progress line")
+    parser.add_argument("-q", "--quiet", action="store_true", help="no progress line")
 
 
 def _scheme(url: str) -> str:
@@ -364,7 +372,7 @@ def main(args: argparse.Namespace) -> int:
     if args.profile:
         check_release(args.profile, "--firmware")
     if not args.reproduce:
-        check_writable(args.out, "--out", folder=True)
+        check_writable(args.out, "-o", folder=True)
         if args.junit:
             check_writable(args.junit, "--junit")
     try:

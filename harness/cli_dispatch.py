@@ -3,24 +3,26 @@
 The dispatcher behind the entry point (buildhat_conformance/cli.py). Each sub-command lives in
 the package that owns it and provides two functions, ``add_arguments(parser)`` and
 ``main(args) -> int``; only the chosen one is imported.
-A user's mistake (a bad option, file or target) is one line on stderr and the exit status of
-harness/cli_options.py, the same in every sub-command; a traceback means a bug of ours.
+A user's mistake (a bad option, file or target) is one line on stderr, starting with
+``buildhat-conformance COMMAND:``, and the exit status of harness/cli_options.py, the same in
+every sub-command; a traceback means a bug of ours. Each ``--help`` ends with the exit statuses
+that command really returns (harness/cli_exits.py).
+
+A sub-command that hands arguments on to another program (``run`` to pytest, ``record --proxy``
+to the host program) sets ``PASS_UNKNOWN_ARGS``: what follows ``--`` is handed on as it is, and
+its ``refused_arguments(args, unknown)`` says which of the other unknown arguments are mistakes
+(answered like any bad option, with its ``UNKNOWN_ARGS_HINT``).
 """
 from __future__ import annotations
 
 import argparse
 import importlib
 import sys
-from typing import Optional, Sequence
+from types import ModuleType
+from typing import List, Optional, Sequence, Tuple
 
-from .cli_options import (
-    EXIT_STATUS_HELP,
-    EXIT_TARGET,
-    EXIT_USAGE,
-    TARGET_HELP,
-    OneLineParser,
-    UsageError,
-)
+from .cli_exits import exit_status_help
+from .cli_options import EXIT_TARGET, EXIT_USAGE, OneLineParser, UsageError
 from .targets.base import TargetError
 from .version import __version__
 
@@ -38,12 +40,16 @@ SUBCOMMANDS = {
     "sil": ("buildhat_conformance.sil.cli", "the real firmware on this host: build a firmware tree (sil build)"),
 }
 
-_EPILOG = f"{TARGET_HELP[0].upper()}{TARGET_HELP[1:]}.\n{EXIT_STATUS_HELP[0].upper()}{EXIT_STATUS_HELP[1:]}."
+PROG = "buildhat-conformance"
+_EPILOG = ("Every COMMAND takes --help, which ends with the exit statuses it returns. -t URL: the target; "
+           "by default emulator, which means emulator:latest?speed=10 (the reference emulator, latest "
+           "release, ten times real time; add ?speed=1 for real time), but in fuzz inprocess (the emulator "
+           "in its own process, in virtual time) and in load emulator:?bootloader=1; "
+           f"'{PROG} targets' lists the others. {exit_status_help(PROG)}")
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = OneLineParser(prog="buildhat-conformance", description=(__doc__ or "").splitlines()[0],
-                           epilog="Every COMMAND takes --help. " + _EPILOG)
+    parser = OneLineParser(prog=PROG, description=(__doc__ or "").splitlines()[0], epilog=_EPILOG)
     parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for name, (_module, help_text) in SUBCOMMANDS.items():
@@ -54,19 +60,52 @@ def build_parser() -> argparse.ArgumentParser:
 def _say(name: str, message: str) -> None:
     from .preflight import one_line
 
-    print(f"buildhat-conformance {name}: {one_line(message)}", file=sys.stderr)
+    print(f"{PROG} {name}: {one_line(message)}", file=sys.stderr)
+
+
+def _split_at_dashes(argv: List[str]) -> Tuple[List[str], List[str]]:
+    """(what comes before the first ``--``, what comes after it)."""
+    if "--" not in argv:
+        return argv, []
+    at = argv.index("--")
+    return argv[:at], argv[at + 1:]
+
+
+def parse(module: ModuleType, parser: argparse.ArgumentParser, argv: List[str]) -> argparse.Namespace:
+    """The sub-command's arguments; a bad one exits 2 in one line (OneLineParser)."""
+    if not getattr(module, "PASS_UNKNOWN_ARGS", False):
+        return parser.parse_args(argv)
+    before, after = _split_at_dashes(argv)
+    args, unknown = parser.parse_known_args(before)
+    refused = module.refused_arguments(args, unknown)
+    if refused:
+        hint = getattr(module, "UNKNOWN_ARGS_HINT", "")
+        parser.error(f"unrecognized arguments: {' '.join(refused)}" + (f"; {hint}" if hint else ""))
+    args.extra = unknown + after
+    return args
+
+
+def command_parser(name: str, module: ModuleType) -> argparse.ArgumentParser:
+    """The parser of sub-command ``name`` (``module`` its imported module), as ``main`` uses it."""
+    parser = OneLineParser(prog=f"{PROG} {name}", description=SUBCOMMANDS[name][1])
+    module.add_arguments(parser)
+    # the command's own notes (if any), then its exit statuses
+    parser.epilog = " ".join(filter(None, [parser.epilog, exit_status_help(name)]))
+    return parser
 
 
 def main(argv: Optional[Sequence[str]] = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
-    if not argv or argv[0] in ("-h", "--help"):
+    if not argv:
+        build_parser().error(f"give a COMMAND: {', '.join(SUBCOMMANDS)}")
+    if argv[0] in ("-h", "--help"):
         build_parser().print_help()
-        return 0 if argv else EXIT_USAGE
+        return 0
     if argv[0] not in SUBCOMMANDS:
         build_parser().parse_args(argv)    # --version, or one line naming the unknown command
         return EXIT_USAGE
     name = argv[0]
-    module_name, help_text = SUBCOMMANDS[name]
+    module_name = SUBCOMMANDS[name][0]
     try:
         module = importlib.import_module(module_name)
     except ModuleNotFoundError as exc:
@@ -74,14 +113,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
             _say(name, f"not available in this build ({exc.name})")
             return EXIT_USAGE
         raise
-    parser = OneLineParser(prog=f"buildhat-conformance {name}", description=help_text,
-                           epilog=EXIT_STATUS_HELP[0].upper() + EXIT_STATUS_HELP[1:] + ".")
-    module.add_arguments(parser)
-    if getattr(module, "PASS_UNKNOWN_ARGS", False):
-        args, extra = parser.parse_known_args(argv[1:])
-        args.extra = extra
-    else:
-        args = parser.parse_args(argv[1:])
+    args = parse(module, command_parser(name, module), argv[1:])
     try:
         return int(module.main(args) or 0)
     except UsageError as exc:

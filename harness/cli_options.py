@@ -1,32 +1,36 @@
-"""What every sub-command shares: the ``-t/--target`` option with its one default, the exit
-statuses, and the one-line error for a user's mistake.
+"""What every command shares: the ``-t/--target`` option with its one default, the option
+names and help texts used in more than one command (the README's option table), the exit
+status values, and the one-line error for a user's mistake.
 
-Exit statuses (the same in every sub-command, documented in ``--help`` and the README):
-0 success / conforms, 1 conformance failures (or a finding reproduced), 2 usage error (bad
-option, bad file, unknown release), 3 the target is unreachable, faulted, or cannot do what
-was asked.
+Exit statuses: 0 success / conforms, 1 conformance failures (or a finding reproduced), 2 usage
+error (bad option, bad file, unknown release), 3 the target is unreachable, faulted, or cannot
+do what was asked; which of them each command returns is harness/cli_exits.py.
 """
 from __future__ import annotations
 
 import argparse
 import os
 import sys
-from typing import NoReturn, Optional
+from typing import Any, NoReturn, Optional
 
-__all__ = ["EXIT_OK", "EXIT_FAILED", "EXIT_USAGE", "EXIT_TARGET", "EXIT_STATUS_HELP", "DEFAULT_TARGET",
-           "DEFAULT_SPEED", "TARGET_HELP", "UsageError", "add_target_option", "expand_target",
-           "OneLineParser", "check_writable"]
+__all__ = ["EXIT_OK", "EXIT_FAILED", "EXIT_USAGE", "EXIT_TARGET", "DEFAULT_TARGET", "DEFAULT_SPEED",
+           "BOOT_TIMEOUT_S", "TARGET_HELP", "RELEASE_HELP", "SPEED_HELP", "UsageError", "add_target_option",
+           "add_hidden_alias", "expand_target", "OneLineParser", "check_writable"]
 
 EXIT_OK, EXIT_FAILED, EXIT_USAGE, EXIT_TARGET = 0, 1, 2, 3
-EXIT_STATUS_HELP = ("exit status: 0 success (conforms), 1 conformance failures or a finding, 2 usage "
-                    "error (bad option, bad file, unknown release), 3 target unreachable, faulted or "
-                    "unable to do what was asked")
 
 DEFAULT_TARGET = "emulator"
 DEFAULT_SPEED = 10.0
 TARGET_HELP = ("target URL (default: emulator, which means emulator:latest?speed=10: the reference "
                "emulator, latest release, ten times real time; add ?speed=1 for real time); "
                "'buildhat-conformance targets' lists the others")
+# What --firmware takes, in every command that has it (protocol/profiles.py get_profile).
+RELEASE_HELP = "R1..R7, a version number or latest"
+# --speed means one thing everywhere: the HAT's clock runs N times real time.
+SPEED_HELP = "the HAT's clock runs N times real time"
+# --boot-timeout: seconds (HAT time) a booting target has to bring up its start-up layout
+# (record and replay; a real HAT at real time with four devices needs several).
+BOOT_TIMEOUT_S = 30.0
 
 
 class UsageError(Exception):
@@ -56,6 +60,13 @@ def add_target_option(parser: argparse.ArgumentParser, multiple: bool = False, e
     else:
         parser.add_argument("-t", "--target", metavar="URL", type=expand_target, default=DEFAULT_TARGET,
                             help=help_text)
+
+
+def add_hidden_alias(parser: argparse.ArgumentParser, *names: str, dest: str, **kwargs: Any) -> None:
+    """An old spelling of an option that still works but is not shown in ``--help`` (README,
+    "Options"): same ``dest``, no default of its own (the shown option's default stands)."""
+    parser.add_argument(*names, dest=dest, help=argparse.SUPPRESS, default=argparse.SUPPRESS,
+                        **kwargs)
 
 
 def check_writable(path: str, what: str, folder: bool = False) -> None:
@@ -91,8 +102,14 @@ def check_writable(path: str, what: str, folder: bool = False) -> None:
 
 
 class OneLineParser(argparse.ArgumentParser):
-    """argparse that reports a bad option in one line (``PROG: error: ...; see PROG --help``)
-    with exit status 2, instead of the usage text followed by the error."""
+    """argparse that reports a bad option in one line (``PROG: message (see PROG --help)``)
+    with exit status 2, instead of the usage text followed by the error. Option names are
+    never abbreviated: ``--version`` must not turn into ``--version-string``, nor a misspelt
+    option into a neighbour's (nor, in ``run``, into one of pytest's)."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        kwargs.setdefault("allow_abbrev", False)
+        super().__init__(*args, **kwargs)
 
     def error(self, message: str) -> NoReturn:
         sys.stderr.write(f"{self.prog}: {message} (see {self.prog} --help)\n")

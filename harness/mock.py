@@ -24,7 +24,7 @@ from collections import deque
 from dataclasses import dataclass, field
 from typing import Callable, Deque, List, Optional, Tuple
 
-from .cli_options import UsageError
+from .cli_options import SPEED_HELP, UsageError
 from .pty import open_raw_pty
 from .transcript import CRLF, Transcript, field_bytes
 
@@ -283,7 +283,11 @@ def serve_tcp(transcript: Transcript, host: str, port: int, speed: Optional[floa
     stop = stop or threading.Event()
     srv = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
     srv.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
-    srv.bind((host, port))
+    try:
+        srv.bind((host, port))
+    except OSError as exc:      # a port in use or not ours to take: the user's choice, one line
+        srv.close()
+        raise UsageError(f"--tcp {host}:{port}: {exc.strerror or exc}") from None
     srv.listen(1)
     srv.settimeout(0.2)
     (on_ready or (lambda p: print(p, flush=True)))(f"socket://{host}:{srv.getsockname()[1]}")
@@ -313,9 +317,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                       "the first stdout line is its path")
     mode.add_argument("--tcp", metavar="[HOST:]PORT", help="serve on a TCP port (pyserial socket://)")
     parser.add_argument("--link", metavar="PATH", help="with --pty: also make this symlink to the device")
-    parser.add_argument("--speed", type=float,
-                        help="play the recorded delays this many times faster (default: the recording's "
-                             "time_scale, so the host sees the pace it saw)")
+    parser.add_argument("--speed", type=float, metavar="N",
+                        help=f"{SPEED_HELP}: the recorded delays (HAT time) play N times faster than real "
+                             "time (default: the recording's time_scale, so the host sees the pace it saw)")
     parser.add_argument("--strict", action="store_true",
                         help="stop with exit status 1 at the first host line that departs from the recording")
     parser.add_argument("--once", action="store_true", help="with --tcp: exit after the first client leaves")

@@ -27,7 +27,7 @@ import threading
 import time
 from typing import List, Optional, Sequence, Tuple
 
-from .cli_options import EXIT_TARGET, UsageError, add_target_option, check_writable
+from .cli_options import BOOT_TIMEOUT_S, EXIT_TARGET, UsageError, add_target_option, check_writable
 from .pty import open_raw_pty
 from .replay import write_transcript
 from .script import Script, ScriptError, load_script
@@ -35,10 +35,20 @@ from .script_runner import run_script
 from .targets.base import NeedsCapability, TargetError
 from .transcript import Transcript, TranscriptWriter, read_transcript
 
-__all__ = ["record_script", "record_proxy", "ready_lines", "add_arguments", "main", "PASS_UNKNOWN_ARGS"]
+__all__ = ["record_script", "record_proxy", "ready_lines", "add_arguments", "main", "PASS_UNKNOWN_ARGS",
+           "refused_arguments", "UNKNOWN_ARGS_HINT"]
 
-# `record --proxy ... -- COMMAND ARGS`: the command's own options must reach it untouched.
+# `record --proxy ... -- COMMAND ARGS`: the command's own options must reach it untouched (the
+# dispatcher hands on what follows `--`, harness/cli_dispatch.py).
 PASS_UNKNOWN_ARGS = True
+UNKNOWN_ARGS_HINT = "a host program's command goes after -- (with --proxy)"
+
+
+def refused_arguments(args: argparse.Namespace, unknown: List[str]) -> List[str]:
+    """Before ``--`` only the words of a --proxy command (an older spelling) are not mistakes."""
+    if not args.proxy:
+        return unknown
+    return [a for a in unknown if a.startswith("-")]
 
 
 def _now_iso() -> str:
@@ -67,7 +77,7 @@ def ready_lines(layout: dict) -> List[str]:
 
 
 def record_script(script: Script, target, out: str,  # type: ignore[no-untyped-def]
-                  boot_timeout: Optional[float] = None) -> Tuple[Transcript, List[str]]:
+                  boot_timeout: float = BOOT_TIMEOUT_S) -> Tuple[Transcript, List[str]]:
     """Run ``script`` on ``target`` through the one script runner (harness/script_runner.py)
     and write the transcript to ``out`` as it runs; returns it and remarks. Raises
     NeedsCapability (saying what is missing) before anything is sent, TargetError when the
@@ -78,7 +88,7 @@ def record_script(script: Script, target, out: str,  # type: ignore[no-untyped-d
     meta = {"script": rel_script, "tool": f"buildhat-conformance {_tool_version()} record",
             "date": _now_iso()}
     result = run_script(script, target, transcript=out, meta=meta,
-                        layout_wait_s=30.0 if boot_timeout is None else boot_timeout)
+                        layout_wait_s=boot_timeout)
     if not result.ok:
         raise TargetError(f"{result.reason}; the transcript {out} keeps every byte received until then")
     return read_transcript(out), list(result.notes)
@@ -87,7 +97,7 @@ def record_script(script: Script, target, out: str,  # type: ignore[no-untyped-d
 # -- proxy -------------------------------------------------------------------------------------
 def record_proxy(target, out: str, command: Sequence[str] = (), link: Optional[str] = None,  # type: ignore
                  stop: Optional[threading.Event] = None, on_ready=None,  # type: ignore[no-untyped-def]
-                 ready: Sequence[str] = (), boot_timeout: float = 30.0) -> int:
+                 ready: Sequence[str] = (), boot_timeout: float = BOOT_TIMEOUT_S) -> int:
     """Forward between a new pty and ``target``, recording both directions, until ``command``
     exits (its status is returned) or ``stop`` is set. A target that talks when opened is
     booting: the host is let in once the ``ready`` lines have come (at most ``boot_timeout`` s)."""
@@ -206,10 +216,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("script", nargs="?", metavar="SCRIPT", help="scenario script (.script) to run")
     add_target_option(parser)
     parser.add_argument("-o", "--output", required=True, metavar="FILE", help="transcript to write (.jsonl)")
-    parser.add_argument("--boot-timeout", type=float, metavar="S",
+    parser.add_argument("--boot-timeout", type=float, default=BOOT_TIMEOUT_S, metavar="S",
                         help="a booting target has up to S seconds (HAT time) to bring up the start-up "
                              "layout before the script starts, or with --proxy before the host is let in "
-                             "(default 30; with --proxy 0 means never wait)")
+                             f"(default {BOOT_TIMEOUT_S:g}; with --proxy 0 means never wait)")
     parser.add_argument("--proxy", action="store_true",
                         help="record a host program's session through a pty instead of a script; "
                              "the command follows '--' ({device} = the pty path)")
@@ -219,7 +229,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def main(args: argparse.Namespace) -> int:
     from .preflight import checked_target
 
-    extra = [a for a in getattr(args, "extra", []) if a != "--"]
+    extra = list(getattr(args, "extra", []))
     check_writable(args.output, "-o")
     if args.proxy:
         if args.script:
@@ -227,11 +237,10 @@ def main(args: argparse.Namespace) -> int:
         target = checked_target(args.target)
         from ..protocol.devices import DEFAULT_LAYOUT
 
-        timeout = 30.0 if args.boot_timeout is None else args.boot_timeout
         layout = dict(DEFAULT_LAYOUT)
         layout.update(getattr(target, "devices", None) or {})   # an emulator URL's device= options
         status = record_proxy(target, args.output, extra, args.link, ready=ready_lines(layout),
-                              boot_timeout=timeout)
+                              boot_timeout=args.boot_timeout)
         exited = f" (the host program exited with {status})" if status else ""
         print(f"record: wrote {args.output}{exited}")
         return status

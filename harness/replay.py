@@ -24,7 +24,7 @@ import sys
 from dataclasses import dataclass, field
 from typing import Dict, List, Optional, Tuple
 
-from .cli_options import UsageError, add_target_option, check_writable
+from .cli_options import BOOT_TIMEOUT_S, UsageError, add_target_option, check_writable
 from .compare import Comparison, RuleSet, Unit, compare_units, output_units
 from .errors import TargetError
 from .script import Action, Script, escape_raw, load_script, parse_script, parse_world_action
@@ -158,7 +158,8 @@ def write_transcript(transcript: Transcript, path: str) -> None:
 
 
 def replay(transcript: Transcript, target, plan: Optional[Plan] = None,  # type: ignore[no-untyped-def]
-           out: Optional[str] = None, boot_timeout: float = 20.0) -> Tuple[Transcript, float, List[str]]:
+           out: Optional[str] = None,
+           boot_timeout: float = BOOT_TIMEOUT_S) -> Tuple[Transcript, float, List[str]]:
     """Replay a recording on a target through the script runner; returns (what came back,
     slack in HAT ms for cutting real-time output, remarks). ``boot_timeout``: HAT seconds a
     booting target has to bring up the recording's layout."""
@@ -233,9 +234,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--without-world", action="store_true",
                         help="replay the host bytes even though the target cannot perform the world actions")
     parser.add_argument("-o", "--output", metavar="FILE", help="keep what came back as a transcript")
-    parser.add_argument("--boot-timeout", type=float, default=20.0, metavar="S",
+    parser.add_argument("--boot-timeout", type=float, default=BOOT_TIMEOUT_S, metavar="S",
                         help="a booting target has up to S seconds (HAT time) to bring up the recording's "
-                             "start-up layout (default 20)")
+                             f"start-up layout (default {BOOT_TIMEOUT_S:g})")
 
 
 def main(args: argparse.Namespace) -> int:
@@ -263,8 +264,9 @@ def main(args: argparse.Namespace) -> int:
     target = checked_target(args.target, layout=plan.layout)   # the recording's start-up layout
     missing = missing_capabilities(plan, target)
     if missing and not args.without_world:
-        print(f"replay: cannot replay {args.transcript} faithfully on {args.target}: the recording's world "
-              f"actions need {', '.join('@' + m for m in missing)} (from its {plan.world_source}), "
+        print(f"buildhat-conformance replay: cannot replay {args.transcript} faithfully on {args.target}: "
+              f"the recording's world actions need {', '.join('@' + m for m in missing)} "
+              f"(from its {plan.world_source}), "
               "which this target cannot perform. Use a target with a control channel (emulator, "
               "inprocess), or --without-world to send the host bytes alone.", file=sys.stderr)
         return 3

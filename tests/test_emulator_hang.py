@@ -66,7 +66,9 @@ def test_the_cli_refuses_a_hang_after_below_one():
     proc = subprocess.run([str(BIN / "buildhat-emulator"), "--stdio", "--hang-after", "0"],
                           capture_output=True, text=True, timeout=30)
     assert proc.returncode == 2
-    assert proc.stderr.strip().splitlines()[-1].endswith("--hang-after must be at least 1 line, got 0")
+    # one line in the program's voice (no usage text before it), pointing at --help
+    assert proc.stderr.strip().splitlines() == [
+        "buildhat-emulator: --hang-after must be at least 1 line, got 0 (see buildhat-emulator --help)"]
 
 
 def test_a_hat_that_hangs_mid_answer_is_silent_not_garbled():

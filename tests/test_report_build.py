@@ -259,7 +259,7 @@ def test_report_command_line(sample, capsys):
     capsys.readouterr()
     assert cli_main(["report", str(broken), "-o", str(out)]) == 2      # a bad file: one line, no traceback
     err = capsys.readouterr().err
-    want = f"report: {broken}: not well-formed XML: unclosed token: line 1, column 12"
+    want = f"buildhat-conformance report: {broken}: not well-formed XML: unclosed token: line 1, column 12"
     assert err.splitlines() == [want], err
 
 

@@ -12,7 +12,7 @@ import argparse
 import sys
 from typing import Optional
 
-from ..cli_options import UsageError
+from ..cli_options import UsageError, add_hidden_alias
 from ..preflight import checked_target
 from ..targets.base import TargetError
 from ..transcript import TranscriptWriter
@@ -27,13 +27,12 @@ PROG = "buildhat-conformance load"
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.description = (__doc__ or "").split("\n\n")[0].replace("``", "'")   # plain text in --help
-    parser.epilog = (__doc__ or "").split("\n\n", 1)[1]
-    parser.formatter_class = argparse.RawDescriptionHelpFormatter
     parser.add_argument("-t", "--target", metavar="URL", default="emulator:?bootloader=1",
                         help="target URL: a serial port (add ?reset=gpio on a Raspberry Pi to reset the HAT "
                              "into its bootloader), socket://, cmd:..., emulator:?bootloader=1 (default)")
-    parser.add_argument("--transcript", default=None, metavar="FILE",
+    parser.add_argument("-o", "--output", dest="transcript", default=None, metavar="FILE",
                         help="write every byte both ways to this JSONL transcript")
+    add_hidden_alias(parser, "--transcript", dest="transcript")
     parser.add_argument("image",
                         help="the firmware image (e.g. buildhat/data/firmware.bin of python-build-hat)")
     parser.add_argument("signature", help="its 64-byte signature (buildhat/data/signature.bin)")
@@ -80,6 +79,8 @@ def main(args: argparse.Namespace) -> int:
 
 
 if __name__ == "__main__":  # pragma: no cover
-    parser = argparse.ArgumentParser(prog=PROG)
+    from ..cli_options import OneLineParser
+
+    parser = OneLineParser(prog=PROG)
     add_arguments(parser)
     sys.exit(main(parser.parse_args()))

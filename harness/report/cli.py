@@ -11,11 +11,13 @@ from . import build_report
 from .junit import check_junit
 from .runs import DEFAULT_ROOT, list_runs, prune
 
+PROG = "buildhat-conformance report"      # every error line starts so, as in every command
+
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("junit", nargs="*", metavar="JUNIT", help="JUnit XML files written by the suite")
-    parser.add_argument("-o", "--output", default="reports/index.html",
-                        help="HTML file (default %(default)s)")
+    parser.add_argument("-o", "--output", default="reports/index.html", metavar="FILE",
+                        help="the HTML page to write (default %(default)s)")
     parser.add_argument("--check", action="store_true",
                         help="also fail (exit 1) when a JUnit file would trip common CI readers")
     parser.add_argument("--list", action="store_true", help="list the run folders under REPORTS/runs/")
@@ -28,7 +30,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def _runs_command(args: argparse.Namespace) -> int:
     if args.prune is not None:
         if args.prune < 0:
-            print("report: --prune needs the number of runs to keep (0 or more)", file=sys.stderr)
+            print(f"{PROG}: --prune needs the number of runs to keep (0 or more)", file=sys.stderr)
             return 2
         gone = prune(args.reports, args.prune)
         print(f"report: deleted {len(gone)} run folder(s) from {os.path.join(args.reports, 'runs')}")
@@ -45,23 +47,23 @@ def main(args: argparse.Namespace) -> int:
     if args.list or args.prune is not None:
         return _runs_command(args)
     if not args.junit:
-        print("report: give JUnit files to report on, or --list / --prune N", file=sys.stderr)
+        print(f"{PROG}: give JUnit files to report on, or --list / --prune N", file=sys.stderr)
         return 2
     missing = [p for p in args.junit if not os.path.isfile(p)]
     if missing:
-        print(f"report: no such JUnit file: {', '.join(missing)}", file=sys.stderr)
+        print(f"{PROG}: no such JUnit file: {', '.join(missing)}", file=sys.stderr)
         return 2
     bad = 0
     for path in args.junit:
         for problem in check_junit(path):
             bad += 1
-            print(f"report: {path}: {problem}", file=sys.stderr)
+            print(f"{PROG}: {path}: {problem}", file=sys.stderr)
     try:
         out = build_report(args.junit, args.output)
     except ET.ParseError:
         return 2          # check_junit has said which file and where it stops being XML
     except (OSError, ValueError) as exc:
-        print(f"report: {exc}", file=sys.stderr)
+        print(f"{PROG}: {exc}", file=sys.stderr)
         return 2
     print(f"report: wrote {out}")
     return 1 if (bad and args.check) else 0
