@@ -123,6 +123,36 @@ def test_ramp_runs_linearly_and_reports_done(hat: Hat, motor_port: int, args: st
     assert not problems, "\n".join(problems[:10])
 
 
+# FACTS §7.1: a pulse ends on tick n of its float accumulator (ticks_until_done) and the first
+# tick comes 0-10 ms after the command, so `done` is printed (n-1)*10 to n*10 ms after the CR.
+# For these lengths (n-1)*10 ms is the length or more: no HAT reports them done early. Not for
+# every length: 5 s ends on tick 500, up to 10 ms before 5 s have passed (0.2 s, 0.3 s, 10 s too).
+NOT_EARLY_LENGTHS = ["0.1", "0.5", "1"]
+
+
+@pytest.mark.req("CMD-SET-PULSE", "CMD-SET-DONE", "FW-WAVE-TICKS")
+@pytest.mark.parametrize("length", NOT_EARLY_LENGTHS)
+def test_pulse_done_never_comes_before_its_length(hat: Hat, motor_port: int, length: str) -> None:
+    """Issue 27: a host that times `set pulse` from its own clock never sees `done` early. HAT time
+    is measured from just before the line is sent, so the link's delays only lengthen it."""
+    n = ticks_until_done(_n(length))
+    length_ms = round(float(length) * 1000)          # whole ms: the float32 length is 0.1 s + 1.5 ns
+    assert (n - 1) * 10 >= length_ms, f"FACTS §7.1 lets a {length} s pulse end early; not a case"
+    p = motor_port
+    drive_off = hat.exchange(f"port {p} ; pwm ; set 0")       # direct PWM at 0: the motor never moves
+    assert drive_off.errors == 0, drive_off.raw
+    mark = hat.mark()
+    sent_ms = hat.session.now_ms()
+    reply = hat.exchange(f"port {p} ; set pulse 0 0 {length} 0")
+    assert reply.errors == 0, reply.raw
+    done_line = f"P{p}: pulse done"
+    assert hat.watch(mark, lambda e: e.text == done_line, n * 10 + 2000), f"no `{done_line}`"
+    done = next(e for e in hat.since(mark) if e.text == done_line)
+    elapsed_hat = (done.t - sent_ms) * hat.time_scale
+    assert elapsed_hat >= length_ms, (f"`{done_line}` {elapsed_hat:.1f} ms of HAT time after "
+                                           f"`set pulse ... {length} ...` was sent")
+
+
 @pytest.mark.req("CMD-SET-RAMP", "CMD-SET-PHASE")
 def test_ramp_fourth_parameter(hat: Hat, verdict: Verdict, motor_port: int) -> None:
     a, b, period = 0.0, 1.0, _n("0.2")

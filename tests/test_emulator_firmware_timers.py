@@ -191,3 +191,24 @@ def test_start_up_with_the_default_devices_takes_well_under_two_seconds(firmware
     emu = Emulator(firmware=firmware)
     took = emu.boot()
     assert 210 + 100 + 100 + HANDSHAKE_MS <= took <= 1500
+
+
+# -- §7.1 when a pulse's `done` comes ----------------------------------------------------------
+@pytest.mark.parametrize("length,ticks", [("1", 101), ("5", 500)])
+def test_pulse_done_comes_on_its_tick_count_after_the_line_at_every_phase(length, ticks):
+    # §7.1: "the end occurs after N ticks with ... 1 -> 101; 5 -> 500 ... N counts the port's ticks
+    # after the command, and the first tick is 0-10 ms after it": `done` comes (N-1)*10 to N*10 ms
+    # after the CR, whatever the line's phase against the 10 ms timer. For 5 s that is up to 10 ms
+    # before 5 s (issue 27: a host's clock sees the full 5 s only through the wire's time).
+    tap = motor_on_p3("R7")
+    tap.send("pwm ; set 0")
+    after = []
+    for _phase in range(10):
+        tap.run(1)                  # with the 10*(ticks+2) ms below: each line 1 ms later in the cycle
+        t = tap.send(f"set pulse 0 0 {length} 0")
+        tap.run(ticks * 10 + 20)
+        done = [d for d in tap.times("P3: pulse done") if d > t]
+        assert len(done) == 1, done
+        after.append(done[0] - t)
+    assert all((ticks - 1) * 10 <= a <= ticks * 10 for a in after), after
+    assert len(set(after)) == 10, after              # every phase of the cycle was tried

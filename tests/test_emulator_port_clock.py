@@ -5,12 +5,15 @@ The wall clock is injected, so nothing here depends on real timing.
 from __future__ import annotations
 
 import json
+import os
+from typing import Any, List, Optional, Tuple
 
 import pytest
 
 from buildhat_conformance.emulator import Emulator
 from buildhat_conformance.emulator.control import ControlHandler, parse_control_address
 from buildhat_conformance.emulator.runners.clock import MAX_CATCH_UP_MS, RealTimeClock
+from buildhat_conformance.emulator.runners.realtime import run_realtime
 
 
 class FakeWall:
@@ -93,3 +96,69 @@ def test_control_addresses():
     assert parse_control_address("/tmp/x.sock") == ("unix", "/tmp/x.sock")
     with pytest.raises(ValueError):
         parse_control_address("tcp:host:notaport")
+
+
+class _PipeLink:
+    """The host side of the real-time runner without a pty: the host's bytes wait in a pipe
+    (so select() sees them), what the HAT sends is kept with the fake wall time it left at."""
+
+    def __init__(self, wall: FakeWall, host_bytes: bytes) -> None:
+        self.wall = wall
+        self.rd, wr = os.pipe()
+        os.write(wr, host_bytes)
+        os.close(wr)
+        self.sent: List[Tuple[float, bytes]] = []
+
+    def readables(self, data: bool = True) -> list:
+        return [self.rd] if data and self.rd is not None else []
+
+    def on_readable(self, obj: Any, limit: int) -> bytes:
+        data = os.read(self.rd, limit)
+        if not data:                          # everything read: nothing more to watch
+            os.close(self.rd)
+            self.rd = None
+        return data
+
+    def writables(self) -> list:
+        return []
+
+    def send(self, data: bytes) -> None:
+        self.sent.append((self.wall.t, data))
+
+    def flush(self) -> None:
+        pass
+
+    def first(self, needle: bytes) -> Optional[float]:
+        out = b""
+        for t, data in self.sent:
+            out += data
+            if needle in out:
+                return t
+        return None
+
+
+@pytest.mark.parametrize("lag_s", [0.0, 0.35, 1.5, 10.0],
+                         ids=["on-time", "lag-350ms", "lag-1.5s", "stopped-10s"])
+def test_a_line_read_while_the_runner_lags_is_timed_from_its_arrival(lag_s: float) -> None:
+    """Issue 27: a loaded machine leaves the runner behind the wall clock. The host's `set pulse`
+    must then start at the virtual ms it arrived, so its `done` (101 ticks for 1 s, FACTS §7.1)
+    comes no sooner than 1 s of the host's clock after the host wrote it, however far behind the
+    HAT was (handing it over first and catching up after ran the pulse in a fraction of that)."""
+    emu = Emulator(firmware="R7", devices={0: "0x30", 1: None, 2: None, 3: None})
+    emu.boot()
+    emu.read()
+    wall = FakeWall()
+    clock = RealTimeClock(1, now=wall)
+    link = _PipeLink(wall, b"port 0 ; set pulse 0 0 1 0\r")    # in the pipe at the start instant
+    wall.t += lag_s                         # ... and the runner wakes up this late to read it
+
+    def stop() -> bool:
+        wall.t += 0.005                     # the wall moves on between looks (5 ms each)
+        return link.first(b"pulse done") is not None or wall.t > 1000.0 + lag_s + 5
+
+    run_realtime(emu, link, clock, should_stop=stop)
+    done_at = link.first(b"pulse done")
+    assert done_at is not None, b"".join(d for _t, d in link.sent)[-300:]
+    read_at = 1000.0 + lag_s                # the earliest the runner could have read the line
+    assert done_at - read_at >= 1.0, f"`pulse done` {done_at - read_at:.4f} s after the line was read"
+    assert done_at - read_at <= 1.1, f"`pulse done` {done_at - read_at:.4f} s after the line was read"

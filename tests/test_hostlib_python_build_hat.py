@@ -2,7 +2,7 @@
 
 Matrix: buildhat 0.9.0 against the release it bundles (1737564117), 0.5.7 against 1636109636; and
 0.5.12 against 1636109636, which it replaces by its own image after a GPIO reset (our gpiozero pin
-factory). Every
+factory); 0.9.0's run_for_seconds timed by the host on a `--booted` HAT (issue 27). Every
 scenario (tests/hostlib/scenarios/) runs in the library's own venv with a hard time limit; the values
 it reports are checked against what the emulator was told (tests/hostlib/matrix.py). All scenarios
 start together on the first test that needs one, so the part costs about its longest scenario.
@@ -221,6 +221,24 @@ def test_the_librarys_own_stress_loops_draw_no_lint_finding(outcomes) -> None:
     start, degrees = v["continuous_start"], v["continuous_degrees"]
     assert start["lines"] / start["seconds"] > 100, start          # what the old rule called chatty
     assert degrees["calls"] >= 2 and degrees["lines"] >= degrees["calls"], degrees
+    lint_clean(got)
+
+
+# Issue 27: how much longer than N s a run_for_seconds(N) may take on the host's clock. FACTS §7.1 puts
+# `done` 0-10 ms past N s after the CR for N = 1, 2 (ticks 101, 201); the rest is the wire (the library's
+# ~90-byte line and the done line at 115200 baud: ~9 ms), the library's threads and a loaded machine.
+TIMED_RUN_SLACK_S = 1.5
+
+
+def test_run_for_seconds_takes_its_time_on_the_hosts_clock(outcomes) -> None:
+    """python-build-hat 0.9.0's Motor.run_for_seconds(N) against `--booted` (issue 27): it waits for the
+    HAT's `P0: pulse done`, which FACTS §7.1 puts no sooner than N s after the line for N = 1 and 2, so
+    the host's clock must see at least N s, and not much more."""
+    got = outcome(outcomes, "0.9.0", "timed_runs")
+    v = Values(got)
+    for seconds in hl.EXTRA_PLANS[("0.9.0", "timed_runs")].params["seconds"]:
+        took = v[f"run_for_seconds.{seconds}"]
+        assert seconds <= took <= seconds + TIMED_RUN_SLACK_S, (seconds, took, got.explain())
     lint_clean(got)
 
 

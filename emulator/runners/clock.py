@@ -36,8 +36,17 @@ class RealTimeClock:
 
     def due(self) -> int:
         """Ticks to run now (the caller runs them, then calls :meth:`done`)."""
+        return min(self.behind(), MAX_CATCH_UP_MS)
+
+    def behind(self) -> int:
+        """Ticks the wall clock is ahead of the ticks run so far (uncapped; 0 if none)."""
         target = int((self._now() - self._start) * 1000.0 * self.speed)
-        return max(0, min(target - self.ticks, MAX_CATCH_UP_MS))
+        return max(0, target - self.ticks)
+
+    def skip(self, n: int) -> None:
+        """Let ``n`` due ticks never happen: the emulator was not running (a stopped process), so
+        that stretch of wall time is lost to the HAT, which from then on runs ``n`` ms behind."""
+        self._start += n / 1000.0 / self.speed
 
     def done(self, n: int) -> None:
         self.ticks += n

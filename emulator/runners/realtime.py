@@ -1,9 +1,11 @@
 """The real-time loop: wall clock -> emulator ticks, host bytes in and out, control requests.
 
 Host input is handed to the firmware as soon as it arrives (the HAT's main loop is far
-faster than 1 kHz), after the ticks that came due; ticks are run in small batches from the
-drift-free clock, and between batches the loop sleeps in select() until the next tick that
-can do anything (``Emulator.idle_until``), so an idle emulator costs little CPU.
+faster than 1 kHz), after *every* tick that came due: the firmware sees a line at the virtual
+millisecond it arrived, never earlier, so what the line starts (a `set pulse`, a report period)
+is timed from its arrival on the host's clock too (issue 27). Ticks are run in small batches
+from the drift-free clock, and between batches the loop sleeps in select() until the next tick
+that can do anything (``Emulator.idle_until``), so an idle emulator costs little CPU.
 """
 from __future__ import annotations
 
@@ -13,7 +15,7 @@ from typing import Any, Callable, Optional
 
 from .clock import RealTimeClock
 
-__all__ = ["run_realtime", "BATCH_SECONDS", "MAX_TICKS_PER_PASS", "MAX_SLEEP_SECONDS"]
+__all__ = ["run_realtime", "BATCH_SECONDS", "MAX_TICKS_PER_PASS", "MAX_SLEEP_SECONDS", "MAX_LAG_MS"]
 
 # Sleep at least this long (wall seconds) between batches of ticks, unless a backlog of
 # MAX_TICKS_PER_PASS is waiting. One millisecond, so that at speed 1 every tick's output leaves
@@ -24,11 +26,17 @@ __all__ = ["run_realtime", "BATCH_SECONDS", "MAX_TICKS_PER_PASS", "MAX_SLEEP_SEC
 BATCH_SECONDS = 0.001
 # ... and at most this long, so that ``should_stop`` is asked often enough at low speeds.
 MAX_SLEEP_SECONDS = 0.05
-# At most this many ticks between two looks at the host's input. When the machine cannot keep
-# up with the speed (a loaded machine, a high --speed), the backlog is worked off in slices
-# so that a command still gets its answer within a few milliseconds (H10: the catch-up of
-# up to 2000 ticks in one go delayed answers by ~100 ms).
+# At most this many ticks between two looks at the host's input while nothing arrives. When the
+# machine cannot keep up with the speed (a loaded machine, a high --speed), the backlog is worked
+# off in slices, so input and control requests are noticed within a few milliseconds.
 MAX_TICKS_PER_PASS = 100
+# When input does arrive, the whole backlog is run first (_catch_up): handing the line over while
+# the HAT's clock lags would stamp it that much early, and the catch-up after it would then run
+# what the line started (a 5 s pulse) faster than the host's clock (issue 27). The answer waits for
+# the catch-up instead (H10: ~100 ms for 2000 ticks), as a HAT's answer would wait for a stalled
+# main loop. A lag longer than this is a stopped process (SIGSTOP, a debugger): the rest is lost
+# time, skipped, so the HAT runs that much behind from then on; late, never early.
+MAX_LAG_MS = 2000
 _READ_ANY = 65536     # bytes read from the link at once when the wire is not paced
 
 
@@ -38,6 +46,22 @@ def _run_due(emulator: Any, clock: RealTimeClock) -> None:
     if due:
         emulator.advance(due)
         clock.done(due)
+
+
+def _catch_up(emulator: Any, clock: RealTimeClock) -> None:
+    """Run every tick due by now (at most MAX_LAG_MS; a longer lag is skipped), so that what is
+    handed over next happens at the virtual millisecond it arrived."""
+    ran = 0
+    while ran < MAX_LAG_MS:
+        due = min(clock.due(), MAX_LAG_MS - ran)
+        if not due:
+            return
+        emulator.advance(due)
+        clock.done(due)
+        ran += due
+    late = clock.behind()
+    if late:
+        clock.skip(late)
 
 
 def _sleep_seconds(emulator: Any, clock: RealTimeClock) -> float:
@@ -90,9 +114,9 @@ def run_realtime(emulator: Any, link: Any, clock: RealTimeClock, control: Any = 
                 control.flush(writable)
             link.flush()
         for obj in ready:
-            # The loop may have slept through idle ticks: run them, so that what arrives is
-            # handled at the virtual time it arrives.
-            _run_due(emulator, clock)
+            # The loop may have slept through idle ticks, or lag behind on a loaded machine:
+            # run them all, so that what arrives is handled at the virtual time it arrives.
+            _catch_up(emulator, clock)
             if control is not None and obj in control.sockets():
                 control.handle([obj])
                 continue

@@ -52,6 +52,8 @@ class Plan:
     # Start the emulator on this release (booted) and hand the library this project's gpiozero pin factory,
     # so that its own GPIO reset reaches the emulator (``Hat()`` resets when the version differs).
     gpio_reset_from: Optional[str] = None
+    # Start powered up (``--booted``) and in real time from the first moment, as a library's CI would.
+    booted: bool = False
 
 
 # Each library release against the other generation (R1-R5 dialect vs R6+), for the wrong_generation plan.
@@ -141,6 +143,9 @@ EXTRA_PLANS: Dict[Tuple[str, str], Plan] = {
     # The library's upstream stress loops (shortened): the calibrated lint must find nothing.
     ("0.9.0", "stress"): Plan("stress.py", {0: "0x30", 1: "none", 2: "none", 3: "none"}, {"seconds": 3},
                               timeout=60),
+    # Issue 27: Motor.run_for_seconds(N) timed by the host, on a HAT started as `--booted`.
+    ("0.9.0", "timed_runs"): Plan("timed_runs.py", {0: "0x30", 1: "none", 2: "none", 3: "none"},
+                                  {"seconds": [1, 2]}, timeout=60, booted=True),
 }
 
 
@@ -159,18 +164,21 @@ def run_one(version: str, name: str, plan: Plan) -> Outcome:
     if plan.gpio_reset_from:
         firmware = plan.gpio_reset_from
         extra += ["--booted"]
+    settle = not plan.bootloader and not plan.booted     # else it starts (or is) settled, at speed 1
+    if plan.booted:
+        extra += ["--booted"]
     if plan.wrong_generation:
         firmware = OTHER_GENERATION[version]
         extra += ["--version-string", f"{FIRMWARE_OF[version]} (release {firmware} underneath)"]
     emu = EmulatorProcess(firmware=firmware, devices=plan.devices, bootloader=plan.bootloader,
-                          speed=None if plan.bootloader else SETTLE_SPEED, extra=extra)
+                          speed=SETTLE_SPEED if settle else None, extra=extra)
     transcript = emu.tmp / "transcript.jsonl"
     emu.args += ["--transcript", str(transcript)]
     if plan.gpio_reset_from:
         env = {"GPIOZERO_PIN_FACTORY": "buildhat_emulator", "BUILDHAT_EMULATOR_CONTROL": emu.control_path}
     try:
         emu.start()
-        if not plan.bootloader:
+        if settle:
             emu.wait_settled(SETTLE_HAT_MS)
             emu.control("@speed 1")
         outcome.result = run_scenario(python, plan.script, emu.pty, emu.control_path, plan.params,
