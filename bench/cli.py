@@ -102,7 +102,8 @@ def _groups(quick: bool) -> List[Group]:
             (Figure("version round trip at --baud 115200", "ms"), "version_rtt_ms")], None),
         # Issue 22: the real firmware built for this host (sil:), through the user's commands.
         ("suite on the firmware, virtual time", lambda: sil.suite(real_time=False, keyword=k), [
-            (Figure("suite wall time against sil: (virtual time)", "s", "<= 20 s", target=20.0), "wall_s")], 2),
+            (Figure("suite wall time against sil: (virtual time)", "s", "<= 20 s", target=20.0),
+             "wall_s")], 2),
         ("suite on the firmware, real time", lambda: sil.suite(real_time=True, keyword=k), [
             (Figure("suite wall time against sil:?speed=1", "s"), "wall_s")], 1),
         ("fuzz on the firmware", lambda: sil.fuzz(seconds=fuzz_secs), [

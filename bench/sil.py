@@ -33,7 +33,8 @@ def firmware_tree() -> str:
 def _run(target: str, keyword: Optional[str] = None) -> Dict:
     with tempfile.TemporaryDirectory(prefix="bench-sil-") as tmp:
         junit = os.path.join(tmp, "junit.xml")
-        argv = _command() + ["run", "--target", target, "--junit", junit] + (["-k", keyword] if keyword else [])
+        argv = _command() + ["run", "--target", target, "--junit", junit]
+        argv += ["-k", keyword] if keyword else []
         t0 = time.monotonic()
         subprocess.run(argv, capture_output=True, text=True, timeout=3600)
         wall = time.monotonic() - t0

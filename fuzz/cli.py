@@ -178,7 +178,8 @@ class Progress:
 def _config(args: argparse.Namespace, target: str, primary: Optional[Callable[[], Target]],
             secondary: Optional[Callable[[], Target]]) -> CampaignConfig:
     """The campaign ``args`` describe (openers may be given directly, e.g. planted-fault targets)."""
-    virtual = _scheme(target) in _VIRTUAL_SCHEMES and (not args.against or _scheme(args.against) in _VIRTUAL_SCHEMES)
+    virtual = _scheme(target) in _VIRTUAL_SCHEMES and (not args.against
+                                                        or _scheme(args.against) in _VIRTUAL_SCHEMES)
     if args.fence_timeout is None:
         args.fence_timeout = 0.3 if virtual else 2.0
     families = tuple(f.strip() for f in args.families.split(",") if f.strip())
@@ -326,8 +327,8 @@ def reproduce(args: argparse.Namespace, primary: Optional[Callable[[], Target]] 
         raise ValueError(f"cannot read {path}: {exc.strerror}") from None
     target = args.target or recorded.get("target") or DEFAULT_TARGET
     against = args.against or recorded.get("against")
-    fence_s = args.fence_timeout if args.fence_timeout is not None else (0.3 if _scheme(target) in _VIRTUAL_SCHEMES
-                                                                         else 2.0)
+    fence_s = args.fence_timeout if args.fence_timeout is not None else (
+        0.3 if _scheme(target) in _VIRTUAL_SCHEMES else 2.0)
     open_primary = primary or opener_for(target)
     profile = get_profile(args.profile) if args.profile else detect_profile(open_primary, fence_s)
     other = None

@@ -37,7 +37,7 @@ SUBCOMMANDS = {
     "report": ("buildhat_conformance.harness.report.cli", "build the HTML report from JUnit files"),
     "load": ("buildhat_conformance.harness.firmware.cli", "load firmware through the HAT's bootloader"),
     "bench": ("buildhat_conformance.bench.cli", "benchmarks: timing, throughput, fidelity"),
-    "sil": ("buildhat_conformance.sil.cli", "the real firmware on this host: build a firmware tree (sil build)"),
+    "sil": ("buildhat_conformance.sil.cli", "the real firmware on this host: build a tree (sil build)"),
 }
 
 PROG = "buildhat-conformance"

@@ -84,7 +84,8 @@ def find_tree(path: str) -> Path:
     if not p.exists():
         raise BuildError(f"{path}: no such folder")
     if p.is_file():
-        raise BuildError(f"{path}: a file, not a firmware tree (give the folder with the firmware's .c files)")
+        raise BuildError(f"{path}: a file, not a firmware tree "
+                         "(give the folder with the firmware's .c files)")
     for candidate in (p, p / "firmware-pico"):
         sources = sorted(candidate.glob("*.c")) if candidate.is_dir() else []
         if sources and any(_defines_main(s) for s in sources) and any(_uses_sdk(s) for s in sources):

@@ -33,9 +33,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     build.add_argument("tree", metavar="TREE", help="a firmware-pico/ folder, or a checkout containing one")
     build.add_argument("--sanitize", type=_sanitizers, default=[], metavar="LIST",
                        help="build with sanitizers: address, undefined (comma-separated)")
-    build.add_argument("--coverage", action="store_true", help="build with gcov coverage of the firmware's files")
+    build.add_argument("--coverage", action="store_true",
+                       help="build with gcov coverage of the firmware's files")
     serve = sub.add_parser("serve", add_help=False,
-                           help="serve a firmware at wall-clock pace on a pty/TCP/stdio (see sil serve --help)")
+                           help="serve a firmware at wall-clock pace on a pty/TCP/stdio "
+                                "(see sil serve --help)")
     serve.add_argument("rest", nargs=argparse.REMAINDER)
     cov = sub.add_parser("coverage", help="the firmware's line and branch coverage (a --coverage build)")
     cov.add_argument("tree", metavar="TREE", help="the firmware tree the build was made from")

@@ -70,7 +70,8 @@ class CoverageSummary:
         return {"line_percent": round(self.line_percent, 2), "branch_percent": round(self.branch_percent, 2),
                 "files": [{"name": f.name, "lines_covered": f.lines_covered, "lines_total": f.lines_total,
                            "branches_covered": f.branches_covered, "branches_total": f.branches_total,
-                           "line_percent": round(f.line_percent, 2), "branch_percent": round(f.branch_percent, 2),
+                           "line_percent": round(f.line_percent, 2),
+                           "branch_percent": round(f.branch_percent, 2),
                            "missed_lines": f.missed_lines} for f in self.files]}
 
 

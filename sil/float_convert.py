@@ -1,9 +1,10 @@
 """Float-to-integer conversions as the RP2040 does them, in the host build's assembly.
 
 The firmware runs on a Cortex-M0+ whose float routines *saturate*: a negative float converted
-to an unsigned integer gives 0, a value past the range gives the largest value (docs/FIRMWARE-BEHAVIOUR.md#fb-list-ranges:
-`list` prints a negative range as 00000000). x86-64's truncating conversions do not: a
-negative float becomes its two's complement, an out-of-range one 0x80000000. The firmware's C
+to an unsigned integer gives 0, a value past the range gives the largest value
+(docs/FIRMWARE-BEHAVIOUR.md#fb-list-ranges: `list` prints a negative range as 00000000).
+x86-64's truncating conversions do not: a negative float becomes its two's complement, an
+out-of-range one 0x80000000. The firmware's C
 is compiled unchanged; this pass rewrites the compiler's output instead, after each
 ``cvttss2si``/``cvttsd2si`` (float/double to integer):
 

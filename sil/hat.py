@@ -234,7 +234,8 @@ class SilHat:
         if self.proc is None or self.died is not None:
             raise RuntimeError("only a running firmware can be copied")
         dup = SilHat.__new__(SilHat)
-        dup.__dict__.update({k: v for k, v in self.__dict__.items() if k not in ("proc", "outside", "_callbacks")})
+        own = ("proc", "outside", "_callbacks")
+        dup.__dict__.update({k: v for k, v in self.__dict__.items() if k not in own})
         dup.events, dup._callbacks = [], []
         dup._out, dup._seen, dup.devices = bytearray(self._out), bytearray(self._seen), dict(self.devices)
         dup.proc = self.proc.fork()

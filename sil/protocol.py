@@ -24,7 +24,7 @@ Firmware -> world (lower case):
 
 | type | port | time | payload | meaning |
 |---|---|---|---|---|
-| ``y`` | - | now | ``SIL1`` on the first (a copy adds its pid, i32) | yield: the firmware waits for the world |
+| ``y`` | - | now | ``SIL1`` on the first (a copy adds its pid, i32) | yield: the firmware waits |
 | ``k`` | - | now | the copy's pid (i32; negative: errno) | answer to ``K`` |
 | ``h`` | - | end of the byte | 1 byte | a byte to the host |
 | ``p`` | port | end of the byte | baud (u32), byte | a byte to the port's device |

@@ -25,7 +25,8 @@ __all__ = ["main", "build_parser"]
 
 def build_parser(prog: str = "buildhat-conformance sil serve") -> argparse.ArgumentParser:
     p = OneLineParser(prog=prog, description="Serve a firmware built for this host at wall-clock pace.")
-    p.add_argument("program", metavar="TREE|PROGRAM", help="a firmware tree (built on first use) or a built program")
+    p.add_argument("program", metavar="TREE|PROGRAM",
+                   help="a firmware tree (built on first use) or a built program")
     mode = p.add_mutually_exclusive_group(required=True)
     mode.add_argument("--pty", action="store_true", help="serve on a new pseudo-terminal (prints its path)")
     mode.add_argument("--tcp", metavar="[HOST:]PORT", help="serve on a TCP port (127.0.0.1 by default)")
@@ -34,8 +35,10 @@ def build_parser(prog: str = "buildhat-conformance sil serve") -> argparse.Argum
     p.add_argument("--device", action="append", default=[], metavar="P=SPEC", help="a device on port P")
     p.add_argument("--booted", action="store_true", help="start with the start-up done (devices established)")
     p.add_argument("--seed", type=int, default=0, metavar="N", help="seed for the device models")
-    p.add_argument("--firmware", default=None, metavar="RELEASE", help="release whose device timing the world uses")
-    p.add_argument("--control", metavar="PATH|tcp:HOST:PORT", help="serve the control channel (world actions)")
+    p.add_argument("--firmware", default=None, metavar="RELEASE",
+                   help="release whose device timing the world uses")
+    p.add_argument("--control", metavar="PATH|tcp:HOST:PORT",
+                   help="serve the control channel (world actions)")
     p.add_argument("--sanitize", default="", metavar="LIST", help="with a tree: build with these sanitizers")
     p.add_argument("--link", metavar="PATH", help="with --pty: also make PATH a symlink to the pty")
     return p

@@ -193,8 +193,8 @@ class SilPort:
             for frame in frames:
                 self.world.event("devrx", now, port=self.index, hex=frame.hex(" ").upper())
             for i in range(0, len(data), 4096):
-                self.world.send(encode("P", now * NS_PER_MS - self.world.base_ns, struct.pack("<I", dev.baud) + data[i:i + 4096],
-                                       port=self.index))
+                chunk = struct.pack("<I", dev.baud) + data[i:i + 4096]
+                self.world.send(encode("P", now * NS_PER_MS - self.world.base_ns, chunk, port=self.index))
         self.sync_id()                   # a device that stopped talking lets the line go
         self.due = dev.next_due(now)
 

@@ -7,7 +7,6 @@ import sys
 from typing import List
 
 import pytest
-
 from shared_material import need_shared
 
 TREE_NAME = "firmware-pico-1737564117"

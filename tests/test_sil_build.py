@@ -9,7 +9,7 @@ import pytest
 from buildhat_conformance.sil.build import standin_dir
 
 sys.path.insert(0, os.path.dirname(__file__))
-from sil_support import cli, copy_tree, firmware_tree, plant  # noqa: E402
+from sil_support import cli, copy_tree, firmware_tree  # noqa: E402
 
 
 def _digest(tree):
@@ -74,7 +74,8 @@ def test_no_compiler_is_one_line_exit_2(cache, tmp_path):
                            "sil", "build", str(firmware_tree())], capture_output=True, text=True,
                           env={"PATH": str(empty), "BUILDHAT_SIL_CACHE": str(cache)})
     assert done.returncode == 2
-    assert done.stderr.strip() == "buildhat-conformance sil: no C compiler found: install gcc or clang (or set CC)"
+    assert done.stderr.strip() == ("buildhat-conformance sil: no C compiler found: "
+                                   "install gcc or clang (or set CC)")
 
 
 def test_unknown_sanitizer_is_a_usage_error(cache):

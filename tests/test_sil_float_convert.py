@@ -1,6 +1,7 @@
 """sil/float_convert.py: the host build's float-to-integer conversions behave as the RP2040's.
 
-The chip's conversions saturate (docs/FIRMWARE-BEHAVIOUR.md#fb-list-ranges: a negative range prints as 00000000);
+The chip's conversions saturate (docs/FIRMWARE-BEHAVIOUR.md#fb-list-ranges: a negative
+range prints as 00000000);
 x86's do not. A small C program is compiled, its assembly rewritten, assembled and run; each
 result must follow the chip's rule, computed here from the rule itself."""
 import shutil
@@ -29,7 +30,8 @@ volatile double in[] = {%s};
 int main(void) {
     for (unsigned k = 0; k < sizeof in / sizeof in[0]; k++) {
         struct box b = {(float)in[k], in[k]};
-        printf("%%u %%d %%u %%d %%u %%d\n", to_u(b.f), to_i(b.f), d_to_u(b.d), d_to_i(b.d), mem_u(&b), mem_i(&b));
+        printf("%%u %%d %%u %%d %%u %%d\n", to_u(b.f), to_i(b.f), d_to_u(b.d), d_to_i(b.d),
+               mem_u(&b), mem_i(&b));
     }
     return 0;
 }

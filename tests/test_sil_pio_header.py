@@ -1,6 +1,11 @@
 """sil/pio_header.py: a PIO program's header as the stand-in needs it (names, lengths, kinds)."""
-from buildhat_conformance.sil.pio_header import (KIND_OTHER, KIND_UART_RX, KIND_UART_TX, pio_header,
-                                                  pio_programs)
+from buildhat_conformance.sil.pio_header import (
+    KIND_OTHER,
+    KIND_UART_RX,
+    KIND_UART_TX,
+    pio_header,
+    pio_programs,
+)
 
 # Programs written for this test in the pioasm language: an 8N1 transmitter and receiver of
 # our own, and a program that is neither.

@@ -49,8 +49,8 @@ def test_a_planted_out_of_bounds_write_is_a_crashed_target_fault(cache, tmp_path
     plant(tree, "command.c", "static int cmd_vin()         {",
           "static int cmd_vin()         { { static char planted[4]; volatile int k = 4; planted[k] = 1; }")
     junit = tmp_path / "junit.xml"
-    done = cli("run", "--target", f"sil:{tree}?sanitize=address,undefined", "-k", "vin", "--junit", str(junit),
-               cache=cache)
+    url = f"sil:{tree}?sanitize=address,undefined"
+    done = cli("run", "--target", url, "-k", "vin", "--junit", str(junit), cache=cache)
     assert done.returncode == 3, done.stdout[-2000:] + done.stderr[-2000:]
     faults = [m for _n, v, m in junit_verdicts(junit) if v == "target-fault"]
     assert faults and faults[0].startswith("target fault (crashed): the firmware crashed (")

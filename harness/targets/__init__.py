@@ -45,7 +45,8 @@ _FACTORIES: Dict[str, Callable[..., Target]] = {}
 _FORMS: List[Tuple[str, str]] = [
     ("emulator[:<release|latest>][?speed=N&device=P=SPEC]", "the reference emulator on a pty"),
     ("inprocess[:<release>][?device=P=SPEC]", "the reference emulator in this process, virtual time"),
-    ("sil:<firmware tree or built program>[?device=P=SPEC]", "the real firmware built for this host, virtual time"),
+    ("sil:<firmware tree or built program>[?device=P=SPEC]",
+     "the real firmware built for this host, virtual time"),
     ("/dev/ttyAMA0, /dev/serial0, /dev/ttyUSB0 ...", "a HAT on a local serial port"),
     ("serial:///dev/ttyAMA0?baud=115200", "the same, with options"),
     ("socket://HOST:PORT, rfc2217://HOST:PORT", "a HAT on another machine (ser2net)"),

@@ -49,7 +49,8 @@ def program_for(where: str, sanitize: List[str], coverage: bool) -> Tuple[str, A
     path = os.path.expanduser(where)
     if os.path.isfile(path):
         if not os.access(path, os.X_OK):
-            raise TargetError(f"sil:{where}: not an executable program (give a firmware tree or a built program)")
+            raise TargetError(f"sil:{where}: not an executable program "
+                              "(give a firmware tree or a built program)")
         return os.path.abspath(path), None
     try:
         build = build_tree(path, sanitize=sanitize, coverage=coverage)
@@ -112,7 +113,7 @@ class SilTarget(InProcessTarget):
         # One booted firmware per program, layout and seed, kept for this process; every open
         # is a copy of it (the process forks), so a fuzzing run starts in a millisecond.
         key = (self.program, tuple(sorted(self.devices.items())), self.seed, self.firmware)
-        template = _BOOTED_FIRMWARES.get(key)
+        template: Any = _BOOTED_FIRMWARES.get(key)
         if template is None or template.died is not None:
             template = self._new()
             try:
@@ -193,7 +194,8 @@ def from_url(url: str, **options) -> Any:
         if speed <= 0:
             raise TargetError("sil: speed must be positive")
         command = [sys.executable, "-m", "buildhat_conformance.sil.serve", program]
-        return EmulatorTarget(url, firmware=firmware or "latest", speed=speed, devices=devices or None,
+        layout: Any = devices or None
+        return EmulatorTarget(url, firmware=firmware or "latest", speed=speed, devices=layout,
                               booted=booted, seed=seed, command=command, **options)
     return SilTarget(program, url, devices=devices, seed=seed, boot=booted, firmware=firmware, build=build,
                      **options)
