@@ -13,18 +13,7 @@ import os
 import tempfile
 from typing import Any, Callable, Optional
 
-__all__ = ["add_lab_arguments", "hold_for_run"]
-
-
-def add_lab_arguments(parser: argparse.ArgumentParser, what: str = "the suite") -> None:
-    parser.add_argument("--places", default=None, metavar="PATTERN|KEY=VALUE",
-                        help=f"run {what} on every free place of the labgrid lab whose name contains "
-                             "PATTERN, or tagged KEY=VALUE, one at a time each and all at once (docs/LAB.md)")
-    parser.add_argument("--lab-wait", type=float, default=0.0, metavar="SECONDS",
-                        help="wait this long for a held labgrid place to come free (default: do not wait: "
-                             "a held place is skipped, or is one line and exit status 3)")
-    parser.add_argument("--coordinator", default="", metavar="HOST:PORT",
-                        help="the labgrid coordinator (default: LG_COORDINATOR, else 127.0.0.1:20408)")
+__all__ = ["hold_for_run"]
 
 
 def hold_for_run(args: argparse.Namespace) -> Optional[Callable[[], None]]:

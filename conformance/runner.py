@@ -33,7 +33,8 @@ from ..harness.cli_options import (
     expand_target,
 )
 from ..harness.parent_death import die_with_parent
-from .lab_run import add_lab_arguments, hold_for_run
+from ..harness.lab.selection import add_lab_arguments
+from .lab_run import hold_for_run
 
 PASS_UNKNOWN_ARGS = True
 EXIT_INTERRUPTED = 130

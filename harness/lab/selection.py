@@ -8,16 +8,18 @@ gives it that long to come free. The run holds every place it uses until it ends
 """
 from __future__ import annotations
 
+import argparse
 import os
 import time
 from typing import Callable, List, Optional
 from urllib.parse import quote
 
 from ..cli_options import UsageError
+from ..targets.base import TargetError
 from .client import LabClient, PlaceHeld, PlaceState, client_for
 from .lease import HOLDER_ENV, PlaceLease
 
-__all__ = ["matching", "LabHold", "hold_places", "place_url"]
+__all__ = ["matching", "LabHold", "hold_places", "place_url", "add_lab_arguments"]
 
 
 def matching(states: List[PlaceState], spec: str) -> List[PlaceState]:
@@ -50,10 +52,15 @@ def hold_places(spec: Optional[str], urls: List[str], wait: float, coordinator: 
     """Hold the places of ``--places SPEC`` or of the ``labgrid:`` URLs among ``urls``; None when
     the run uses no labgrid place. Raises UsageError (nothing matches) or TargetError/PlaceHeld."""
     from ..targets.labgrid import from_url
+    from . import need_labgrid
 
-    named = [from_url(u) for u in urls if u.split(":", 1)[0].lower() == "labgrid"]
-    if not spec and not named:
-        return None
+    try:        # a bad URL, or labgrid not installed: a usage error, as preflight makes it
+        named = [from_url(u) for u in urls if u.split(":", 1)[0].lower() == "labgrid"]
+        if not spec and not named:
+            return None
+        need_labgrid()
+    except TargetError as exc:
+        raise UsageError(" ".join(str(exc).split())) from None
     if spec and named:
         raise UsageError("--places and a labgrid: --target do not go together; give one of them")
     client = client_for(coordinator or (named[0].coordinator if named else ""))
@@ -104,3 +111,14 @@ def _usable(client: LabClient, states: List[PlaceState], wait: float, spec: str,
                         f"({', '.join(f'{s.name}: {s.acquired}' for s in states)}); "
                         "--lab-wait SECONDS waits for one")
     return usable
+
+
+def add_lab_arguments(parser: argparse.ArgumentParser, what: str = "the suite, one worker per place") -> None:
+    parser.add_argument("--places", default=None, metavar="PATTERN|KEY=VALUE",
+                        help=f"{what}, on every free place of the labgrid lab whose name contains PATTERN "
+                             "or that is tagged KEY=VALUE, all at once (docs/LAB.md)")
+    parser.add_argument("--lab-wait", type=float, default=0.0, metavar="SECONDS",
+                        help="wait this long for a held labgrid place to come free (default: do not wait: "
+                             "a held place is skipped, or is one line and exit status 3)")
+    parser.add_argument("--coordinator", default="", metavar="HOST:PORT",
+                        help="the labgrid coordinator (default: LG_COORDINATOR, else 127.0.0.1:20408)")

@@ -66,7 +66,9 @@ class LabgridTarget(Target):
         host, tcp = proxymanager.get_host_and_port(port)
         if port.protocol == "raw":
             return f"socket://{host}:{tcp}"
-        # ser2net's RFC 2217 server does not answer the modem-control option labgrid's pyserial skips
+        # ser2net's RFC 2217 server does not answer the modem-control option; labgrid's pyserial
+        # (pyserial-labgrid) can skip it, plain pyserial waits for it and gives up
+        _need_labgrids_pyserial()
         return f"rfc2217://{host}:{tcp}?ign_set_control"
 
     def _outputs(self, lg_target: Any) -> Any:
@@ -105,6 +107,16 @@ class LabgridTarget(Target):
         if problem == "garbage":
             return f"Check the baud rate the place's exporter gives its serial port (115200){where}."
         return ""
+
+
+def _need_labgrids_pyserial() -> None:
+    import serial.rfc2217
+
+    with open(serial.rfc2217.__file__, encoding="utf-8") as fh:
+        if "ign_set_control" in fh.read():
+            return
+    raise TargetError("the installed pyserial is not labgrid's (it cannot talk to ser2net's RFC 2217 port): "
+                      "pip install --force-reinstall --no-deps pyserial-labgrid")
 
 
 def from_url(url: str, **options: Any) -> LabgridTarget:
