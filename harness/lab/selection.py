@@ -40,7 +40,8 @@ class LabHold:
     def __init__(self, client: LabClient, leases: List[PlaceLease]):
         self.client, self.leases = client, leases
         self.places = [(lease.name, place_url(lease.name, client.address)) for lease in leases]
-        os.environ[HOLDER_ENV] = str(os.getpid())      # our children use what we hold
+        if not any(lease.inherited for lease in leases):     # else our own run holds them already
+            os.environ[HOLDER_ENV] = str(os.getpid())        # our children use what we hold
 
     def release(self) -> None:
         for lease in self.leases:
