@@ -32,8 +32,8 @@ from ..harness.cli_options import (
     add_target_option,
     expand_target,
 )
-from ..harness.parent_death import die_with_parent
 from ..harness.lab.selection import add_lab_arguments
+from ..harness.parent_death import die_with_parent
 from .lab_run import hold_for_run
 
 PASS_UNKNOWN_ARGS = True

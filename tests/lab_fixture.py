@@ -97,7 +97,7 @@ class Lab:
         return subprocess.run([str(BIN / "labgrid-client"), "-x", self.address, *args], env=self.env,
                               capture_output=True, text=True, timeout=60, check=check)
 
-    def start(self) -> "Lab":
+    def start(self) -> Lab:
         threading.Thread(target=self.outputs.serve_forever, daemon=True).start()
         url = f"http://127.0.0.1:{self.outputs.server_address[1]}"
         config = []
@@ -119,13 +119,15 @@ class Lab:
         self._spawn([str(BIN / "labgrid-coordinator"), "--listen", self.address], "coordinator.log",
                     cwd=self.root / "coordinator")
         self._wait(lambda: self.client("places", check=False).returncode == 0, "the coordinator")
-        self._spawn([str(BIN / "labgrid-exporter"), "-c", self.address, "--hostname", "127.0.0.1", "-n", "exp",
+        self._spawn([str(BIN / "labgrid-exporter"), "-c", self.address, "--hostname", "127.0.0.1",
+                     "-n", "exp",
                      str(self.root / "exporter.yaml")], "exporter.log")
         for name in self.spec:
             self.client("-p", name, "create")
             self.client("-p", name, "add-match", f"exp/{name}/*")
             self.client("-p", name, "set-tags", "board=buildhat")
-        want = {f"exp/{name}/{cls}" for name in self.spec for cls in ("NetworkSerialPort", "HttpDigitalOutput")}
+        want = {f"exp/{name}/{cls}" for name in self.spec
+                for cls in ("NetworkSerialPort", "HttpDigitalOutput")}
         self._wait(lambda: want <= set(self.client("resources").stdout.split()), "the exporter's resources")
         return self
 

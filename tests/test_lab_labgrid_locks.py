@@ -35,7 +35,8 @@ def lab(tmp_path_factory):
 def start_run(lab: Lab, tmp_path, name: str, *extra: str) -> subprocess.Popen:
     junit = tmp_path / name / "junit.xml"
     return subprocess.Popen([str(BIN / "buildhat-conformance"), "run", "-k", SUBSET, "--junit", str(junit),
-                             *extra], env=lab.env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+                             *extra], env=lab.env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                            text=True)
 
 
 def wait_until(what, predicate, timeout: float = 60.0) -> None:
@@ -53,8 +54,8 @@ def finish(proc: subprocess.Popen) -> tuple:
 def test_a_second_run_on_a_held_place_says_so_or_waits_for_it(lab, tmp_path):
     first = start_run(lab, tmp_path, "first", "--target", "labgrid:hat-b")
     wait_until("the first run holding hat-b", lambda: lab.holder("hat-b") != "")
-    second = subprocess.run([str(BIN / "buildhat-conformance"), "run", "--target", "labgrid:hat-b", "-k", SUBSET,
-                             "--junit", str(tmp_path / "second" / "junit.xml")], env=lab.env,
+    second = subprocess.run([str(BIN / "buildhat-conformance"), "run", "--target", "labgrid:hat-b",
+                             "-k", SUBSET, "--junit", str(tmp_path / "second" / "junit.xml")], env=lab.env,
                             capture_output=True, text=True, timeout=120)
     third = start_run(lab, tmp_path, "third", "--target", "labgrid:hat-b", "--lab-wait", "200")
     code1, out1 = finish(first)
@@ -113,7 +114,8 @@ def test_targets_lists_the_places_and_a_place_held_by_hand_stays_held(lab, tmp_p
         listing = subprocess.run([str(BIN / "buildhat-conformance"), "targets"], env=lab.env,
                                  capture_output=True, text=True, timeout=60)
         assert listing.returncode == 0, listing.stderr
-        rows = {line.split()[0]: line for line in listing.stdout.splitlines() if line.startswith("  labgrid:")}
+        rows = {line.split()[0]: line for line in listing.stdout.splitlines()
+                if line.startswith("  labgrid:")}
         assert "held by " in rows["labgrid:hat-a"] and "board=buildhat" in rows["labgrid:hat-a"], rows
         assert " free " in rows["labgrid:hat-b"], rows
         # This user acquired hat-a by hand: a run uses it and leaves it acquired.
@@ -126,9 +128,9 @@ def test_targets_lists_the_places_and_a_place_held_by_hand_stays_held(lab, tmp_p
 
 
 def test_fuzz_runs_one_campaign_per_place(lab, tmp_path):
-    proc = subprocess.run([str(BIN / "buildhat-conformance"), "fuzz", "--places", "board=buildhat", "--budget",
-                           "3s", "--seed", "1", "--quiet", "--out", str(tmp_path / "fuzz")], env=lab.env,
-                          capture_output=True, text=True, timeout=240)
+    proc = subprocess.run([str(BIN / "buildhat-conformance"), "fuzz", "--places", "board=buildhat",
+                           "--budget", "3s", "--seed", "1", "--quiet", "--out", str(tmp_path / "fuzz")],
+                          env=lab.env, capture_output=True, text=True, timeout=240)
     out = proc.stdout + proc.stderr
     assert proc.returncode == 0, out
     for place in ("hat-a", "hat-b"):

@@ -38,8 +38,9 @@ def lab(tmp_path):
 def test_the_suite_runs_on_two_places_at_once_and_a_hung_hat_is_reset_through_labgrid(lab, tmp_path):
     img, sig = files(tmp_path, image_of("R7"))
     junit = tmp_path / "run" / "junit.xml"
-    proc = subprocess.run([str(BIN / "buildhat-conformance"), "run", "--places", "board=buildhat", "-k", PI_SUBSET,
-                           "--max-target-faults", "1", "--image", img, "--signature", sig, "--junit", str(junit)],
+    proc = subprocess.run([str(BIN / "buildhat-conformance"), "run", "--places", "board=buildhat",
+                           "-k", PI_SUBSET, "--max-target-faults", "1", "--image", img, "--signature", sig,
+                           "--junit", str(junit)],
                           env=lab.env, capture_output=True, text=True, timeout=400)
     out = proc.stdout + proc.stderr
     assert "labgrid places: hat-a, hat-b" in out, out

@@ -128,13 +128,13 @@ class LabClient:
         from labgrid import Target
         from labgrid.resource.remote import RemotePlace, RemotePlaceManager
 
-        manager = RemotePlaceManager.get()
+        manager: Any = RemotePlaceManager.get()     # the singleton; typed as its base class
         if manager.session is not None and manager.session is not self.session:
             raise TargetError("one process uses one labgrid coordinator; this one already uses another")
         manager.session, manager.loop = self.session, self.loop
-        target = Target(name)
+        target: Any = Target(name)  # pyright: ignore[reportCallIssue]  # attrs fields, unseen
         with self._lock:
-            RemotePlace(target, name=name)
+            RemotePlace(target, name=name)  # pyright: ignore[reportCallIssue]  # attrs fields, unseen
         return target
 
     def resources(self, name: str) -> List[Tuple[str, str]]:

@@ -61,7 +61,8 @@ class LabOutputs(Control):
             self._reset.set(True)
             self.sleep(HOLD_S)
         except Exception as exc:  # noqa: BLE001 - labgrid drivers raise their own kinds
-            raise TargetError(f"{self._describe}: {' '.join(str(exc).split()) or type(exc).__name__}") from None
+            why = " ".join(str(exc).split()) or type(exc).__name__
+            raise TargetError(f"{self._describe}: {why}") from None
         self.pulses.append(time.monotonic())
         self.sleep(SETTLE_S)
 

@@ -91,7 +91,8 @@ def hold_places(spec: Optional[str], urls: List[str], wait: float, coordinator: 
                 continue
             leases.append(lease)
         if not leases:
-            raise PlaceHeld(f"--places {spec}: every matching place is held; --lab-wait SECONDS waits for one")
+            raise PlaceHeld(f"--places {spec}: every matching place is held; "
+                            "--lab-wait SECONDS waits for one")
     except BaseException:
         for lease in leases:
             lease.give_back()

@@ -1,4 +1,5 @@
-"""A HAT in a labgrid lab: ``labgrid:PLACE[?coordinator=HOST:PORT&wait=S&reset_output=NAME&boot0_output=NAME]``.
+"""A HAT in a labgrid lab: ``labgrid:PLACE[?coordinator=HOST:PORT&wait=S&reset_output=NAME&...]``
+(also ``boot0_output=NAME``, ``serial=NAME``).
 
 Opening acquires the place through the coordinator (``?coordinator=``, else ``LG_COORDINATOR``)
 for the run's whole life, or uses it when this user holds it already (harness/lab/lease.py);
@@ -57,11 +58,12 @@ class LabgridTarget(Target):
         if self.serial_name:
             ports = [r for r in ports if r.name == self.serial_name]
         if len(ports) != 1:
-            what = "no" if not ports else f"{len(ports)}"
-            raise TargetError(f"labgrid place {self.place} has {what} network serial port"
-                              f"{'' if len(ports) == 1 else 's'}{' named ' + repr(self.serial_name) if self.serial_name else ''}: "
-                              "it needs one, the HAT's UART exported through ser2net (RawSerialPort or "
-                              "USBSerialPort on its exporter; several: ?serial=NAME; docs/LAB.md)")
+            what = f"{len(ports) or 'no'} network serial ports"
+            if self.serial_name:
+                what += f" named {self.serial_name!r}"
+            raise TargetError(f"labgrid place {self.place} has {what}: it needs one, the HAT's UART "
+                              "exported through ser2net (RawSerialPort or USBSerialPort on its exporter; "
+                              "several: ?serial=NAME; docs/LAB.md)")
         port = ports[0]
         host, tcp = proxymanager.get_host_and_port(port)
         if port.protocol == "raw":
@@ -123,7 +125,8 @@ def from_url(url: str, **options: Any) -> LabgridTarget:
     parts = urlsplit(url)
     place = unquote(parts.path).strip("/")
     if not place:
-        raise TargetError(f"{url}: name the place, e.g. labgrid:hat-1 (buildhat-conformance targets lists them)")
+        raise TargetError(f"{url}: name the place, e.g. labgrid:hat-1 "
+                          "(buildhat-conformance targets lists them)")
     values = {}
     for key, vals in parse_qs(parts.query).items():
         if key not in OPTIONS:
