@@ -22,6 +22,8 @@ OPTIONS = ("coordinator", "wait", "reset_output", "boot0_output", "serial")
 
 
 class LabgridTarget(Target):
+    reset_hint = "give the labgrid place a digital output named reset (docs/LAB.md)"
+
     def __init__(self, url: str, place: str, coordinator: str = "", wait: float = 0.0,
                  reset_output: str = "", boot0_output: str = "", serial: str = ""):
         self.url, self.place, self.coordinator, self.wait = url, place, coordinator, wait
