@@ -149,3 +149,17 @@ def test_without_labgrid_a_labgrid_target_is_one_line(tmp_path):
     lines = proc.stderr.strip().splitlines()
     assert proc.returncode == 2 and len(lines) == 1, proc.stderr
     assert "needs labgrid: pip install 'labgrid>=24.0' (the lab extra" in lines[0]
+
+
+def test_a_coordinator_nobody_runs_is_one_line(tmp_path):
+    if not (BIN / "labgrid-coordinator").exists():
+        pytest.skip("labgrid is not installed (the lab extra)")
+    from lab_fixture import free_port
+
+    proc = subprocess.run([str(BIN / "buildhat-conformance"), "run", "--target",
+                           f"labgrid:hat-a?coordinator=127.0.0.1:{free_port()}"], cwd=tmp_path,
+                          capture_output=True, text=True, timeout=60)
+    lines = proc.stderr.strip().splitlines()
+    assert proc.returncode == 3 and len(lines) == 1, proc.stderr
+    assert "cannot reach the labgrid coordinator at 127.0.0.1:" in lines[0]
+    assert not (tmp_path / "reports").exists()

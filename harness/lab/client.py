@@ -8,10 +8,12 @@ One session per process and coordinator: labgrid's ``RemotePlaceManager`` is a s
 from __future__ import annotations
 
 import asyncio
+import contextlib
+import logging
 import os
 import threading
 from dataclasses import dataclass, field
-from typing import Any, Dict, List, Optional, Tuple
+from typing import Any, Dict, Iterator, List, Optional, Tuple
 
 from ..targets.base import TargetError
 from . import coordinator_address, need_labgrid
@@ -52,12 +54,14 @@ class LabClient:
         asyncio.set_event_loop(self.loop)
         self._lock = threading.Lock()
         try:
-            self.session: Any = start_session(self.address, loop=self.loop)
+            with _quiet():
+                self.session: Any = start_session(self.address, loop=self.loop)
         except (Error, OSError) as exc:
             self.loop.close()
-            raise TargetError(f"cannot reach the labgrid coordinator at {self.address}: "
-                              f"{' '.join(str(exc).split())}. Is labgrid-coordinator running there? "
-                              "(LG_COORDINATOR or ?coordinator=HOST:PORT)") from None
+            why = " ".join(" ".join(str(a) for a in exc.args).split()) or type(exc).__name__
+            raise TargetError(f"cannot reach the labgrid coordinator at {self.address} ({why}): is "
+                              "labgrid-coordinator running there? (LG_COORDINATOR or ?coordinator=HOST:PORT)"
+                              ) from None
         self.me: str = f"{self.session.gethostname()}/{self.session.getuser()}"
 
     # -- the lab's state -------------------------------------------------------------------
@@ -144,10 +148,24 @@ class LabClient:
 
     def close(self) -> None:
         try:
-            self._run(self.session.stop())
-            self._run(self.session.close())
+            with _quiet():
+                self._run(self.session.stop())
+                self._run(self.session.close())
         except Exception:  # noqa: BLE001 - closing a session that already failed
             pass
+
+
+@contextlib.contextmanager
+def _quiet() -> Iterator[None]:
+    """labgrid logs a failed connection on the root logger (with its own format); the caller
+    says it in one line instead."""
+    root = logging.getLogger()
+    level = root.level
+    root.setLevel(logging.CRITICAL)
+    try:
+        yield
+    finally:
+        root.setLevel(level)
 
 
 _CLIENTS: Dict[str, LabClient] = {}
