@@ -20,6 +20,8 @@ sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
 from lab_fixture import BIN, Lab, missing  # noqa: E402
 
 SUBSET = "shortest_resolving_prefix"        # 28 short cases, about 13 s on a place
+# Runs at real time, one after another: generous on a loaded machine (the suite's timing is make bench's).
+pytestmark = pytest.mark.timeout(400)
 
 
 @pytest.fixture(scope="module")

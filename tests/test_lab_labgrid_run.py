@@ -35,6 +35,7 @@ def lab(tmp_path):
     lab.stop()
 
 
+@pytest.mark.timeout(600)       # real time on a loaded machine: two loads, 28 cases, a reset and a reload
 def test_the_suite_runs_on_two_places_at_once_and_a_hung_hat_is_reset_through_labgrid(lab, tmp_path):
     img, sig = files(tmp_path, image_of("R7"))
     junit = tmp_path / "run" / "junit.xml"
