@@ -29,7 +29,7 @@ QUICK_SUITE = "test_select"
 
 
 def _groups(quick: bool) -> List[Group]:
-    from . import cost, fidelity, firmware_load, host_write, sil, suite, target_faults, throughput
+    from . import cost, fidelity, firmware_load, host_write, lab, sil, suite, target_faults, throughput
 
     lines = 100_000 if quick else 1_000_000
     # Seconds per measurement window: three 3 s windows give medians as steady as 5 s ones did
@@ -118,6 +118,13 @@ def _groups(quick: bool) -> List[Group]:
             (Figure("upload of a 51 KB image (load, 115200 baud)", "s"), "upload_s"),
             (Figure("upload time above the wire's minimum", "%", "<= 5 %", target=5.0), "over_min_pct"),
             (Figure("whole load: bootloader to firmware running", "s"), "total_s")], None),
+        # Issue 23: a labgrid lab on loopback (coordinator, exporter, ser2net; bench/lab.py).
+        ("labgrid places", lab.place_costs, [
+            (Figure("labgrid place: acquire + open (ser2net started)", "s"), "open_s"),
+            (Figure("labgrid place: close + release", "s"), "close_s"),
+            (Figure(f"suite -k {lab.KEYWORD} on one labgrid place", "s"), "one_s"),
+            (Figure(f"suite -k {lab.KEYWORD} on two places at once", "s"), "two_s"),
+            (Figure("two places at once / one place, wall time", "x", "~1.0 (in parallel)"), "ratio")], 1),
     ]
 
 

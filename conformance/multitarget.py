@@ -30,7 +30,7 @@ from typing import Any, List, Optional, Sequence, Tuple
 
 import pytest
 
-__all__ = ["Target", "read_inventory", "targets_of", "merge_junit"]
+__all__ = ["Target", "read_inventory", "targets_of", "merge_junit", "merged_exit_status"]
 
 Target = Tuple[str, str]          # (name, URL)
 
@@ -160,6 +160,10 @@ class _Merge:
     def pytest_sessionfinish(self, session: Any, exitstatus: Any) -> None:
         parts = [(name, url, _part_path(self.junit, name)) for name, url in self.targets]
         merge_junit(parts, self.junit)
+        if int(exitstatus) in (0, 1):
+            # xdist counts a worker's target fault as an error (1); the agreed statuses are the
+            # single run's (plugin.Run.exit_status): 1 a failure, else 3 a target fault, else 0.
+            session.exitstatus = merged_exit_status(parts)
 
     def pytest_terminal_summary(self, terminalreporter: Any) -> None:
         tr = terminalreporter
@@ -175,6 +179,21 @@ class _Merge:
                 verdicts[props.get("verdict", "?")] += 1
             tr.write_line(f"{name:<16} {url}: " + ", ".join(f"{v} {k}" for k, v in sorted(verdicts.items())))
         tr.write_line(f"merged JUnit: {self.junit}")
+
+
+def merged_exit_status(parts: Sequence[Tuple[str, str, str]]) -> int:
+    """1 if a case failed on any target, else 3 if a target faulted, stopped or left no results,
+    else 0."""
+    verdicts = set()
+    for _name, _url, path in parts:
+        if not os.path.exists(path):
+            verdicts.add("not-run")
+            continue
+        for tc in ET.parse(path).getroot().iter("testcase"):
+            verdicts.update(p.get("value") for p in tc.iter("property") if p.get("name") == "verdict")
+    if "fail" in verdicts:
+        return 1
+    return 3 if verdicts & {"target-fault", "not-run"} else 0
 
 
 def merge_junit(parts: Sequence[Tuple[str, str, str]], out: str) -> int:

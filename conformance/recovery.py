@@ -48,7 +48,7 @@ class ResetRecovery:
         if getattr(target, "dead", None):
             return "the target went away"
         if not can_reset(target):
-            return f"{target.url} cannot reset the HAT (on a Raspberry Pi: ?reset=gpio, docs/LAB.md)"
+            return f"{target.url} cannot reset the HAT ({target.reset_hint})"
         return None
 
     def attempt(self, session: Any) -> str:

@@ -34,7 +34,9 @@ from ..harness.cli_options import (
     add_target_option,
     expand_target,
 )
+from ..harness.lab.selection import add_lab_arguments
 from ..harness.parent_death import die_with_parent
+from .lab_run import hold_for_run
 from .run_passthrough import PYTEST_HELP, UNKNOWN_ARGS_HINT, refused_arguments
 
 # The dispatcher (harness/cli_dispatch.py) hands on what follows `--`, and what refused_arguments
@@ -86,6 +88,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "and again if the run resets a dead HAT (with --signature; as "
                              "'buildhat-conformance load')")
     parser.add_argument("--signature", default=None, metavar="FILE", help="the image's 64-byte signature")
+    add_lab_arguments(parser)
 
 
 def suite_dir() -> str:
@@ -114,7 +117,9 @@ def pytest_argv(args: argparse.Namespace) -> List[str]:
             "-p", "no:buildhat_emulator",
             # pytest's closing gc.collect() passes over the whole session's heap (twice): a tenth
             # of a virtual-time run in the profile; the suite raises nothing in __del__ to report.
-            "-p", "no:unraisableexception"]
+            "-p", "no:unraisableexception",
+            # pyserial's RFC 2217 client (labgrid places) uses threading names deprecated in 3.10
+            "-W", "ignore::DeprecationWarning:serial.rfc2217"]
     extra = list(getattr(args, "extra", []) or [])
     if len(targets) == 1 and not getattr(args, "inventory", None) and not any(
             a.split("=")[0] in _XDIST_OPTIONS or a.startswith("-n") for a in extra):
@@ -293,6 +298,16 @@ def load_image_first(args: argparse.Namespace) -> int:
 
 
 def main(args: argparse.Namespace) -> int:
+    # labgrid places (--places, labgrid: targets) are held from here to the end (conformance/lab_run.py)
+    give_back = hold_for_run(args)
+    try:
+        return _run(args)
+    finally:
+        if give_back is not None:
+            give_back()
+
+
+def _run(args: argparse.Namespace) -> int:
     from ..harness.report import runs
 
     preflight(args)   # before the run folder and the load: a mistake is one line, reports/ untouched

@@ -31,6 +31,7 @@ class TeeTarget(Target):
         self.capabilities = inner.capabilities
         self.control = inner.control
         self.disposable = inner.disposable
+        self.reset_hint = inner.reset_hint
         self.between = between
         self.current: Optional[TranscriptWriter] = None
         self._t0 = time.monotonic()

@@ -91,6 +91,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="seconds a finding may spend being reduced by replaying smaller scripts "
                              "(default 30)")
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress line")
+    from ..harness.lab.selection import add_lab_arguments
+
+    add_lab_arguments(parser, "one campaign per place, into -o/<place>/")
 
 
 def _scheme(url: str) -> str:
@@ -362,6 +365,23 @@ def reproduce(args: argparse.Namespace, primary: Optional[Callable[[], Target]] 
 
 
 def main(args: argparse.Namespace) -> int:
+    from .lab_campaigns import hold_for_campaign, run_places
+
+    # labgrid places are held for the whole campaign, or all campaigns (fuzz/lab_campaigns.py)
+    give_back = hold_for_campaign(args)
+    try:
+        if args.places:
+            from ..harness.cli_options import check_writable
+
+            check_writable(args.out, "--out", folder=True)
+            return run_places(args)
+        return _main(args)
+    finally:
+        if give_back is not None:
+            give_back()
+
+
+def _main(args: argparse.Namespace) -> int:
     from ..harness.cli_options import check_writable
     from ..harness.preflight import check_release, checked_target
 

@@ -2,7 +2,8 @@
 
 Lists the serial ports pyserial sees (with the Raspberry Pi 5 remark where
 ``/dev/serial0`` is the debug UART), the emulator's firmware releases, and the URL forms.
-Nothing is opened, so listing never disturbs a HAT.
+Nothing is opened, so listing never disturbs a HAT. With a labgrid coordinator (``--coordinator``
+or ``LG_COORDINATOR``) it also lists the lab's places: free, or held by whom (harness/lab/).
 """
 from __future__ import annotations
 
@@ -25,6 +26,24 @@ _PI_LINKS = ("/dev/serial0", "/dev/serial1")
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--all", action="store_true", help="also list ports without a description (ttyS*)")
+    parser.add_argument("--coordinator", default="", metavar="HOST:PORT",
+                        help="also list this labgrid coordinator's places (default: LG_COORDINATOR if set)")
+
+
+def lab_lines(coordinator: str) -> List[str]:
+    """One line per place of the lab: name, free or who holds it, tags. TargetError when the
+    coordinator cannot be asked (labgrid missing, nothing listening)."""
+    from .lab.client import client_for
+
+    client = client_for(coordinator)
+    lines = [f"Lab places (labgrid coordinator {client.address}; this user is {client.me}):"]
+    states = client.places()
+    for s in states:
+        tags = " ".join(f"{k}={v}" for k, v in sorted(s.tags.items()))
+        lines.append(f"  labgrid:{s.name:<22} {s.holder_text():<28} {tags}".rstrip())
+    if not states:
+        lines.append("  none (labgrid-client -p NAME create; docs/LAB.md)")
+    return lines
 
 
 def serial_port_lines(show_all: bool = False) -> List[str]:
@@ -79,6 +98,10 @@ URL_OPTIONS = [
     ("serial: baud=N", "serial:///dev/ttyAMA0?baud=N (default 115200)"),
     ("serial: reset=gpio", "reset the HAT through a Raspberry Pi's GPIO (gpio extra; docs/LAB.md)"),
     ("  chip=, reset_line=, boot0_line=", "with reset=gpio (default /dev/gpiochip0, 4, 22)"),
+    ("labgrid: coordinator=HOST:PORT", "the lab's coordinator (default LG_COORDINATOR; lab extra)"),
+    ("labgrid: wait=S", "wait up to S seconds for a held place"),
+    ("  reset_output=, boot0_output=", "the place's digital outputs (default reset, boot0)"),
+    ("  serial=NAME", "the place's serial port, when it has several"),
 ]
 
 
@@ -94,4 +117,8 @@ def main(args: argparse.Namespace) -> int:
     for form, meaning in URL_OPTIONS:
         print(f"  {form:<34} {meaning}")
     print(f"\nDefault target: emulator = emulator:latest?speed={DEFAULT_SPEED:g}")
+    coordinator = args.coordinator or os.environ.get("LG_COORDINATOR", "")
+    if coordinator:
+        print()
+        print("\n".join(lab_lines(coordinator)))     # a TargetError is one line, exit 3 (cli_dispatch)
     return 0

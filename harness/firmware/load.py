@@ -77,7 +77,7 @@ def load_firmware(target: Target, fw: FirmwareImage, transcript: Optional[Transc
         if not can_reset(target):
             raise LoadError(f"{target.url} runs firmware ({version}), not its bootloader, and this target "
                             "cannot reset the HAT: power-cycle the HAT (it starts in its bootloader) or, "
-                            "on a Raspberry Pi, add ?reset=gpio to a serial target (docs/LAB.md), then retry",
+                            f"{target.reset_hint}, then retry",
                             EXIT_TARGET)
         log(f"{target.url} runs firmware {version}; resetting it into its bootloader")
         try:

@@ -35,7 +35,10 @@ def _safe(text: str, limit: int = 60) -> str:
 
 def _target_name(target: str) -> str:
     """What names a target in a folder name: the URL, or for ``cmd:`` the program it runs
-    (``cmd:python tests/planted/proxy.py wrong`` -> ``cmd-proxy``), not its whole command line."""
+    (``cmd:python tests/planted/proxy.py wrong`` -> ``cmd-proxy``), not its whole command line; for
+    ``labgrid:PLACE?...`` the place."""
+    if target.startswith("labgrid:"):               # the place, not its coordinator's address
+        return "labgrid-" + target[len("labgrid:"):].split("?", 1)[0]
     if not target.startswith("cmd:"):
         return target
     words = target[4:].split()

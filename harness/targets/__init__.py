@@ -8,6 +8,7 @@
 | ``cmd:<command line>`` | ``cmd`` |
 | ``inprocess[:...]`` | ``inprocess`` |
 | ``sil:<tree or program>[?...]`` | ``sil`` (the real firmware in the loop) |
+| ``labgrid:PLACE[?coordinator=HOST:PORT...]`` | ``labgrid`` (the ``lab`` extra) |
 
 Each module provides ``from_url(url, **options) -> Target``; it is imported only when its
 URL is used. :func:`make_target` builds a target; :func:`open_target` also opens it.
@@ -39,6 +40,7 @@ _SCHEMES: Dict[str, str] = {
     "hwgrep": "pyserial_url",
     "alt": "pyserial_url",
     "cp2110": "pyserial_url",
+    "labgrid": "labgrid",
 }
 _FACTORIES: Dict[str, Callable[..., Target]] = {}
 
@@ -52,6 +54,7 @@ _FORMS: List[Tuple[str, str]] = [
     ("socket://HOST:PORT, rfc2217://HOST:PORT", "a HAT on another machine (ser2net)"),
     ("loop://", "pyserial's loopback (echoes what is sent)"),
     ("cmd:<command line>", "a program speaking the protocol on stdin/stdout"),
+    ("labgrid:PLACE[?coordinator=HOST:PORT]", "a place of a labgrid lab, acquired for the run (docs/LAB.md)"),
 ]
 
 

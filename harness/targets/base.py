@@ -80,6 +80,8 @@ class Target(abc.ABC):
     disposable: bool = False
     #: True between a successful open() and close(); the session opens a target only if False.
     is_open: bool = False
+    #: How a target of this kind gets a way to reset the HAT, for the line saying it has none.
+    reset_hint: str = "on a Raspberry Pi, add ?reset=gpio to a serial target (docs/LAB.md)"
 
     @abc.abstractmethod
     def open(self) -> None:

@@ -23,6 +23,10 @@ class PyserialUrlTarget(PyserialTarget):
     def _make_port(self) -> SerialPort:
         settings = self.port_settings()
         settings["baudrate"] = self.baudrate
+        if self.url.lower().startswith("rfc2217:"):
+            # pyserial's RFC 2217 client refuses any write_timeout (NotImplementedError at open);
+            # its writes go to a TCP socket, which a stalled HAT does not block for long anyway.
+            settings.pop("write_timeout", None)
         return serial.serial_for_url(self.url, do_not_open=True, **settings)
 
     def _explain(self, exc: BaseException) -> str:
