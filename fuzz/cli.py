@@ -373,7 +373,7 @@ def main(args: argparse.Namespace) -> int:
         if args.places:
             from ..harness.cli_options import check_writable
 
-            check_writable(args.out, "--out", folder=True)
+            check_writable(args.out, "-o", folder=True)
             return run_places(args)
         return _main(args)
     finally:
