@@ -166,7 +166,7 @@ def _compile(cc: str, args: List[str], what: str) -> None:
 
 
 def _build_into(folder: Path, tree: Path, sources: List[Path], cc: str, fw_flags: List[str],
-                st_flags: List[str], link_flags: List[str]) -> None:
+                st_flags: List[str], link_flags: List[str], base: Optional[Build] = None) -> None:
     gen = folder / "gen"
     gen.mkdir(exist_ok=True)
     for pio in tree.glob("*.pio"):
@@ -175,6 +175,10 @@ def _build_into(folder: Path, tree: Path, sources: List[Path], cc: str, fw_flags
     objects: List[str] = []
     for src in sources:
         asm, obj = folder / f"fw_{src.stem}.s", folder / f"fw_{src.stem}.o"
+        if base is not None and _same_source(base, src):
+            shutil.copyfile(base.folder / obj.name, obj)      # a mutant: only its changed file is compiled
+            objects.append(str(obj))
+            continue
         _compile(cc, fw_flags + ["-I", str(gen), "-I", str(inc), "-I", str(tree), "-S", str(src),
                                  "-o", str(asm)], src.name)
         # The chip's float conversions saturate (float_convert.py): the compiler's output is
@@ -185,15 +189,26 @@ def _build_into(folder: Path, tree: Path, sources: List[Path], cc: str, fw_flags
         objects.append(str(obj))
     for src in sorted(standin_dir().glob("*.c")):
         obj = folder / f"sil_{src.stem}.o"
+        if base is not None and (base.folder / obj.name).is_file():
+            shutil.copyfile(base.folder / obj.name, obj)      # the same stand-in, the same flags
+            objects.append(str(obj))
+            continue
         _compile(cc, st_flags + ["-I", str(inc), "-I", str(standin_dir()), "-c", str(src), "-o", str(obj)],
                  f"stand-in {src.name}")
         objects.append(str(obj))
     _compile(cc, objects + link_flags + ["-o", str(folder / (PROGRAM + ".tmp"))], "linking")
 
 
+def _same_source(base: Build, src: Path) -> bool:
+    other = base.tree / src.name
+    return (other.is_file() and (base.folder / f"fw_{src.stem}.o").is_file()
+            and other.read_bytes() == src.read_bytes())
+
+
 def build_tree(path: str, sanitize: Sequence[str] = (), coverage: bool = False,
-               cache: Optional[Path] = None) -> Build:
-    """Build (or find in the cache) the host program of the firmware tree at ``path``."""
+               cache: Optional[Path] = None, base: Optional[Build] = None) -> Build:
+    """Build (or find in the cache) the host program of the firmware tree at ``path``.
+    ``base``: a build of the same flags whose objects may be reused for unchanged files."""
     bad = [s for s in sanitize if s not in SANITIZERS]
     if bad:
         raise BuildError(f"unknown sanitizer {bad[0]!r} (known: {', '.join(SANITIZERS)})")
@@ -216,7 +231,7 @@ def build_tree(path: str, sanitize: Sequence[str] = (), coverage: bool = False,
         fcntl.flock(lock, fcntl.LOCK_EX)
         if program.exists():
             return Build(program, tree, folder, True, sanitize, coverage, sources, version)
-        _build_into(folder, tree, sources, cc, fw_flags, st_flags, link_flags)
+        _build_into(folder, tree, sources, cc, fw_flags, st_flags, link_flags, base)
         (folder / VERSION_NOTE).write_text((version or "") + "\n", encoding="utf-8")
         os.replace(folder / (PROGRAM + ".tmp"), program)
     return Build(program, tree, folder, False, sanitize, coverage, sources, version)

@@ -9,10 +9,13 @@ program built with ``--coverage`` (``--reset`` clears it first, for one run's fi
 from __future__ import annotations
 
 import argparse
+import os
 import sys
+from pathlib import Path
 
 from ..harness.cli_options import UsageError
-from .build import SANITIZERS, BuildError, build_tree
+from .build import SANITIZERS, BuildError, build_tree, find_tree
+from .mutants import DEFAULT_FILES, KINDS
 
 __all__ = ["add_arguments", "main"]
 
@@ -39,6 +42,21 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                            help="serve a firmware at wall-clock pace on a pty/TCP/stdio "
                                 "(see sil serve --help)")
     serve.add_argument("rest", nargs=argparse.REMAINDER)
+    mut = sub.add_parser("mutate", help="plant single-site changes in a tree and run the suite on each",
+                         description="Seeded single-site mutants of a firmware tree, each built and run "
+                                     "against the suite in virtual time: killed, survived, likely equivalent.")
+    mut.add_argument("tree", metavar="TREE", help="a firmware-pico/ folder, or a checkout containing one")
+    mut.add_argument("--files", default=",".join(DEFAULT_FILES), metavar="LIST",
+                     help="the C files to mutate, comma-separated (default: %(default)s)")
+    mut.add_argument("--kinds", default=",".join(KINDS), metavar="LIST", help="mutation kinds (default: all)")
+    mut.add_argument("--count", type=int, default=20, metavar="N", help="how many mutants (default 20)")
+    mut.add_argument("--seed", type=int, default=1, metavar="N", help="which mutants (default 1)")
+    mut.add_argument("--jobs", type=int, default=2, metavar="N", help="mutants at once (default 2)")
+    mut.add_argument("-k", dest="keyword", default=None, metavar="EXPR", help="only the suite's cases matching EXPR")
+    mut.add_argument("--plant", action="append", default=[], metavar="FILE:OLD:NEW",
+                     help="also run this hand-made mutant (the first OLD in FILE becomes NEW)")
+    mut.add_argument("-o", "--output", default=os.path.join("reports", "mutation"), metavar="DIR",
+                     help="where the page, the JSON and survivors' transcripts go (default %(default)s)")
     cov = sub.add_parser("coverage", help="the firmware's line and branch coverage (a --coverage build)")
     cov.add_argument("tree", metavar="TREE", help="the firmware tree the build was made from")
     cov.add_argument("--sanitize", type=_sanitizers, default=[], metavar="LIST", help="as given to sil build")
@@ -49,6 +67,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def main(args: argparse.Namespace) -> int:
     if args.sil_command is None:
         raise UsageError("sil needs an action: sil build TREE (see sil --help)")
+    if args.sil_command == "mutate":
+        return _mutate(args)
     if args.sil_command == "serve":
         from .serve import main as serve_main
         return serve_main(args.rest)
@@ -72,4 +92,49 @@ def main(args: argparse.Namespace) -> int:
     except RuntimeError as exc:
         print(f"buildhat-conformance sil: {exc}", file=sys.stderr)
         return 2
+    return 0
+
+
+def _mutate(args: argparse.Namespace) -> int:
+    from .mutants import find_mutants, planted, sample
+    from .mutate import run_campaign
+    from .mutation_report import write_reports
+    try:
+        tree = find_tree(args.tree)
+    except BuildError as exc:
+        raise UsageError(str(exc)) from None
+    kinds = [k for k in args.kinds.split(",") if k]
+    bad = [k for k in kinds if k not in KINDS]
+    if bad or args.count < 0 or args.jobs < 1:
+        raise UsageError(f"unknown mutation kind {bad[0]!r} (known: {', '.join(KINDS)})" if bad
+                         else "--count takes 0 or more, --jobs 1 or more")
+    files = [f for f in args.files.split(",") if f]
+    missing = [f for f in files if not (tree / f).is_file()]
+    if missing:
+        raise UsageError(f"{missing[0]}: not a file of {tree}")
+    chosen = sample(find_mutants(tree, files, kinds), args.count, args.seed)
+    for spec in args.plant:
+        parts = spec.split(":", 2)
+        hand = planted(tree, *parts) if len(parts) == 3 else None
+        if hand is None:
+            raise UsageError(f"--plant {spec!r}: give FILE:OLD:NEW with OLD found in FILE")
+        chosen.append(hand)
+    if not chosen:
+        raise UsageError("no mutants to run (--count 0 and no --plant)")
+    out = Path(args.output)
+
+    def progress(o, i, n) -> None:
+        print(f"[{i}/{n}] {o.status:<17} {o.mutant.describe()}"
+              + (f"  <- {o.cases[0]}" if o.cases else (f"  ({o.detail})" if o.detail else "")), flush=True)
+
+    print(f"sil mutate: {len(chosen)} mutants of {tree} (seed {args.seed}); reference run first", flush=True)
+    try:
+        campaign = run_campaign(str(tree), chosen, out / "work", jobs=args.jobs, keyword=args.keyword,
+                                progress=progress)
+    except (BuildError, RuntimeError) as exc:
+        print(f"buildhat-conformance sil: {exc}", file=sys.stderr)
+        return 3
+    page = write_reports(campaign, out)
+    print(campaign.summary_line())
+    print(f"report: {page}  json: {out / 'mutation.json'}")
     return 0

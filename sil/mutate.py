@@ -1,0 +1,216 @@
+"""`sil mutate`: how strong is the suite against the real firmware? Plant single-site changes
+in a copy of a firmware tree (sil/mutants.py), build each with the stand-in (only the changed
+file is compiled), run the suite against it in virtual time, and say per mutant what happened:
+
+- ``killed``: a case failed (its name is kept): the suite defends that line;
+- ``killed-by-fault``: only target faults (a crash, silence): caught, but not as a clause;
+- ``survived``: every case passed although some byte the HAT sent differs from the original's
+  (the cases that saw a difference, and their requirement IDs, are listed);
+- ``likely-equivalent``: every case passed and no byte the HAT sent differs from the original's
+  run of the same suite (the reference campaign): no host can tell, as far as the suite looks;
+- ``no-build``, ``no-boot``: the mutant does not compile, or does not answer ``version``.
+
+The score is killed / (all - likely-equivalent - no-build - no-boot). The firmware is
+deterministic in virtual time, so the original's run is the reference for every mutant.
+"""
+from __future__ import annotations
+
+import json
+import os
+import re
+import shutil
+import subprocess
+import sys
+import time
+import xml.etree.ElementTree as ET
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Callable, Dict, List, Optional, Sequence, Tuple
+
+from .build import Build, BuildError, build_tree
+from .mutants import Mutant
+
+__all__ = ["Outcome", "Campaign", "run_campaign", "STATUSES"]
+
+STATUSES = ("killed", "killed-by-fault", "survived", "likely-equivalent", "no-build", "no-boot")
+
+
+@dataclass
+class Outcome:
+    mutant: Mutant
+    status: str
+    cases: List[str] = field(default_factory=list)       # killing cases, or cases that saw a difference
+    requirements: List[str] = field(default_factory=list)
+    detail: str = ""
+    seconds: float = 0.0
+
+
+@dataclass
+class Campaign:
+    tree: str
+    outcomes: List[Outcome]
+    seconds: float
+    reference_cases: int
+
+    def count(self, status: str) -> int:
+        return sum(1 for o in self.outcomes if o.status == status)
+
+    @property
+    def judged(self) -> int:
+        return len(self.outcomes) - sum(self.count(s) for s in ("likely-equivalent", "no-build", "no-boot"))
+
+    @property
+    def score(self) -> float:
+        return 100.0 * self.count("killed") / self.judged if self.judged else float("nan")
+
+    def summary_line(self) -> str:
+        parts = ", ".join(f"{self.count(s)} {s}" for s in STATUSES if self.count(s))
+        return (f"mutation score {self.score:.1f}% ({self.count('killed')} killed by a failing case of "
+                f"{self.judged} not likely equivalent); {len(self.outcomes)} mutants: {parts}; "
+                f"{self.seconds:.0f} s")
+
+    def as_dict(self) -> dict:
+        return {"tree": self.tree, "score": round(self.score, 2), "judged": self.judged,
+                "seconds": round(self.seconds, 1), "reference_cases": self.reference_cases,
+                "counts": {s: self.count(s) for s in STATUSES},
+                "mutants": [dict(asdict(o.mutant), ident=o.mutant.ident, status=o.status, cases=o.cases,
+                                 requirements=o.requirements, detail=o.detail, seconds=round(o.seconds, 1))
+                            for o in self.outcomes]}
+
+
+def _command() -> List[str]:
+    exe = os.path.join(os.path.dirname(sys.executable), "buildhat-conformance")
+    return [exe] if os.path.exists(exe) else [sys.executable, "-m", "buildhat_conformance.cli"]
+
+
+def _copy_tree(tree: Path, dest: Path) -> Path:
+    dest.mkdir(parents=True)
+    for p in tree.iterdir():
+        if p.is_file():
+            shutil.copyfile(p, dest / p.name)
+    return dest
+
+
+def _suite(program: str, folder: Path, keyword: Optional[str], stop_at_first: bool) -> Tuple[int, Path]:
+    junit = folder / "junit.xml"
+    argv = _command() + ["run", "--target", f"sil:{program}", "--junit", str(junit),
+                         "--transcripts", str(folder / "transcripts"), "--max-target-faults", "3"]
+    if keyword:
+        argv += ["-k", keyword]
+    if stop_at_first:
+        argv += ["--", "-x"]
+    done = subprocess.run(argv, capture_output=True, text=True, timeout=1800)
+    (folder / "run.log").write_text(done.stdout + done.stderr, encoding="utf-8")
+    return done.returncode, junit
+
+
+def _verdicts(junit: Path) -> List[Tuple[str, str, List[str], str]]:
+    """(case, verdict, requirement IDs, transcript path) of every case in a JUnit file."""
+    if not junit.exists():
+        return []
+    out = []
+    for case in ET.parse(junit).getroot().iter("testcase"):
+        props = {p.get("name"): p.get("value") or "" for p in case.iter("property")}
+        reqs = [r for r in props.get("requirements", "").replace(",", " ").split() if r]
+        out.append((f"{case.get('classname')}::{case.get('name')}", props.get("verdict", ""), reqs,
+                    props.get("transcript", "")))
+    return out
+
+
+_SYNC_TOKEN = re.compile(r"sync-[0-9a-f]+-\d+")
+
+
+def _hat_bytes(path: str) -> List[tuple]:
+    """What the HAT sent in a case's transcript, in order, without times; the harness's own
+    sync tokens (a fresh one each run) echoed back are blanked."""
+    rows = []
+    try:
+        with open(path, encoding="utf-8") as fh:
+            for line in fh:
+                e = json.loads(line)
+                if e.get("dir") == "hat":
+                    rows.append(_SYNC_TOKEN.sub("sync-*", str(e.get("line", e.get("bytes")))))
+    except OSError:
+        return []
+    return rows
+
+
+def _differences(reference: Dict[str, Tuple[List[str], List[tuple]]],
+                 verdicts: List[Tuple[str, str, List[str], str]]) -> List[Tuple[str, List[str]]]:
+    """The cases whose HAT output differs from the reference run's, with their requirement IDs."""
+    out = []
+    for case, _verdict, reqs, transcript in verdicts:
+        ref = reference.get(case)
+        if ref is None or _hat_bytes(transcript) != ref[1]:
+            out.append((case, reqs))
+    return out
+
+
+def _one(mutant: Mutant, tree: Path, base: Build, work: Path, keyword: Optional[str],
+         reference: Dict[str, Tuple[List[str], List[tuple]]]) -> Outcome:
+    t0 = time.monotonic()
+    folder = work / "mutants" / mutant.ident
+    if folder.exists():
+        shutil.rmtree(folder)
+    copy = _copy_tree(tree, folder / "tree")
+    path = copy / mutant.file
+    path.write_text(mutant.apply(path.read_text(encoding="utf-8", errors="replace")), encoding="utf-8")
+    try:
+        build = build_tree(str(copy), cache=work / "builds", base=base)
+    except BuildError as exc:
+        return Outcome(mutant, "no-build", detail=str(exc), seconds=time.monotonic() - t0)
+    finally:
+        shutil.rmtree(folder / "tree", ignore_errors=True)
+    code, junit = _suite(str(build.program), folder, keyword, stop_at_first=True)
+    verdicts = _verdicts(junit)
+    failed = [c for c, v, _r, _t in verdicts if v == "fail"]
+    reqs = sorted({r for c, v, rs, _t in verdicts if v == "fail" for r in rs})
+    faults = [c for c, v, _r, _t in verdicts if v in ("target-fault", "not-run")]
+    out: Outcome
+    if failed:
+        out = Outcome(mutant, "killed", failed, reqs)
+    elif not verdicts:
+        log = (folder / "run.log").read_text(encoding="utf-8", errors="replace").strip().splitlines()
+        out = Outcome(mutant, "no-boot", detail=(log[-1] if log else f"run exited {code}"))
+    elif faults:
+        out = Outcome(mutant, "killed-by-fault", faults[:5])
+    else:
+        diff = _differences(reference, verdicts)
+        if diff:
+            out = Outcome(mutant, "survived", [c for c, _r in diff][:10],
+                          sorted({r for _c, rs in diff for r in rs}))
+        else:
+            out = Outcome(mutant, "likely-equivalent")
+    if out.status in ("killed", "likely-equivalent", "no-boot"):
+        shutil.rmtree(folder / "transcripts", ignore_errors=True)   # keep what a developer reads
+    shutil.rmtree(Path(build.folder), ignore_errors=True)
+    out.seconds = time.monotonic() - t0
+    return out
+
+
+def run_campaign(tree: str, mutants: Sequence[Mutant], work: Path, jobs: int = 2, keyword: Optional[str] = None,
+                 progress: Callable[[Outcome, int, int], None] = lambda o, i, n: None) -> Campaign:
+    """Run ``mutants`` of ``tree``; ``work`` keeps the reference run and each survivor's transcripts."""
+    t0 = time.monotonic()
+    work.mkdir(parents=True, exist_ok=True)
+    base = build_tree(tree, cache=work / "builds")
+    ref_folder = work / "reference"
+    if ref_folder.exists():
+        shutil.rmtree(ref_folder)
+    ref_folder.mkdir()
+    code, junit = _suite(str(base.program), ref_folder, keyword, stop_at_first=False)
+    ref = _verdicts(junit)
+    bad = [c for c, v, _r, _t in ref if v in ("fail", "target-fault", "not-run")]
+    if code not in (0,) or bad:
+        raise RuntimeError(f"the unmutated tree does not pass the suite (exit {code}; "
+                           f"{len(bad)} case(s) not passing, first: {bad[:1]}): mutants cannot be judged")
+    reference = {c: (r, _hat_bytes(t)) for c, _v, r, t in ref}
+    outcomes: List[Outcome] = []
+    with ThreadPoolExecutor(max_workers=max(1, jobs)) as pool:
+        futures = [pool.submit(_one, m, Path(base.tree), base, work, keyword, reference) for m in mutants]
+        for i, fut in enumerate(futures, 1):
+            outcome = fut.result()
+            outcomes.append(outcome)
+            progress(outcome, i, len(futures))
+    return Campaign(str(base.tree), outcomes, time.monotonic() - t0, len(ref))
