@@ -27,6 +27,7 @@ from .junit import Case, JUnitFile, failure_line
 from .link import Hat
 from .needs import World
 from .recovery import RecoveryFailed, ResetRecovery
+from .run_outcome import nothing_done, release_mismatch
 from .summary import firmware_of, write_summary
 from .target_fault import TargetFault, fault_line, first_line, is_target_fault
 from .tee import TeeTarget, tee
@@ -113,6 +114,9 @@ class Run:
         self.tee: Optional[TeeTarget] = None
         self.open_error: Optional[str] = None
         self.results: Dict[str, Tuple[str, List[str]]] = {}      # nodeid -> (verdict class, req ids)
+        self.skip_reasons: Dict[str, str] = {}                   # nodeid -> why it was skipped
+        self.has_control = False        # the target performs world actions (plug, ...)
+        self.no_job: Optional[str] = None     # why the run could not do its job (exit 3)
         self.collected_ids: Dict[str, List[str]] = {}
         self._case: Dict[str, Case] = {}
         self._started: Dict[str, float] = {}
@@ -150,12 +154,18 @@ class Run:
             self.stopped = self.open_error
             raise TargetFault("unreachable", self.open_error) from exc
         self.hat = Hat(session, self.tee, self.url)
+        self.has_control = bool(self.hat.can("plug"))
         p = self.hat.profile
         # --firmware judges as a release; the firmware property stays what the target runs.
         self.junit.set_property("firmware", session.version_string or p.version_string)
         if forced:
             self.junit.set_property("judged_as", f"{p.name} ({p.number}, --firmware)")
         self.junit.set_property("profile", p.name + ("" if self.hat.profile_exact else " (nearest earlier)"))
+        mismatch = release_mismatch(self.url, session.version_string, p) if forced else None
+        if mismatch is not None:
+            self.no_job = mismatch
+            self._stop(mismatch)
+            raise CannotJudge(mismatch)
         return self.hat
 
     def close(self) -> None:
@@ -269,6 +279,8 @@ class Run:
         case.properties = list(props.items())
         self.junit.add(case)
         self.results[nodeid] = (cls, self.collected_ids.get(nodeid, []))
+        if cls == SKIP:
+            self.skip_reasons[nodeid] = case.message or ""
         del self._case[nodeid]
         self._count_fault(nodeid, cls, props.get("target_fault", ""))
 
@@ -337,24 +349,32 @@ class Run:
 
     def pytest_sessionfinish(self, session: Any, exitstatus: Any) -> None:
         self.close()
+        idle = nothing_done(self.results, self.skip_reasons, self.has_control)
+        if idle is not None and self.no_job is None:
+            self.no_job = idle
+            self.junit.set_property("stopped", idle)
         self.junit.write()
         if int(exitstatus) in (EXIT_OK, EXIT_FAILED):
             session.exitstatus = self.exit_status()
 
     def exit_status(self) -> int:
         """The agreed exit statuses: 1 if any case failed (a finding about the protocol counts
-        even when the target later faulted), else 3 if the target faulted or was not reached,
-        else 0."""
+        even when the target later faulted), else 3 if the target faulted or was not reached or
+        the run could do nothing (every case skipped, the wrong release), else 0."""
         verdicts = {cls for cls, _ in self.results.values()}
         if FAIL in verdicts:
             return EXIT_FAILED
-        if verdicts & {TARGET_FAULT, NOT_RUN} or self.stopped:
+        if verdicts & {TARGET_FAULT, NOT_RUN} or self.stopped or self.no_job:
             return EXIT_TARGET
         return EXIT_OK
 
     def pytest_terminal_summary(self, terminalreporter: Any) -> None:
         if self.results:
             write_summary(terminalreporter, self)
+
+
+class CannotJudge(Exception):
+    """The run cannot judge this target (one line: why); every case is not-run."""
 
 
 _run_key = pytest.StashKey[Run]()
@@ -386,6 +406,11 @@ def _conformance_case(request: Any, _run: Run) -> Any:
         _run.stopped = f"the target went away ({first_line(_run.tee.dead)})"
     if _run.stopped is None and _run.reset_due is not None:
         _run.recover()
+    if _run.stopped is None and _run.hat is None:
+        try:
+            _run.open()
+        except CannotJudge:
+            pass                # stopped: said below, as for every later case
     if _run.stopped is not None:
         item.stash[_not_run_key] = _run.stopped
         pytest.skip(f"not run: {_run.stopped}")

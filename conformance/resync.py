@@ -55,6 +55,9 @@ class Resync:
 
     def _init_resync(self) -> None:
         self._powered_checked = False
+        #: Devices had their time to connect (conformance/needs.py waits for them once per run,
+        #: and again after a restart).
+        self.devices_settled = False
         #: Ports whose drive the fence leaves alone (devices that need power to stay connected).
         self.powered_ports: tuple[int, ...] = ()
         self._scanned = self.session.mark()  # events before this were looked at for a start-up banner
@@ -116,6 +119,7 @@ class Resync:
         self._restart_at = since
         self._scanned = self.session.mark()
         self._powered_checked = False
+        self.devices_settled = False
 
     def babble(self) -> Optional[TargetFault]:
         """A target fault if the target babbled during this case: binary garbage, or a flood of
@@ -212,6 +216,7 @@ class Resync:
             # found again; then the set-up above runs once more.
             self.rebooted = False
             self._powered_checked = False
+            self.devices_settled = False
             self.restarts += 0 if self._restart_asked else 1
             self._restart_asked = False
             self._await_started(banner if banner is not None else self._restart_at)
