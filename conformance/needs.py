@@ -196,7 +196,7 @@ class World:
         self.hat.expect(lambda e: e.text == f"P{port}: established serial communication with active ID "
                         f"{spec[1]:02X}", CONNECT_MS)
         setpoint = power.get("hat_setpoint_used_by_library", 1)
-        self.hat.exchange(f"port {port} ; plimit 1 ; set {setpoint} ; port 0")
+        self.hat.setup(f"port {port} ; plimit 1 ; set {setpoint} ; port 0")
         self.hat.powered_ports = powered + (port,)
 
     def plug_only(self, port: int, spec: Spec) -> None:

@@ -13,6 +13,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any, List, Optional
 
 from ..harness.errors import ExpectTimeout, TargetError
+from .link_clauses import LinkClauses
 from .target_fault import (
     GARBLED,
     REBOOTED,
@@ -48,12 +49,15 @@ class Resync:
         _fence_own: set
 
         def exchange(self, text: Any, timeout_ms: float = ...) -> Any: ...
+        def fence(self, timeout: float, between_cases: bool = False) -> tuple[int, int]: ...
         def seconds(self, hat_ms: float) -> float: ...
         def has(self, command: str) -> bool: ...
         @property
         def profile(self) -> Any: ...
 
     def _init_resync(self) -> None:
+        #: What the run knows of the clauses the set-up relies on (conformance/link_clauses.py).
+        self.clauses = LinkClauses()
         self._powered_checked = False
         #: Devices had their time to connect (conformance/needs.py waits for them once per run,
         #: and again after a restart).
@@ -76,12 +80,12 @@ class Resync:
         say what the target did."""
         s = self.session
         try:
-            sync = s.sync(1.0)
+            sync = s.sync(1.0, separate=not self.clauses.trusted("separator"))
         except ExpectTimeout:
             return describe_silence(bytes(s.received[start_byte:]), s.events[start:], waited + 3.0)
         except TargetError as exc:
             return target_fault_of(exc)
-        self._next = sync.answer + 1
+        self._next = sync.after
         self._fence_own.clear()
         banner = self._banner_since(start)
         self._scanned = self._next
@@ -154,10 +158,11 @@ class Resync:
                                         "end of the flood heard in the case before")
         return None
 
-    def cleanup_lines(self, powered: tuple[int, ...] = ()) -> List[str]:
+    def cleanup_lines(self, powered: tuple[int, ...] = (), separate: bool = False) -> List[str]:
         """What the fence between test cases sends: echo/debug off, every port quiet and in
         direct-PWM mode with a zero constant setpoint and the default limit. Ports in
-        ``powered`` keep their drive: a light matrix disconnects when its power goes."""
+        ``powered`` keep their drive: a light matrix disconnects when its power goes.
+        ``separate``: one command per line (the `;` separator is not trusted)."""
         parts = ["echo 0", "debug 0"]
         for p in range(4):
             parts += [f"port {p}", "select"] + ([] if p in powered else ["pwm", "off"])
@@ -168,6 +173,8 @@ class Resync:
         # plimit is left alone: a powered light matrix needs it, and tests that depend on the
         # default limit set it themselves.
         parts += ["port 0"]
+        if separate:
+            return [part for line in parts for part in line.split(" ; ")]
         # One line per 200 bytes at most: the line buffer holds 256 (FACTS §1).
         lines, line = [], ""
         for part in parts:
@@ -191,21 +198,20 @@ class Resync:
             start = s.mark()
             try:
                 if not self._powered_checked:
-                    s.sync(self._sync_wait())          # in step before asking `list`
+                    self._find_place()                # in step before asking `list`
                     self._powered_checked = True
                     self.powered_ports = self._ports_needing_power()
                 # The lines go back to back under one sync (H10: a fence each made three round
                 # trips per case); they fit the 8192-byte receive ring many times over (FACTS §1).
-                lines = self.cleanup_lines(self.powered_ports)
-                before = b"\r" + b"".join(line.encode() + b"\r" for line in lines)
-                sync = s.sync(self._sync_wait(), before=before)
+                lines = self.cleanup_lines(self.powered_ports, separate=not self.clauses.trusted("separator"))
+                after = self._find_place(b"\r" + b"".join(line.encode() + b"\r" for line in lines))
             except ExpectTimeout:
                 raise describe_silence(bytes(s.received[self._case_bytes:]), s.events[start:],
                                        3 * self._sync_wait()) from None
             except TargetError as exc:
                 raise target_fault_of(exc) from None
             banner = self._banner_since(self._scanned)
-            self._next = sync.answer + 1
+            self._next = after
             self._fence_own.clear()
             self._scanned = self._next
             if banner is None and not self.rebooted:
@@ -222,6 +228,22 @@ class Resync:
             self._await_started(banner if banner is not None else self._restart_at)
             self._restart_at = banner if banner is not None else self._restart_at
         raise TargetFault(REBOOTED, "the HAT restarted again each time it was set up (3 times in a row)")
+
+    def _find_place(self, before: bytes = b"") -> int:
+        """Send ``before`` (set-up lines) and find the link's place after their output; returns
+        the index of the first event after it. By content (a sync) once the echo clause has
+        passed; before that, and if it failed, by the counted ``version`` fence, with the sync
+        only as the way back when the count finds no answer (conformance/link_clauses.py)."""
+        s = self.session
+        separate = not self.clauses.trusted("separator")
+        if not self.clauses.trusted("echo"):
+            if before:
+                s.send_raw(before)
+            try:
+                return self.fence(self._sync_wait(), between_cases=True)[1]
+            except ExpectTimeout:
+                before = b""        # sent; a line ending lost or added, garbage: find it by content
+        return s.sync(self._sync_wait(), before=before, separate=separate).after
 
     def _sync_wait(self) -> float:
         """Seconds one sync waits for its answer: a round trip with the set-up lines, at most
