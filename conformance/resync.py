@@ -20,6 +20,7 @@ from .target_fault import (
     TargetFault,
     binary_count,
     describe_silence,
+    foreign,
     garbled_reply,
     target_fault_of,
 )
@@ -34,6 +35,11 @@ BABBLE_LINES = 10
 #: release's whole help text is ~60 lines, and those are known).
 BABBLE_BURST = 100
 QUIET_S = 0.5
+#: A stream (reports, PID lines) prints every 10 ms at most; this much HAT time without a byte
+#: means it has stopped and its backlog has drained.
+STREAM_QUIET_MS = 40
+#: The longest the set-up waits for a stream to drain: twice a full 8192-byte TX ring at 115200.
+DRAIN_MS = 1500
 #: Binary bytes (not printable text, CR or LF) in one case's output above which it is garbage;
 #: a test's own control bytes echoed back are a few dozen at most.
 BABBLE_BINARY = 1024
@@ -133,7 +139,7 @@ class Resync:
         received = bytes(s.received[self._case_bytes:])
         if binary_count(received) > BABBLE_BINARY:
             return garbled_reply(received)
-        unknown = sum(1 for e in s.events[self._case_events:] if e.kind == "unknown")
+        unknown = sum(1 for e in s.events[self._case_events:] if foreign(e))
         if unknown == 0:
             return None
         if unknown >= BABBLE_BURST:
@@ -147,7 +153,7 @@ class Resync:
         unasked: List[Any] = []
         while len(unasked) < BABBLE_LINES and s.clock() < deadline:
             s.wait_new(s.mark(), deadline - s.clock())
-            unasked = [e for e in s.events[mark:] if e.kind == "unknown"]
+            unasked = [e for e in s.events[mark:] if foreign(e)]
         if len(unasked) >= BABBLE_LINES:
             self._babbled_in = self._cases
             return TargetFault(GARBLED, f"a flood of lines no Build HAT prints: {len(unasked):,} more came "
@@ -242,8 +248,22 @@ class Resync:
             try:
                 return self.fence(self._sync_wait(), between_cases=True)[1]
             except ExpectTimeout:
-                before = b""        # sent; a line ending lost or added, garbage: find it by content
+                pass        # a line ending lost or added, garbage, a full TX ring: see below
+        else:
+            try:
+                return s.sync(self._sync_wait(), before=before, separate=separate, attempts=1).after
+            except ExpectTimeout:
+                pass
+        # Output still draining from a stream the last case left on (the set-up lines have
+        # stopped it) may have filled the HAT's TX ring, which drops output bytes (FACTS §1):
+        # wait the stream out, then find the place by content, the set-up lines sent again.
+        self._wait_out_stream()
         return s.sync(self._sync_wait(), before=before, separate=separate).after
+
+    def _wait_out_stream(self) -> None:
+        """Wait until the HAT has been quiet for STREAM_QUIET_MS of HAT time (at most DRAIN_MS):
+        a full TX ring drains in 8192 bytes / 11520 bytes/s = 0.71 s at 115200 baud."""
+        self.session.drain(quiet=self.seconds(STREAM_QUIET_MS), limit=self.seconds(DRAIN_MS))
 
     def _sync_wait(self) -> float:
         """Seconds one sync waits for its answer: a round trip with the set-up lines, at most
