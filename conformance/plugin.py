@@ -24,9 +24,9 @@ from typing import Any, Dict, List, Optional, Tuple
 import pytest
 
 from .junit import Case, JUnitFile, failure_line
+from .link import Hat
 from .link_clauses import MARKER as CLAUSE_MARKER
 from .options import DEFAULT_MAX_TARGET_FAULTS, pytest_addoption  # noqa: F401 - the hook, found by name
-from .link import Hat
 from .recovery import RecoveryFailed, ResetRecovery
 from .run_outcome import nothing_done, release_mismatch
 from .summary import firmware_of, write_summary
@@ -47,8 +47,8 @@ _call_failed_key = pytest.StashKey[bool]()
 def pytest_configure(config: Any) -> None:
     config.addinivalue_line("markers", "req(*ids): requirement IDs (REQUIREMENTS.md or FW-...) a test checks")
     config.addinivalue_line("markers", "slow: takes more than a few seconds")
-    config.addinivalue_line("markers", f"{CLAUSE_MARKER}(name): a clause the harness relies on, checked first "
-                                       "(conformance/link_clauses.py)")
+    config.addinivalue_line("markers", f"{CLAUSE_MARKER}(name): a clause the harness relies on, checked "
+                                       "first (conformance/link_clauses.py)")
     if not hasattr(config, "workerinput"):
         run = Run(config)
         config.stash[_run_key] = run

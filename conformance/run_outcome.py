@@ -7,10 +7,13 @@ or a target judged by ``--firmware`` as a release other than the one it answers 
 from __future__ import annotations
 
 from collections import Counter
-from typing import Dict, Iterable, Optional, Tuple
+from typing import Iterable, Mapping, Optional, Tuple
 
 from ..protocol.profiles import Profile, resolve_version
 from .verdict import FAIL, NOT_RUN, SKIP, TARGET_FAULT
+
+#: node id -> (verdict class, requirement IDs), as conformance.plugin.Run keeps them
+Results = Mapping[str, Tuple[str, object]]
 
 __all__ = ["release_mismatch", "skip_cause", "banner", "nothing_done", "NO_CONTROL"]
 
@@ -52,9 +55,9 @@ def _skipped_part(reasons: Iterable[str], total: int, has_control: bool) -> str:
     return f" ({n} of {total} cases skipped: {why})"
 
 
-def banner(results: Dict[str, Tuple[str, object]], skip_reasons: Dict[str, str], has_control: bool) -> str:
+def banner(results: Results, skip_reasons: Mapping[str, str], has_control: bool) -> str:
     """The run's verdict in a few words, e.g. ``CONFORMS (63 of 353 cases skipped: no control
-    channel)``; ``results``: node id -> (verdict class, ...) as conformance.plugin.Run keeps them."""
+    channel)``."""
     counts = Counter(cls for cls, _ in results.values())
     total = sum(counts.values())
     skipped = _skipped_part((skip_reasons.get(n, "") for n, (cls, _) in results.items() if cls == SKIP),
@@ -68,7 +71,7 @@ def banner(results: Dict[str, Tuple[str, object]], skip_reasons: Dict[str, str],
     return f"CONFORMS{skipped}"
 
 
-def nothing_done(results: Dict[str, Tuple[str, object]], skip_reasons: Dict[str, str],
+def nothing_done(results: Results, skip_reasons: Mapping[str, str],
                  has_control: bool) -> Optional[str]:
     """One line when every case that was collected skipped (the run checked nothing), else None."""
     classes = [cls for cls, _ in results.values()]

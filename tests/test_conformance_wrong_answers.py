@@ -24,13 +24,16 @@ WRONG_HAT = os.path.join(REPO, "tests", "faulty", "wrong_hat.py")
 EMULATOR = os.path.join(os.path.dirname(sys.executable), "buildhat-emulator")
 
 
-def _run(tmp, target: str, *args: str) -> Tuple[int, str, Dict[str, Tuple[str, str, Dict[str, str]]]]:
+Cases = Dict[str, Tuple[str, str, Dict[str, str]]]
+
+
+def _run(tmp, target: str, *args: str) -> Tuple[int, str, Cases]:
     """``buildhat-conformance run``: (exit status, output, case -> (verdict, message, properties))."""
     junit = os.path.join(str(tmp), "r", "junit.xml")
-    proc = subprocess.run([sys.executable, "-m", "buildhat_conformance", "run", "-t", target, "--junit", junit,
-                           *args], cwd=str(tmp), capture_output=True, text=True, timeout=280,
+    argv = [sys.executable, "-m", "buildhat_conformance", "run", "-t", target, "--junit", junit, *args]
+    proc = subprocess.run(argv, cwd=str(tmp), capture_output=True, text=True, timeout=280,
                           env=dict(os.environ, PYTHONWARNINGS="ignore"))
-    cases: Dict[str, Tuple[str, str, Dict[str, str]]] = {}
+    cases: Cases = {}
     if os.path.isfile(junit):
         for case in ET.parse(junit).getroot().iter("testcase"):
             props = {p.get("name") or "": p.get("value") or "" for p in case.iter("property")}
@@ -62,14 +65,15 @@ def test_port_9_answered_with_error_fails_the_clamping_clause(tmp_path) -> None:
 
 
 def test_a_hat_that_runs_only_the_first_command_fails_the_separator_clause(tmp_path) -> None:
-    rc, out, cases = _run(tmp_path, _wrong("first-command"),
-                          "-k", "clause or test_vin_prints or test_port_sets or test_four_ports or two_commands")
+    rc, out, cases = _run(tmp_path, _wrong("first-command"), "-k",
+                          "clause or test_vin_prints or test_port_sets or test_four_ports or two_commands")
     verdicts = {name: v for name, (v, _m, _p) in cases.items()}
     assert rc == 1, out[-3000:]
     assert verdicts["test_clause_semicolon_separates_commands"] == "fail", verdicts
     assert "target-fault" not in verdicts.values() and "not-run" not in verdicts.values(), verdicts
     # The rest of the run still reports verdicts: cases without `;` pass, those with it fail.
-    for name in ("test_clause_cr_ends_a_line_with_crlf", "test_clause_echo_on_echoes_and_prompts_echo_off_stops",
+    for name in ("test_clause_cr_ends_a_line_with_crlf",
+                 "test_clause_echo_on_echoes_and_prompts_echo_off_stops",
                  "test_vin_prints_volts_with_two_decimals", "test_four_ports_numbered_0_to_3",
                  "test_port_sets_the_current_port[port 1-1-False]"):
         assert verdicts[name] == "pass", (name, verdicts)
@@ -108,4 +112,5 @@ def test_judging_a_known_release_as_another_exits_3_in_one_line(tmp_path) -> Non
     rc, out, cases = _run(tmp_path, "inprocess:R7", "--firmware", "R2", "-k", "test_version")
     assert rc == 3 and not cases, out
     lines = [ln for ln in out.splitlines() if ln.strip()]
-    assert len(lines) == 1 and "runs R7" in lines[0] and "not R2 that --firmware judges it by" in lines[0], out
+    assert len(lines) == 1 and "runs R7" in lines[0], out
+    assert "not R2 that --firmware judges it by" in lines[0], out
