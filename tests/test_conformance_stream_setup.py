@@ -7,8 +7,8 @@ import re
 from typing import Any
 
 from buildhat_conformance.conformance.link import Hat
-from buildhat_conformance.conformance.tee import VirtualTeeTarget
 from buildhat_conformance.conformance.target_fault import foreign
+from buildhat_conformance.conformance.tee import VirtualTeeTarget
 from buildhat_conformance.harness.events import classify
 from buildhat_conformance.harness.session import Session
 from buildhat_conformance.harness.targets import make_target

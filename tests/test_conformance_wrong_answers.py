@@ -114,3 +114,32 @@ def test_judging_a_known_release_as_another_exits_3_in_one_line(tmp_path) -> Non
     lines = [ln for ln in out.splitlines() if ln.strip()]
     assert len(lines) == 1 and "runs R7" in lines[0], out
     assert "not R2 that --firmware judges it by" in lines[0], out
+
+
+def test_a_clause_is_trusted_only_after_its_case_passed_and_never_after_it_failed() -> None:
+    from buildhat_conformance.conformance.link_clauses import LinkClauses
+
+    clauses = LinkClauses()
+    assert not clauses.trusted("separator") and clauses.split("port 1 ; select") == ["port 1", "select"]
+    clauses.held("separator")
+    assert clauses.trusted("separator") and clauses.split("port 1 ; select") == ["port 1 ; select"]
+    clauses.broke("echo", "conformance/test_link_clauses.py::test_clause_echo")
+    clauses.held("echo")
+    assert not clauses.trusted("echo")
+    assert clauses.broken() == ["CMD-ECHO (`echo 1` echoes what is typed and prompts, `echo 0` stops it) "
+                                "failed in test_link_clauses.py::test_clause_echo"]
+
+
+def test_the_banner_says_how_much_was_skipped_and_why() -> None:
+    from buildhat_conformance.conformance.run_outcome import banner, nothing_done
+
+    results = {f"c{i}": ("skip" if i < 3 else "pass", []) for i in range(10)}
+    reasons = {f"c{i}": "needs a second motor: connect another" for i in range(3)}
+    assert banner(results, reasons, False) == "CONFORMS (3 of 10 cases skipped: no control channel)"
+    assert banner(results, reasons, True) == "CONFORMS (3 of 10 cases skipped: needs a second motor)"
+    assert nothing_done(results, reasons, False) is None
+    results["c5"] = ("fail", [])
+    assert banner(results, reasons, False).startswith("FAILS: 1 finding(s)")
+    skipped = {f"c{i}": ("skip", []) for i in range(2)}
+    assert nothing_done(skipped, {"c0": "needs x", "c1": "needs y"}, False) == \
+        "no case could run (2 of 2 cases skipped: no control channel)"
