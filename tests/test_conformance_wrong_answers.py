@@ -15,7 +15,7 @@ from typing import Dict, Tuple
 
 import pytest
 
-from .faulty.wrong_hat import first_command, port_error
+from .faulty.wrong_hat import first_command, no_echo, port_error
 from .mutants.suite_run import REPO
 
 pytestmark = pytest.mark.timeout(300)
@@ -52,6 +52,7 @@ def test_the_wrappers_change_only_their_behaviour() -> None:
     assert port_error(b"port 3") == b"port 3" and port_error(b"p 4") == b"p x"
     assert first_command(b"vin ; vin") == b"vin \x00 vin"
     assert first_command(b";;vin;vin") == b";;vin\x00vin" and first_command(b"vin") == b"vin"
+    assert no_echo(b"echo 1 ; vin") == b"echo 0 ; vin" and no_echo(b"e 15") == b"e 00"
 
 
 def test_port_9_answered_with_error_fails_the_clamping_clause(tmp_path) -> None:
@@ -81,6 +82,19 @@ def test_a_hat_that_runs_only_the_first_command_fails_the_separator_clause(tmp_p
     assert "SYN-SEMICOLON" in out and "broke" in out, out[-2000:]
     junit = open(os.path.join(tmp_path, "r", "junit.xml"), encoding="utf-8").read()
     assert 'name="broken_clauses" value="SYN-SEMICOLON' in junit
+
+
+def test_a_hat_whose_echo_never_turns_on_fails_the_echo_clause_only(tmp_path) -> None:
+    # The sync between cases needs echo: without it the set-up fences by counting, and the run
+    # goes on giving verdicts.
+    keyword = "clause or test_vin_prints or test_four_ports or two_commands or test_list"
+    rc, out, cases = _run(tmp_path, _wrong("no-echo"), "-k", keyword)
+    verdicts = {name: v for name, (v, _m, _p) in cases.items()}
+    assert rc == 1, out[-3000:]
+    assert [n for n, v in verdicts.items() if v == "fail"] == \
+        ["test_clause_echo_on_echoes_and_prompts_echo_off_stops"], verdicts
+    assert "target-fault" not in verdicts.values() and len(verdicts) > 10, verdicts
+    assert "CMD-ECHO" in out, out[-2000:]
 
 
 def test_skips_settle_once_and_name_the_second_motor(tmp_path) -> None:

@@ -9,6 +9,7 @@ KIND:
   document and FIRMWARE-FACTS §3 clamp it);
 - ``first-command``: of a line of several commands separated by ``;`` only the first runs (the
   document's separator clause, SYN-SEMICOLON). Everything the host typed is still echoed.
+- ``no-echo``: ``echo 1`` leaves echo off (CMD-ECHO): nothing is ever echoed, no prompt.
 
 The change is made on the host's bytes on their way in: each rewrite keeps the line's length and
 replaces bytes the firmware would have parsed with bytes that make it do the wrong thing. With echo
@@ -46,7 +47,16 @@ def first_command(line: bytes) -> bytes:
     return line[:at] + b"\x00" + line[at + 1:]
 
 
-REWRITES: Dict[str, Callable[[bytes], bytes]] = {"port-error": port_error, "first-command": first_command}
+_ECHO_ON = re.compile(rb"(?:^|(?<=[ ;]))(e|ec|ech|echo)([ ;] *)([+-]?0*[1-9][0-9]*)(?=[ ;\x00]|$)")
+
+
+def no_echo(line: bytes) -> bytes:
+    """``echo 1`` -> ``echo 0`` (same length, every digit zeroed): echo never turns on."""
+    return _ECHO_ON.sub(lambda m: m.group(1) + m.group(2) + re.sub(rb"[1-9]", b"0", m.group(3)), line)
+
+
+REWRITES: Dict[str, Callable[[bytes], bytes]] = {"port-error": port_error, "first-command": first_command,
+                                                 "no-echo": no_echo}
 
 
 class EchoRestorer:
