@@ -28,7 +28,7 @@ from .link import Hat
 from .link_clauses import MARKER as CLAUSE_MARKER
 from .options import DEFAULT_MAX_TARGET_FAULTS, pytest_addoption  # noqa: F401 - the hook, found by name
 from .recovery import RecoveryFailed, ResetRecovery
-from .run_outcome import nothing_done, release_mismatch
+from .run_outcome import banner, nothing_done, release_mismatch
 from .summary import firmware_of, write_summary
 from .target_fault import TargetFault, fault_line, first_line, is_target_fault
 from .tee import TeeTarget, tee
@@ -345,6 +345,8 @@ class Run:
         if idle is not None and self.no_job is None:
             self.no_job = idle
             self.junit.set_property("stopped", idle)
+        if self.results:    # the run's verdict in words, skips counted (for reports that show it)
+            self.junit.set_property("banner", banner(self.results, self.skip_reasons, self.has_control))
         self.junit.write()
         if int(exitstatus) in (EXIT_OK, EXIT_FAILED):
             session.exitstatus = self.exit_status()
