@@ -201,7 +201,7 @@ class Resync:
         self._case_events = s.mark()
         self._cases += 1
         for _round in range(3):
-            start = s.mark()
+            start, began = s.mark(), s.clock()
             try:
                 if not self._powered_checked:
                     self._find_place()                # in step before asking `list`
@@ -213,7 +213,7 @@ class Resync:
                 after = self._find_place(b"\r" + b"".join(line.encode() + b"\r" for line in lines))
             except ExpectTimeout:
                 raise describe_silence(bytes(s.received[self._case_bytes:]), s.events[start:],
-                                       3 * self._sync_wait()) from None
+                                       s.clock() - began) from None
             except TargetError as exc:
                 raise target_fault_of(exc) from None
             banner = self._banner_since(self._scanned)
