@@ -170,14 +170,16 @@ class Hat(Resync):
             raw = head
         return Reply(data, raw, list(self.session.events[first_event:boundary]))
 
-    def fence(self, timeout: float) -> tuple[int, int]:
+    def fence(self, timeout: float, between_cases: bool = False) -> tuple[int, int]:
         """Send ``version`` and wait for *its* answer: the first version line after the CRLF
         of the fence's own line (a version line the test's own line printed does not count).
         Returns (index of the fence's first event, index just after its answer).
 
         Counting CRLFs is fast and exact on a sound link; when it finds no answer (a line ending
         lost or added on the link, a silent or restarted HAT) the link is resynchronised by
-        content and the case ends with a :class:`TargetFault` saying what the target did."""
+        content and the case ends with a :class:`TargetFault` saying what the target did.
+        ``between_cases`` (the set-up's fence, resync.py): ExpectTimeout is raised instead, and
+        a restart is left to the set-up."""
         s = self.session
         start, start_byte = s.mark(), len(s.received)
         try:
@@ -206,6 +208,8 @@ class Hat(Resync):
             boundary = _index_of(s.events, crlf, start)
             answer = s.expect(version_line, timeout=timeout, since=boundary + 1)
         except ExpectTimeout:
+            if between_cases:
+                raise
             raise self._recover(start, start_byte, timeout) from None
         except TargetError as exc:
             raise target_fault_of(exc) from None
@@ -218,8 +222,15 @@ class Hat(Resync):
                 after = _index_of(s.events, prompt, after) + 1
             except AssertionError:
                 pass
-        self.check_reboot(after)
+        if not between_cases:
+            self.check_reboot(after)
         return boundary, after
+
+    def setup(self, line: str, timeout_ms: float = 2000) -> List[Reply]:
+        """A set-up line of the suite's own (``port 1 ; select 3 ; ...``): sent whole once the
+        ``;`` separator has passed its check, else one command per line
+        (conformance/link_clauses.py). One reply per line sent."""
+        return [self.exchange(part, timeout_ms) for part in self.clauses.split(line)]
 
     def exchange_quiet(self, text: Union[str, bytes], attempts: int = 3) -> Reply:
         """``exchange``, repeated while asynchronous lines got mixed into the reply, so the

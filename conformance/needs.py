@@ -17,7 +17,7 @@ from ..protocol.devices import active_device, format_device_spec, passive_device
 from . import operator
 from .oracles.listing import PortEntry, parse_list
 
-__all__ = ["World", "device_name"]
+__all__ = ["World", "device_name", "missing_text"]
 
 Spec = Optional[Tuple[str, int]]          # ("active", 0x30) / ("passive", 8) / None
 
@@ -34,6 +34,22 @@ def device_name(spec: Spec) -> str:
     if kind == "active":
         return f"{active_device(ident)['name']} (active ID 0x{ident:02X})"
     return f"{passive_device(ident).get('name', 'passive device')} (passive ID {ident})"
+
+
+_ORDINALS = ("a", "a second", "a third", "a fourth")
+
+
+def missing_text(spec: Spec, have: List[int]) -> str:
+    """The skip reason for a device nobody can connect: exactly what is missing, given the
+    ports that already have one the test cannot use (``have``: it needs another)."""
+    if spec is None:
+        return "needs an empty port: every port has a device; unplug one and run again (or use --operator)"
+    name = device_name(spec)
+    if not have:
+        return f"needs a {name}: connect one to any port and run again (or use --operator)"
+    ports = ", ".join(str(p) for p in have)
+    return (f"needs {_ORDINALS[min(len(have), 3)]} {name} (port {ports} has one already): connect another "
+            "to a free port and run again (or use --operator)")
 
 
 class World:
@@ -106,10 +122,13 @@ class World:
 
     def _need(self, spec: Spec, avoid: Tuple[int, ...]) -> int:
         layout = self.layout()
-        if not self.can("plug") and not any(self.spec_of(e) == spec and e.port not in avoid for e in layout):
+        if not self.can("plug") and not self.hat.devices_settled and \
+                not any(self.spec_of(e) == spec and e.port not in avoid for e in layout):
             # Without a control channel the device cannot be plugged on demand; it may still
-            # be setting up (about a second after power-up, FACTS §10): look once more.
+            # be setting up (about a second after power-up, FACTS §10): look once more. Once
+            # per run (and again after a restart): what is not there then is not coming.
             self.hat.wait_ms(SETTLE_MS)
+            self.hat.devices_settled = True
             layout = self.layout()
         for entry in layout:
             if self.spec_of(entry) == spec and entry.port not in avoid:
@@ -118,7 +137,8 @@ class World:
         candidates = [e for e in layout if e.port not in avoid]
         candidates.sort(key=lambda e: (e.kind != "empty", -e.port))
         port = candidates[0].port
-        self.plug(port, spec)
+        self.plug(port, spec, missing=missing_text(spec, [e.port for e in layout
+                                                          if self.spec_of(e) == spec and e.port in avoid]))
         return port
 
     # -- changing the world --------------------------------------------------------------
@@ -138,8 +158,9 @@ class World:
         pytest.skip(f"needs the world action '{line}' (target {self.hat.url} cannot perform it)")
         return ""
 
-    def plug(self, port: int, spec: Spec) -> None:
-        """Put ``spec`` on ``port`` (None: leave it empty) and wait until the HAT agrees."""
+    def plug(self, port: int, spec: Spec, missing: Optional[str] = None) -> None:
+        """Put ``spec`` on ``port`` (None: leave it empty) and wait until the HAT agrees.
+        ``missing``: what a skip says is missing when nobody can do it (default: ``spec``)."""
         current = {e.port: self.spec_of(e) for e in self.layout()}
         if current.get(port) == spec:
             return
@@ -160,9 +181,7 @@ class World:
             if operator.ask(self.config, what):
                 self._wait_for(port, spec)
                 return
-        need = "an empty port" if spec is None else f"a {device_name(spec)}"
-        pytest.skip(f"needs {need}: connect {('it to any port' if spec else 'nothing to one port')} "
-                    f"and run again (or use --operator)")
+        pytest.skip(missing or missing_text(spec, []))
 
     def _power_if_needed(self, port: int, spec: Spec) -> None:
         """Devices that disconnect without motor power soon after setup (the light matrix,
@@ -177,7 +196,7 @@ class World:
         self.hat.expect(lambda e: e.text == f"P{port}: established serial communication with active ID "
                         f"{spec[1]:02X}", CONNECT_MS)
         setpoint = power.get("hat_setpoint_used_by_library", 1)
-        self.hat.exchange(f"port {port} ; plimit 1 ; set {setpoint} ; port 0")
+        self.hat.setup(f"port {port} ; plimit 1 ; set {setpoint} ; port 0")
         self.hat.powered_ports = powered + (port,)
 
     def plug_only(self, port: int, spec: Spec) -> None:

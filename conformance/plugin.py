@@ -28,15 +28,16 @@ import pytest
 from ..harness.targets.base import TargetError
 from .junit import Case, JUnitFile, failure_line
 from .link import Hat
-from .needs import World
+from .link_clauses import MARKER as CLAUSE_MARKER
+from .options import DEFAULT_MAX_TARGET_FAULTS, pytest_addoption  # noqa: F401 - the hook, found by name
 from .recovery import RecoveryFailed, ResetRecovery
+from .run_outcome import banner, nothing_done, release_mismatch
 from .summary import firmware_of, write_summary
 from .target_fault import TargetFault, fault_line, first_line, is_target_fault
 from .tee import TeeTarget, tee
 from .verdict import FAIL, INFO, KNOWN, NOT_RUN, PASS, SKIP, TARGET_FAULT, UnknownBuild, Verdict
 
 DEFAULT_CASE_TIMEOUT = 120.0
-DEFAULT_MAX_TARGET_FAULTS = 5
 # The exit statuses every command shares (README): 0 conforms, 1 conformance failures, 2 usage
 # error, 3 target unreachable or faulted.
 EXIT_OK, EXIT_FAILED, EXIT_TARGET = 0, 1, 3
@@ -46,34 +47,11 @@ _not_run_key = pytest.StashKey[str]()          # why the case was not run
 _call_failed_key = pytest.StashKey[bool]()
 
 
-def pytest_addoption(parser: Any) -> None:
-    group = parser.getgroup("buildhat", "Build HAT conformance")
-    group.addoption("--target", default="emulator", help="target URL (default: emulator)")
-    group.addoption("--firmware", default=None,
-                    help="firmware profile to judge against (release number, R<n> or latest); default: "
-                         "detected from `version`")
-    group.addoption("--operator", action="store_true", default=False,
-                    help="ask a person to perform world actions (plug/unplug) and wait for Enter")
-    group.addoption("--transcripts", default=os.path.join("reports", "transcripts"),
-                    help="folder for one transcript per test case")
-    group.addoption("--conformance-junit", default=os.path.join("reports", "junit.xml"),
-                    help="JUnit XML written (and kept valid) after every case")
-    group.addoption("--speed", default="10",
-                    help="time scale added to emulator URLs that give none (default 10)")
-    group.addoption("--max-target-faults", type=int, default=DEFAULT_MAX_TARGET_FAULTS,
-                    help="after this many target faults in a row (silent, dead, restarted, garbled, not "
-                         "reading) stop talking to the target and report the remaining cases as not-run "
-                         f"(default {DEFAULT_MAX_TARGET_FAULTS}; 0: never stop); a target that can reset "
-                         "the HAT is reset once first")
-    group.addoption("--image", default=None, metavar="FILE",
-                    help="the release's firmware image, loaded again if the run resets a dead HAT (a real "
-                         "HAT restarts in its bootloader); with --signature")
-    group.addoption("--signature", default=None, metavar="FILE", help="the image's 64-byte signature")
-
-
 def pytest_configure(config: Any) -> None:
     config.addinivalue_line("markers", "req(*ids): requirement IDs (REQUIREMENTS.md or FW-...) a test checks")
     config.addinivalue_line("markers", "slow: takes more than a few seconds")
+    config.addinivalue_line("markers", f"{CLAUSE_MARKER}(name): a clause the harness relies on, checked "
+                                       "first (conformance/link_clauses.py)")
     if not hasattr(config, "workerinput"):
         run = Run(config)
         config.stash[_run_key] = run
@@ -116,6 +94,9 @@ class Run:
         self.tee: Optional[TeeTarget] = None
         self.open_error: Optional[str] = None
         self.results: Dict[str, Tuple[str, List[str]]] = {}      # nodeid -> (verdict class, req ids)
+        self.skip_reasons: Dict[str, str] = {}                   # nodeid -> why it was skipped
+        self.has_control = False        # the target performs world actions (plug, ...)
+        self.no_job: Optional[str] = None     # why the run could not do its job (exit 3)
         self.collected_ids: Dict[str, List[str]] = {}
         self._case: Dict[str, Case] = {}
         self._started: Dict[str, float] = {}
@@ -153,12 +134,18 @@ class Run:
             self.stopped = self.open_error
             raise TargetFault("unreachable", self.open_error) from exc
         self.hat = Hat(session, self.tee, self.url)
+        self.has_control = bool(self.hat.can("plug"))
         p = self.hat.profile
         # --firmware judges as a release; the firmware property stays what the target runs.
         self.junit.set_property("firmware", session.version_string or p.version_string)
         if forced:
             self.junit.set_property("judged_as", f"{p.name} ({p.number}, --firmware)")
         self.junit.set_property("profile", p.name + ("" if self.hat.profile_exact else " (nearest earlier)"))
+        mismatch = release_mismatch(self.url, session.version_string, p) if forced else None
+        if mismatch is not None:
+            self.no_job = mismatch
+            self._stop(mismatch)
+            raise CannotJudge(mismatch)
         return self.hat
 
     def close(self) -> None:
@@ -199,6 +186,8 @@ class Run:
     # -- hooks -----------------------------------------------------------------------------
     @pytest.hookimpl(trylast=True)
     def pytest_collection_modifyitems(self, items: List[Any]) -> None:
+        # The clauses the harness relies on are checked before anything relies on them.
+        items[:] = sorted(items, key=lambda item: item.get_closest_marker(CLAUSE_MARKER) is None)
         for item in items:
             self.collected_ids[item.nodeid] = requirement_ids(item)
             if item.get_closest_marker("timeout") is None:
@@ -235,11 +224,24 @@ class Run:
         else:
             cls = TARGET_FAULT if is_target_fault(exc) else FAIL
         report.user_properties.append(("verdict", cls))
+        self._learn_clause(item, cls)
         if verdict.known:
             report.user_properties.append(("deviations", ",".join(k for k, _ in verdict.known)))
             report.sections.append(("known deviations", "\n".join(f"{k}: {s}" for k, s in verdict.known)))
         if verdict.notes:
             report.user_properties.append(("notes", " | ".join(verdict.notes)))
+
+    def _learn_clause(self, item: Any, cls: str) -> None:
+        """A case of a clause the harness relies on tells the link whether to trust it."""
+        mark = item.get_closest_marker(CLAUSE_MARKER)
+        if mark is None or self.hat is None:
+            return
+        clauses = self.hat.clauses
+        if cls == FAIL:
+            clauses.broke(str(mark.args[0]), item.nodeid)
+            self.junit.set_property("broken_clauses", " | ".join(clauses.broken()))
+        elif cls in (PASS, KNOWN, INFO):
+            clauses.held(str(mark.args[0]))
 
     def pytest_report_teststatus(self, report: Any, config: Any):
         props = dict(report.user_properties)
@@ -298,6 +300,8 @@ class Run:
         case.properties = list(props.items())
         self.junit.add(case)
         self.results[nodeid] = (cls, self.collected_ids.get(nodeid, []))
+        if cls == SKIP:
+            self.skip_reasons[nodeid] = case.message or ""
         del self._case[nodeid]
         self._count_fault(nodeid, cls, props.get("target_fault", ""))
 
@@ -366,24 +370,34 @@ class Run:
 
     def pytest_sessionfinish(self, session: Any, exitstatus: Any) -> None:
         self.close()
+        idle = nothing_done(self.results, self.skip_reasons, self.has_control)
+        if idle is not None and self.no_job is None:
+            self.no_job = idle
+            self.junit.set_property("stopped", idle)
+        if self.results:    # the run's verdict in words, skips counted (for reports that show it)
+            self.junit.set_property("banner", banner(self.results, self.skip_reasons, self.has_control))
         self.junit.write()
         if int(exitstatus) in (EXIT_OK, EXIT_FAILED):
             session.exitstatus = self.exit_status()
 
     def exit_status(self) -> int:
         """The agreed exit statuses: 1 if any case failed (a finding about the protocol counts
-        even when the target later faulted), else 3 if the target faulted or was not reached,
-        else 0."""
+        even when the target later faulted), else 3 if the target faulted or was not reached or
+        the run could do nothing (every case skipped, the wrong release), else 0."""
         verdicts = {cls for cls, _ in self.results.values()}
         if FAIL in verdicts:
             return EXIT_FAILED
-        if verdicts & {TARGET_FAULT, NOT_RUN} or self.stopped:
+        if verdicts & {TARGET_FAULT, NOT_RUN} or self.stopped or self.no_job:
             return EXIT_TARGET
         return EXIT_OK
 
     def pytest_terminal_summary(self, terminalreporter: Any) -> None:
         if self.results:
             write_summary(terminalreporter, self)
+
+
+class CannotJudge(Exception):
+    """The run cannot judge this target (one line: why); every case is not-run."""
 
 
 _run_key = pytest.StashKey[Run]()
@@ -415,6 +429,11 @@ def _conformance_case(request: Any, _run: Run) -> Any:
         _run.stopped = f"the target went away ({first_line(_run.tee.dead)})"
     if _run.stopped is None and _run.reset_due is not None:
         _run.recover()
+    if _run.stopped is None and _run.hat is None:
+        try:
+            _run.open()
+        except CannotJudge:
+            pass                # stopped: said below, as for every later case
     if _run.stopped is not None:
         item.stash[_not_run_key] = _run.stopped
         pytest.skip(f"not run: {_run.stopped}")
@@ -451,28 +470,3 @@ def _conformance_case(request: Any, _run: Run) -> Any:
         # H10 (make bench): the HAT time this case had to wait, summed by bench/suite.py.
         item.user_properties.append(
             ("hat_wait_ms", f"{getattr(hat.session, 'waited_hat_ms', 0.0) - waited:.1f}"))
-
-
-@pytest.fixture
-def verdict(request: Any) -> Verdict:
-    """Where a test records known deviations and notes (see :class:`~.verdict.Verdict`)."""
-    return request.node.stash[_verdict_key]
-
-
-@pytest.fixture(scope="session")
-def _world_changes(_run: Run, pytestconfig: Any) -> Any:
-    """The ports the run changed and what they had before; put back when the run ends
-    (unless the HAT ends with the run: an emulator the target started itself, or the run
-    stopped talking to it)."""
-    original: Dict[int, Any] = {}
-    yield original
-    if original and _run.hat is not None and _run.tee is not None and not _run.tee.dead \
-            and not _run.tee.disposable:
-        World(_run.hat, pytestconfig, original).restore()
-
-
-@pytest.fixture
-def world(hat: Hat, pytestconfig: Any, _world_changes: Dict[int, Any]) -> Any:
-    """Devices and world actions a test needs. Devices stay for the next test (which states
-    its own needs); the run puts everything back at its end."""
-    return World(hat, pytestconfig, _world_changes)

@@ -45,8 +45,9 @@ def start_quiet_pid(hat: Hat, port: int, sp: str = "0", mode: int = APOS_MODE, f
     """PID mode with zero gains (the motor is never driven) and ``debug 16`` on, so every
     tick prints its set-point. Needs an active device with data on ``port``."""
     pid = hat.pid_command(port, mode, 0, fmt, scale, "0", "0", "0", "0", "0", "0")
-    reply = hat.exchange(f"port {port} ; select {mode} ; {pid} ; set {sp} ; debug 16")
-    assert reply.errors == 0, f"setting up a quiet PID on port {port} failed: {reply.raw!r}"
+    replies = hat.setup(f"port {port} ; select {mode} ; {pid} ; set {sp} ; debug 16")
+    assert not any(r.errors for r in replies), \
+        f"setting up a quiet PID on port {port} failed: {b''.join(r.raw for r in replies)!r}"
     # PID lines start once the mode's data has arrived (FACTS §7.2).
     seen = hat.wait_for(lambda e: _is_pid(e, port), 2, 1000)
     assert pid_lines(seen, port), f"no PID debug lines on port {port} within 1 s of HAT time"

@@ -3,7 +3,8 @@
 - a legend of the verdict letters before the first case;
 - the name of a case still running after 2 s (``  … test_x (3 s)``), printed at the time, then
   again every 10 s, so a long wait on the HAT never looks like a hang;
-- one closing line with the counts per verdict and where the report is.
+- one closing line with the run's verdict (how much was skipped, and why), the counts per verdict
+  and where the report is.
 
 The slow-case line comes from a timer thread. While a case runs, pytest captures file
 descriptor 1, so the thread writes to a duplicate of the terminal's descriptor taken when
@@ -147,4 +148,7 @@ class Progress:
         junit = getattr(getattr(run, "junit", None), "path", "")
         where = f"report: {html}" if html else f"JUnit: {junit}"
         took = time.monotonic() - self.started
-        return f"conformance: {len(results)} case(s): {text} in {took:.0f} s; {where}"
+        from .run_outcome import banner
+
+        word = banner(results, getattr(run, "skip_reasons", {}), bool(getattr(run, "has_control", False)))
+        return f"conformance: {word}; {len(results)} case(s): {text} in {took:.0f} s; {where}"

@@ -13,12 +13,14 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any, List, Optional
 
 from ..harness.errors import ExpectTimeout, TargetError
+from .link_clauses import LinkClauses
 from .target_fault import (
     GARBLED,
     REBOOTED,
     TargetFault,
     binary_count,
     describe_silence,
+    foreign,
     garbled_reply,
     target_fault_of,
 )
@@ -33,6 +35,11 @@ BABBLE_LINES = 10
 #: release's whole help text is ~60 lines, and those are known).
 BABBLE_BURST = 100
 QUIET_S = 0.5
+#: A stream (reports, PID lines) prints every 10 ms at most; this much HAT time without a byte
+#: means it has stopped and its backlog has drained.
+STREAM_QUIET_MS = 40
+#: The longest the set-up waits for a stream to drain: twice a full 8192-byte TX ring at 115200.
+DRAIN_MS = 1500
 #: Binary bytes (not printable text, CR or LF) in one case's output above which it is garbage;
 #: a test's own control bytes echoed back are a few dozen at most.
 BABBLE_BINARY = 1024
@@ -48,13 +55,19 @@ class Resync:
         _fence_own: set
 
         def exchange(self, text: Any, timeout_ms: float = ...) -> Any: ...
+        def fence(self, timeout: float, between_cases: bool = False) -> tuple[int, int]: ...
         def seconds(self, hat_ms: float) -> float: ...
         def has(self, command: str) -> bool: ...
         @property
         def profile(self) -> Any: ...
 
     def _init_resync(self) -> None:
+        #: What the run knows of the clauses the set-up relies on (conformance/link_clauses.py).
+        self.clauses = LinkClauses()
         self._powered_checked = False
+        #: Devices had their time to connect (conformance/needs.py waits for them once per run,
+        #: and again after a restart).
+        self.devices_settled = False
         #: Ports whose drive the fence leaves alone (devices that need power to stay connected).
         self.powered_ports: tuple[int, ...] = ()
         self._scanned = self.session.mark()  # events before this were looked at for a start-up banner
@@ -73,12 +86,12 @@ class Resync:
         say what the target did."""
         s = self.session
         try:
-            sync = s.sync(1.0)
+            sync = s.sync(1.0, separate=not self.clauses.trusted("separator"))
         except ExpectTimeout:
             return describe_silence(bytes(s.received[start_byte:]), s.events[start:], waited + 3.0)
         except TargetError as exc:
             return target_fault_of(exc)
-        self._next = sync.answer + 1
+        self._next = sync.after
         self._fence_own.clear()
         banner = self._banner_since(start)
         self._scanned = self._next
@@ -116,6 +129,7 @@ class Resync:
         self._restart_at = since
         self._scanned = self.session.mark()
         self._powered_checked = False
+        self.devices_settled = False
 
     def babble(self) -> Optional[TargetFault]:
         """A target fault if the target babbled during this case: binary garbage, or a flood of
@@ -125,7 +139,7 @@ class Resync:
         received = bytes(s.received[self._case_bytes:])
         if binary_count(received) > BABBLE_BINARY:
             return garbled_reply(received)
-        unknown = sum(1 for e in s.events[self._case_events:] if e.kind == "unknown")
+        unknown = sum(1 for e in s.events[self._case_events:] if foreign(e))
         if unknown == 0:
             return None
         if unknown >= BABBLE_BURST:
@@ -139,7 +153,7 @@ class Resync:
         unasked: List[Any] = []
         while len(unasked) < BABBLE_LINES and s.clock() < deadline:
             s.wait_new(s.mark(), deadline - s.clock())
-            unasked = [e for e in s.events[mark:] if e.kind == "unknown"]
+            unasked = [e for e in s.events[mark:] if foreign(e)]
         if len(unasked) >= BABBLE_LINES:
             self._babbled_in = self._cases
             return TargetFault(GARBLED, f"a flood of lines no Build HAT prints: {len(unasked):,} more came "
@@ -150,10 +164,11 @@ class Resync:
                                         "end of the flood heard in the case before")
         return None
 
-    def cleanup_lines(self, powered: tuple[int, ...] = ()) -> List[str]:
+    def cleanup_lines(self, powered: tuple[int, ...] = (), separate: bool = False) -> List[str]:
         """What the fence between test cases sends: echo/debug off, every port quiet and in
         direct-PWM mode with a zero constant setpoint and the default limit. Ports in
-        ``powered`` keep their drive: a light matrix disconnects when its power goes."""
+        ``powered`` keep their drive: a light matrix disconnects when its power goes.
+        ``separate``: one command per line (the `;` separator is not trusted)."""
         parts = ["echo 0", "debug 0"]
         for p in range(4):
             parts += [f"port {p}", "select"] + ([] if p in powered else ["pwm", "off"])
@@ -164,6 +179,8 @@ class Resync:
         # plimit is left alone: a powered light matrix needs it, and tests that depend on the
         # default limit set it themselves.
         parts += ["port 0"]
+        if separate:
+            return [part for line in parts for part in line.split(" ; ")]
         # One line per 200 bytes at most: the line buffer holds 256 (FACTS §1).
         lines, line = [], ""
         for part in parts:
@@ -184,24 +201,23 @@ class Resync:
         self._case_events = s.mark()
         self._cases += 1
         for _round in range(3):
-            start = s.mark()
+            start, began = s.mark(), s.clock()
             try:
                 if not self._powered_checked:
-                    s.sync(self._sync_wait())          # in step before asking `list`
+                    self._find_place()                # in step before asking `list`
                     self._powered_checked = True
                     self.powered_ports = self._ports_needing_power()
                 # The lines go back to back under one sync (H10: a fence each made three round
                 # trips per case); they fit the 8192-byte receive ring many times over (FACTS §1).
-                lines = self.cleanup_lines(self.powered_ports)
-                before = b"\r" + b"".join(line.encode() + b"\r" for line in lines)
-                sync = s.sync(self._sync_wait(), before=before)
+                lines = self.cleanup_lines(self.powered_ports, separate=not self.clauses.trusted("separator"))
+                after = self._find_place(b"\r" + b"".join(line.encode() + b"\r" for line in lines))
             except ExpectTimeout:
                 raise describe_silence(bytes(s.received[self._case_bytes:]), s.events[start:],
-                                       3 * self._sync_wait()) from None
+                                       s.clock() - began) from None
             except TargetError as exc:
                 raise target_fault_of(exc) from None
             banner = self._banner_since(self._scanned)
-            self._next = sync.answer + 1
+            self._next = after
             self._fence_own.clear()
             self._scanned = self._next
             if banner is None and not self.rebooted:
@@ -212,11 +228,42 @@ class Resync:
             # found again; then the set-up above runs once more.
             self.rebooted = False
             self._powered_checked = False
+            self.devices_settled = False
             self.restarts += 0 if self._restart_asked else 1
             self._restart_asked = False
             self._await_started(banner if banner is not None else self._restart_at)
             self._restart_at = banner if banner is not None else self._restart_at
         raise TargetFault(REBOOTED, "the HAT restarted again each time it was set up (3 times in a row)")
+
+    def _find_place(self, before: bytes = b"") -> int:
+        """Send ``before`` (set-up lines) and find the link's place after their output; returns
+        the index of the first event after it. By content (a sync) once the echo clause has
+        passed; before that, and if it failed, by the counted ``version`` fence, with the sync
+        only as the way back when the count finds no answer (conformance/link_clauses.py)."""
+        s = self.session
+        separate = not self.clauses.trusted("separator")
+        if not self.clauses.trusted("echo"):
+            if before:
+                s.send_raw(before)
+            try:
+                return self.fence(self._sync_wait(), between_cases=True)[1]
+            except ExpectTimeout:
+                pass        # a line ending lost or added, garbage, a full TX ring: see below
+        else:
+            try:
+                return s.sync(self._sync_wait(), before=before, separate=separate, attempts=1).after
+            except ExpectTimeout:
+                pass
+        # Output still draining from a stream the last case left on (the set-up lines have
+        # stopped it) may have filled the HAT's TX ring, which drops output bytes (FACTS §1):
+        # wait the stream out, then find the place by content, the set-up lines sent again.
+        self._wait_out_stream()
+        return s.sync(self._sync_wait(), before=before, separate=separate).after
+
+    def _wait_out_stream(self) -> None:
+        """Wait until the HAT has been quiet for STREAM_QUIET_MS of HAT time (at most DRAIN_MS):
+        a full TX ring drains in 8192 bytes / 11520 bytes/s = 0.71 s at 115200 baud."""
+        self.session.drain(quiet=self.seconds(STREAM_QUIET_MS), limit=self.seconds(DRAIN_MS))
 
     def _sync_wait(self) -> float:
         """Seconds one sync waits for its answer: a round trip with the set-up lines, at most

@@ -158,17 +158,21 @@ def preflight(args: argparse.Namespace) -> None:
         check_writable(os.path.join(runs.DEFAULT_ROOT, runs.RUNS), "the run folder", folder=True)
     if args.transcripts:
         check_writable(args.transcripts, "--transcripts", folder=True)
+    from ..harness.targets.base import TargetError
+    from .run_outcome import release_mismatch
+
     urls = _inventory_urls(args.inventory) if getattr(args, "inventory", None) else _targets(args)
     for url in urls:
         url = expand_target(url, getattr(args, "speed", DEFAULT_SPEED))
         target = checked_target(url)
         answer = check_answers(target)
         if answer.in_bootloader and not getattr(args, "image", None):
-            from ..harness.targets.base import TargetError
-
             raise TargetError(f"{url} answers from its bootloader ({answer.version_string}): no firmware "
                               "is running; load a release first (buildhat-conformance load)")
         if judged is not None:
+            mismatch = release_mismatch(url, answer.version_string, judged)
+            if mismatch is not None:     # the run could not do its job: exit 3, one line
+                raise TargetError(mismatch)
             print(f"buildhat-conformance run: {url} runs firmware {answer.version_string or 'unknown'}; "
                   f"judged as {judged.name} ({judged.number}) because of --firmware", file=sys.stderr)
 

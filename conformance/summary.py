@@ -51,11 +51,15 @@ def write_summary(tr: Any, run: Any) -> None:
         tr.write_line(f"  {nodeid}: {what}")
     if len(run.target_faults) > 20:
         tr.write_line(f"  ... and {len(run.target_faults) - 20} more target faults (JUnit has them all)")
+    hat = run.hat
+    for line in (hat.clauses.broken() if hat is not None else []):
+        tr.write_line(f"clause the harness relies on broke: {line}; its set-up went on without it", red=True)
     if run.recovery.outcome:
         tr.write_line(run.recovery.outcome, yellow=True)
-    if run.stopped:
+    if run.no_job:
+        tr.write_line(f"the run could not do its job: {run.no_job}", yellow=True)
+    elif run.stopped:
         tr.write_line(f"stopped talking to the target: {run.stopped}", yellow=True)
-    hat = run.hat
     if hat is not None:
         p = hat.profile
         exact = "" if hat.profile_exact else \

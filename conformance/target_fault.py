@@ -4,12 +4,13 @@ garbled, not reading). A case that meets one gets the verdict ``target-fault``, 
 """
 from __future__ import annotations
 
+import re
 from typing import Any, Optional, Sequence
 
 from ..harness.errors import NeedsCapability, NotReading, TargetCrashed, TargetError
 
 __all__ = ["TargetFault", "is_target_fault", "target_fault_of", "fault_line", "describe_silence",
-           "garbled_reply", "first_line", "binary_count",
+           "garbled_reply", "first_line", "binary_count", "foreign",
            "SILENT", "DEAD", "REBOOTED", "GARBLED", "NOT_READING", "CRASHED"]
 
 SILENT, DEAD, REBOOTED, GARBLED, NOT_READING = "silent", "dead", "rebooted", "garbled", "not reading"
@@ -65,6 +66,19 @@ def fault_line(exc: BaseException) -> str:
 
 _TEXT = bytes(range(0x20, 0x7F)) + b"\r\n"
 
+#: Pieces of the lines a stream prints (data reports FACTS §6.1, PID and DATA debug §7.4).
+_STREAM_PIECES = re.compile(r"P[0-3](?:[MC][0-9]+|V):|pv=|sp=|cv=| ie=| de=|DATA mode=|payload=")
+
+
+def foreign(event: Any) -> bool:
+    """A line no Build HAT prints (event kind ``unknown``), not counting stream output with
+    bytes missing: the HAT drops output bytes when its TX ring is full (FACTS §1, §7.4), so a
+    printable line holding pieces of report or PID lines is its own output, cut."""
+    if getattr(event, "kind", "") != "unknown":
+        return False
+    text = str(getattr(event, "text", ""))
+    return not (_STREAM_PIECES.search(text) and all(" " <= c <= "~" for c in text))
+
 
 def binary_count(data: bytes) -> int:
     """Bytes that are not the protocol's text (printable ASCII, CR, LF)."""
@@ -85,7 +99,7 @@ def describe_silence(received: bytes, events: Sequence[Any], waited_s: float) ->
     if _printable_share(received) < 0.9:
         return TargetFault(GARBLED, f"{len(received):,} bytes of binary garbage and no answer to `version` "
                                     f"in {waited_s:.1f} s")
-    unknown = sum(1 for e in events if getattr(e, "kind", "") == "unknown")
+    unknown = sum(1 for e in events if foreign(e))
     if unknown == 0:
         # Only what a Build HAT prints, then nothing more: it stopped (hung) mid-answer.
         return TargetFault(SILENT, f"{len(events):,} line(s) of Build HAT output, then no answer to "

@@ -64,18 +64,35 @@ def test_vin_follows_the_supply_and_rounds_a_5_down(hat: Hat, world: World, adc:
     assert raw == f"\r\n{vin_text(mv)}\r\n".encode(), f"ADC {adc} = {mv} mV"
 
 
+def _port_line(hat: Hat, text: str) -> bytes:
+    """What ``text`` printed with echo on, starting from port 2 (the prompt shows the port)."""
+    hat.exchange("port 2")
+    hat.exchange("echo 1")
+    raw = hat.exchange(text).raw
+    hat.exchange("echo 0")
+    hat.exchange("port 0")
+    return raw
+
+
 @pytest.mark.req("CMD-PORT", "DEV-PORTS")
 @pytest.mark.parametrize("text,port,error", [("port 0", 0, False), ("port 1", 1, False), ("port 2", 2, False),
-                                             ("port 3", 3, False), ("port 9", 3, False), ("port 4", 3, False),
+                                             ("port 3", 3, False),
                                              ("port -1", 2, True), ("port 1x", 1, True),
                                              ("port 1.5", 1, True), ("port", 2, True)])
 def test_port_sets_the_current_port(hat: Hat, text: str, port: int, error: bool) -> None:
-    # Out of range clamps to 3, negative is an Error and leaves the port (FACTS §3, §12.16).
-    hat.exchange("port 2 ; echo 1")
-    raw = hat.exchange(text).raw
-    hat.exchange("echo 0 ; port 0")
+    # A negative port is an Error and leaves the port (FACTS §3, §12.16).
+    raw = _port_line(hat, text)
     expected = text.encode() + b"\r\n" + (b"Error\r\n" if error else b"") + f"P{port}>".encode()
     assert raw == expected
+
+
+@pytest.mark.req("CMD-PORT", "FW-PORT-CLAMP")
+@pytest.mark.parametrize("text", ["port 9", "port 4"])
+def test_port_above_3_is_clamped_to_3(hat: Hat, text: str) -> None:
+    # FACTS §3 (parameter clamping): `port <p>` clamps silently to 0..3, never an error.
+    raw = _port_line(hat, text)
+    assert raw == text.encode() + b"\r\nP3>", \
+        f"port clamping: `{text}` must select port 3 silently (FIRMWARE-FACTS §3); got {raw!r}"
 
 
 @pytest.mark.req("DEV-PORTS", "CMD-LIST")

@@ -13,11 +13,13 @@ from typing import TYPE_CHECKING, Any, Callable, List, Optional
 from .errors import ExpectTimeout
 from .events import Event
 from .matching import Match, describe_events, matcher
-from .sync import SYNC_ATTEMPTS, SyncResult, new_token, sync_bytes
+from .sync import SEPARATE_TAIL, SYNC_ATTEMPTS, SyncResult, new_token, sync_bytes
 
-__all__ = ["Conversation", "FENCE_KINDS"]
+__all__ = ["Conversation", "FENCE_KINDS", "STREAM_KINDS"]
 
 FENCE_KINDS = ("version", "bootloader_version")
+#: Lines a HAT prints on its own, again and again while a stream is on (FACTS §6, §7.4).
+STREAM_KINDS = frozenset({"mode_data", "combi_data", "var_data", "pid_debug", "data_debug"})
 
 
 def _restart_line(e: Event) -> bool:
@@ -163,17 +165,19 @@ class Conversation:
             self.sync(timeout / SYNC_ATTEMPTS)
         return drained
 
-    def sync(self, timeout: float = 1.0, before: bytes = b"", attempts: int = SYNC_ATTEMPTS) -> SyncResult:
+    def sync(self, timeout: float = 1.0, before: bytes = b"", attempts: int = SYNC_ATTEMPTS,
+             separate: bool = False) -> SyncResult:
         """Find our own reply by content (harness/sync.py), whatever came before it. Sends
         ``before`` (e.g. set-up lines) and a sync, up to ``attempts`` times, waiting ``timeout``
         seconds for each (HAT seconds / time_scale for virtual-time targets). Leaves echo off and
-        the cursor after the answer; forgets every line ending still owed (all are answered).
-        Raises ExpectTimeout when no attempt came back whole."""
+        the cursor after the answer (``separate``: one command a line, no `;`; the cursor after
+        the echo of its closing ``echo 0``); forgets every line ending still owed (all are
+        answered). Raises ExpectTimeout when no attempt came back whole."""
         start = self.mark()
         for attempt in range(1, attempts + 1):
             token = new_token()
             tail = b"\x00" + token
-            self.send_raw(before + sync_bytes(token))
+            self.send_raw(before + sync_bytes(token, separate))
 
             def own_echo(e: Event, tail: bytes = tail) -> bool:
                 """the echo of the sync's own token"""
@@ -182,17 +186,25 @@ class Conversation:
             echo = self._wait_index(own_echo, start, timeout)
             if echo is None:
                 continue
-            answer = self._wait_index(lambda e: True, echo + 1, timeout)
+            # A stream still draining (reports, PID lines: whole lines, FACTS §5-§7) may put a
+            # line between the echo and the answer: set aside, it is not the answer.
+            answer = self._wait_index(lambda e: e.kind not in STREAM_KINDS, echo + 1, timeout)
             if answer is None or self.events[answer].kind != "version":
                 continue     # the answer was garbled: the next attempt brings a fresh token
+            last = answer
+            if separate:
+                closing = self._wait_index(lambda e: e.raw.endswith(SEPARATE_TAIL), answer + 1, timeout)
+                if closing is None:
+                    continue
+                last = closing
             with self._cond:
                 self._splitter.forget_pending()
                 banner = self.events.scan(_restart_line, start)
             self.echo_on = False
             self._note_answer(self.events[answer])
-            self._cursor = answer + 1
+            self._cursor = last + 1
             return SyncResult(echo, answer, attempt, token,
-                              banner if banner is not None and banner < answer else None)
+                              banner if banner is not None and banner < answer else None, last)
         arrived = self.events[start:]
         raise ExpectTimeout(f"no answer to {attempts} syncs (`version` with a token), {timeout:g} s each, "
                             f"from {self.target.url}; {describe_events(arrived, self.partial)}",

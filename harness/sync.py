@@ -20,7 +20,7 @@ import os
 from dataclasses import dataclass
 from typing import Optional
 
-__all__ = ["SyncResult", "sync_bytes", "new_token", "SYNC_ATTEMPTS"]
+__all__ = ["SyncResult", "sync_bytes", "new_token", "SYNC_ATTEMPTS", "SEPARATE_TAIL"]
 
 SYNC_ATTEMPTS = 3
 _counter = itertools.count(1)
@@ -31,9 +31,19 @@ def new_token() -> bytes:
     return f"sync-{os.getpid():x}-{next(_counter)}".encode()
 
 
-def sync_bytes(token: bytes) -> bytes:
-    """The bytes of one sync: end any half-typed line, echo on, then the token's line."""
+def sync_bytes(token: bytes, separate: bool = False) -> bytes:
+    """The bytes of one sync: end any half-typed line, echo on, then the token's line.
+
+    ``separate``: one command per line, for a HAT whose `;` separator is not (yet) trusted:
+    ``version<NUL><token>⏎`` is echoed, answered, and followed by a prompt, then ``echo 0⏎``
+    is echoed and turns echo off (its echo line is then the sync's last output)."""
+    if separate:
+        return b"\r" + b"echo 1\r" + b"version\x00" + token + b"\r" + SEPARATE_TAIL + b"\r"
     return b"\r" + b"echo 1\r" + b"echo 0 ; version\x00" + token + b"\r"
+
+
+#: The last line of a separate-lines sync (its echo ends the sync's output).
+SEPARATE_TAIL = b"echo 0"
 
 
 @dataclass
@@ -47,3 +57,10 @@ class SyncResult:
     token: bytes
     #: a start-up banner line arrived between the sync's start and its answer
     banner_at: Optional[int] = None
+    #: the index of the sync's last event (the answer, or a separate sync's closing echo)
+    last: int = -1
+
+    @property
+    def after(self) -> int:
+        """The index just after the sync's own output."""
+        return max(self.answer, self.last) + 1

@@ -17,7 +17,7 @@ from .mutants.suite_run import run_suite
 # mutation -> (cases that must fail, cases that must not)
 MUTANTS = {
     "vin-off-by-one": (["test_commands.py::test_vin_follows_the_supply_and_rounds_a_5_down[1742]"],
-                       ["test_commands.py::test_port_sets_the_current_port[port 9-3-False]"]),
+                       ["test_commands.py::test_port_above_3_is_clamped_to_3[port 9]"]),
     "error-swallowed": (["test_commands.py::test_unknown_command_prints_exactly_error[bogus]"],
                         ["test_commands.py::test_vin_prints_volts_with_two_decimals"]),
     "prefix-last-match": (["test_abbreviation.py::test_ambiguous_prefix_resolves_by_table_order[v]"],

@@ -73,11 +73,13 @@ def test_terminal_says_what_runs_and_where_the_report_is(failing_run) -> None:
     assert slow, out[:3000]
     assert lines.index(slow[0]) > legend
     closing = [ln for ln in lines if ln.startswith("conformance: ")][-1]
-    m = re.fullmatch(r"conformance: (\d+) case\(s\): (.*) in \d+ s; report: (.*)", closing)
+    m = re.fullmatch(r"conformance: FAILS: (\d+) finding\(s\) against the protocol \((\d+) of \d+ cases "
+                     r"skipped: [^)]+\); (\d+) case\(s\): (.*) in \d+ s; report: (.*)", closing)
     assert m, closing
-    counts = dict((w, int(n)) for n, w in re.findall(r"(\d+) ([a-z -]+?)(?:,|$)", m.group(2)))
-    assert sum(counts.values()) == int(m.group(1)) and counts["fail"] >= 1 and counts["skip"] >= 1
-    assert os.path.realpath(m.group(3)) == os.path.realpath(html)
+    counts = dict((w, int(n)) for n, w in re.findall(r"(\d+) ([a-z -]+?)(?:,|$)", m.group(4)))
+    assert sum(counts.values()) == int(m.group(3)) and counts["fail"] >= 1 and counts["skip"] >= 1
+    assert counts["fail"] == int(m.group(1)) and counts["skip"] == int(m.group(2))
+    assert os.path.realpath(m.group(5)) == os.path.realpath(html)
 
 
 def test_failing_report_reads_in_the_first_screen(failing_report) -> None:
