@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import List, Optional, Sequence, Tuple
 
+from .asm_cost import charge_soft_float
 from .float_convert import rewrite_conversions
 from .pio_header import pio_header
 
@@ -143,7 +144,7 @@ def _key(tree: Path, cc: str, flags: Sequence[str]) -> str:
     for p in sorted(standin_dir().rglob("*")):
         if p.is_file():
             h.update(str(p.relative_to(standin_dir())).encode() + b"\0" + p.read_bytes())
-    for helper in ("pio_header.py", "float_convert.py"):
+    for helper in ("pio_header.py", "float_convert.py", "asm_cost.py"):
         h.update(Path(__file__).with_name(helper).read_bytes())
     return h.hexdigest()[:20]
 
@@ -184,6 +185,7 @@ def _build_into(folder: Path, tree: Path, sources: List[Path], cc: str, fw_flags
         # The chip's float conversions saturate (float_convert.py): the compiler's output is
         # rewritten, the tree's source is not touched.
         text, _count = rewrite_conversions(asm.read_text(encoding="utf-8"), src.stem)
+        text, _blocks = charge_soft_float(text)      # the chip's float is software (asm_cost.py)
         asm.write_text(text, encoding="utf-8")
         _compile(cc, fw_flags + ["-c", str(asm), "-o", str(obj)], f"{src.name} (assembling)")
         objects.append(str(obj))

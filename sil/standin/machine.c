@@ -2,7 +2,7 @@
  *
  * The firmware's own files are compiled with -fsanitize-coverage=trace-pc, so the compiler
  * calls __sanitizer_cov_trace_pc() at the start of every basic block. That call is the
- * clock: each block costs NS_PER_BLOCK of virtual time, so loops that never call the SDK
+ * clock: each block costs ns_per_block of virtual time, so loops that never call the SDK
  * (a spin on a flag an interrupt sets) still move time, and interrupts are taken between
  * blocks, as on the chip. Nothing here reads the wall clock; the same inputs give the same
  * bytes at the same virtual times.
@@ -17,13 +17,22 @@
 
 #include <stdlib.h>
 
-/* About five Cortex-M0+ instructions at the RP2040's clock: a typical basic block. */
-#define NS_PER_BLOCK 40
+/* What a basic block costs: about five Cortex-M0+ instructions at 133 MHz. The environment
+ * variable BUILDHAT_SIL_NS_PER_BLOCK changes it: at 80 ns, a `list` of a motor, a distance and a
+ * colour sensor stretches its main-loop pass to deltat=00000003 as on a real HAT
+ * (docs/FIRMWARE-BEHAVIOUR.md#fb-deltat); sil/README.md says why 40 is the default. */
+#define NS_PER_BLOCK_DEFAULT 40
+static uint64_t ns_per_block = NS_PER_BLOCK_DEFAULT;
 /* How often (in blocks) a running program is checked for interrupts that a register write
  * (which the stand-in cannot see as it happens) may have enabled: about 2.5 us. */
 #define IRQ_POLL_BLOCKS 64
 /* Reading the timer costs a register access. */
 #define NS_PER_TIMER_READ 20
+/* One software floating-point operation on the Cortex-M0+ (the chip has no FPU): about 60
+ * cycles at 133 MHz (sil/asm_cost.py charges it per float instruction of a block). */
+#ifndef NS_PER_SOFT_FLOAT
+#define NS_PER_SOFT_FLOAT 450
+#endif
 
 uint64_t sil_now;
 
@@ -98,8 +107,9 @@ static int any_irq_wanted(void) {
 }
 
 /* The compiler's per-block hook (see the file comment). */
+void __sanitizer_cov_trace_pc(void);
 void __sanitizer_cov_trace_pc(void) {
-    sil_now += NS_PER_BLOCK;
+    sil_now += ns_per_block;
     blocks++;
     if (sil_now >= next_due) {
         if (!in_service) sil_service();
@@ -107,6 +117,18 @@ void __sanitizer_cov_trace_pc(void) {
         sil_service();
     }
 }
+
+/* The clock call of a block with N float operations (sil/asm_cost.py). */
+#define SOFT_FLOAT_BLOCK(n)                                   \
+    void __sil_cov_fp##n(void);                               \
+    void __sil_cov_fp##n(void) {                              \
+        sil_now += (uint64_t)(n) * NS_PER_SOFT_FLOAT;         \
+        __sanitizer_cov_trace_pc();                           \
+    }
+SOFT_FLOAT_BLOCK(1) SOFT_FLOAT_BLOCK(2) SOFT_FLOAT_BLOCK(3) SOFT_FLOAT_BLOCK(4)
+SOFT_FLOAT_BLOCK(5) SOFT_FLOAT_BLOCK(6) SOFT_FLOAT_BLOCK(7) SOFT_FLOAT_BLOCK(8)
+SOFT_FLOAT_BLOCK(9) SOFT_FLOAT_BLOCK(10) SOFT_FLOAT_BLOCK(11) SOFT_FLOAT_BLOCK(12)
+SOFT_FLOAT_BLOCK(13) SOFT_FLOAT_BLOCK(14) SOFT_FLOAT_BLOCK(15) SOFT_FLOAT_BLOCK(16)
 
 void sil_spend(uint64_t ns) {
     uint64_t end = sil_now + ns;
@@ -192,6 +214,8 @@ void restore_interrupts(uint32_t status) {
 /* Early (priority 101): instrumented constructors of the firmware's objects (gcov's) must find
  * the clock stopped until the world has said how to run. */
 __attribute__((constructor(101))) static void sil_power_on(void) {
+    const char *cost = getenv("BUILDHAT_SIL_NS_PER_BLOCK");
+    if (cost && atoi(cost) > 0) ns_per_block = (uint64_t)atoi(cost);
     periph_init();
     link_start();                      /* the world's set-up frames, then its first run */
     sil_wake();
