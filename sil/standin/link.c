@@ -100,7 +100,7 @@ static void fork_copy(const char *socket_path, const char *stderr_path) {
 
 /* Obey the world's frames until it says run (or quit). */
 static void obey(void) {
-    static uint8_t payload[65536];
+    static uint8_t payload[65536 + 1];            /* + room for a terminating NUL */
     for (;;) {
         struct header h;
         read_all((uint8_t *)&h, sizeof h);
@@ -138,7 +138,7 @@ static void obey(void) {
         case 'S': memcpy((void *)0x2003ff00, payload, h.len < 256 ? h.len : 256); break;
         case 'Q': link_flush(); exit(0);   /* exit(), not _exit(): coverage data is written */
         case 'K': {                    /* payload: socket path, NUL, stderr path */
-            payload[h.len < sizeof payload ? h.len : sizeof payload - 1] = 0;
+            payload[h.len] = 0;
             const char *sock = (const char *)payload;
             size_t n = strlen(sock) + 1;
             fork_copy(sock, n < h.len ? sock + n : "");
