@@ -175,6 +175,8 @@ class SilPort:
             duty, driven = struct.unpack("<hB", frame.payload[:3])
             value: Duty = int(duty) if driven else "coast"
             if value != self.duty:
+                if isinstance(dev, MotorDevice):
+                    dev.step(now)          # the shaft moves under the old drive up to this instant
                 self.duty = value
                 self.world.event("pwm", now, port=self.index, value=value)
                 if isinstance(dev, ActiveDevice):
@@ -197,6 +199,11 @@ class SilPort:
                 self.world.send(encode("P", now * NS_PER_MS - self.world.base_ns, chunk, port=self.index))
         self.sync_id()                   # a device that stopped talking lets the line go
         self.due = dev.next_due(now)
+        if isinstance(dev, MotorDevice) and self.due <= now + 1:
+            # A moving shaft wants every millisecond, but only a sample can send: its physics
+            # catches up in one step then (the drive cannot change unseen: every change of it
+            # stops the firmware and steps the motor first, above).
+            self.due = dev.next_send(now)
 
 
 class _FaultLatches:

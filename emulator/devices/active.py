@@ -286,6 +286,18 @@ class ActiveDevice:
             return min(due, self._data_at)
         return due
 
+    def next_send(self, now: int) -> float:
+        """The first millisecond after ``now`` at which :meth:`tick` may *send*: a world that
+        lets the device's own physics catch up in one step (sil/world.py; the drive is constant
+        between two of its looks at the firmware) need not tick it before."""
+        if self.dead or self.state != "data":
+            return self.next_due(now)
+        if self._pending_world or self._force or self._nack:
+            return now + 1
+        if self.rate_ms > 0:
+            return max(now + 1, self._last_rate_send + self.rate_ms)
+        return max(now + 1, self._last_sample + self.sample_ms)
+
     def tick(self, now: int) -> List[bytes]:
         """Messages the device starts sending at ``now`` (the port's wire paces the bytes)."""
         if self._lazy_grid:
