@@ -92,7 +92,8 @@ def test_port_above_3_is_clamped_to_3(hat: Hat, text: str) -> None:
     # FACTS §3 (parameter clamping): `port <p>` clamps silently to 0..3, never an error.
     raw = _port_line(hat, text)
     assert raw == text.encode() + b"\r\nP3>", \
-        f"port clamping: `{text}` must select port 3 silently (docs/FIRMWARE-BEHAVIOUR.md#fb-clamping); got {raw!r}"
+        (f"port clamping: `{text}` must select port 3 silently "
+         f"(docs/FIRMWARE-BEHAVIOUR.md#fb-clamping); got {raw!r}")
 
 
 @pytest.mark.req("DEV-PORTS", "CMD-LIST")

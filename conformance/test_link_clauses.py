@@ -19,8 +19,10 @@ VIN = re.compile(rb"\r\n[0-9]+\.[0-9]{2} V\r\n")
 @pytest.mark.link_clause("crlf")
 @pytest.mark.req("FW-LINE-CR-CRLF", "LINK-TEXT")
 def test_clause_cr_ends_a_line_with_crlf(hat: Hat) -> None:
-    # docs/FIRMWARE-BEHAVIOUR.md#fb-cr: CR is the only terminator and always gives CRLF, even for an empty line.
-    assert hat.exchange("").raw == b"\r\n", "CR/LF clause: an empty line must give exactly CRLF (docs/FIRMWARE-BEHAVIOUR.md#fb-cr)"
+    # docs/FIRMWARE-BEHAVIOUR.md#fb-cr: CR is the only terminator and always gives CRLF, even for an
+    # empty line.
+    assert hat.exchange("").raw == b"\r\n", \
+        "CR/LF clause: an empty line must give exactly CRLF (docs/FIRMWARE-BEHAVIOUR.md#fb-cr)"
     raw = hat.exchange("vin").raw
     assert VIN.fullmatch(raw), f"CR/LF clause: `vin` must give CRLF, then its line ended by CRLF; got {raw!r}"
 

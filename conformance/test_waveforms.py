@@ -137,7 +137,8 @@ def test_pulse_done_never_comes_before_its_length(hat: Hat, motor_port: int, len
     is measured from just before the line is sent, so the link's delays only lengthen it."""
     n = ticks_until_done(_n(length))
     length_ms = round(float(length) * 1000)          # whole ms: the float32 length is 0.1 s + 1.5 ns
-    assert (n - 1) * 10 >= length_ms, f"docs/FIRMWARE-BEHAVIOUR.md#fb-setpoint lets a {length} s pulse end early; not a case"
+    assert (n - 1) * 10 >= length_ms, \
+        f"docs/FIRMWARE-BEHAVIOUR.md#fb-setpoint lets a {length} s pulse end early; not a case"
     p = motor_port
     drive_off = hat.exchange(f"port {p} ; pwm ; set 0")       # direct PWM at 0: the motor never moves
     assert drive_off.errors == 0, drive_off.raw

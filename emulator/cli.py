@@ -86,7 +86,8 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
-def _devices(specs: List[str], parser: argparse.ArgumentParser) -> Dict[int, Optional[tuple]]:
+def device_options(specs: List[str], parser: argparse.ArgumentParser) -> Dict[int, Optional[tuple]]:
+    """``--device P=SPEC`` options as a layout; a bad one is the parser's one-line error."""
     from ..protocol.devices import parse_device_spec
 
     out: Dict[int, Optional[tuple]] = {}
@@ -272,7 +273,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     _check(args, parser)
-    devices = _devices(args.device, parser)
+    devices = device_options(args.device, parser)
     previous = {sig: signal.signal(sig, _terminate) for sig in (signal.SIGTERM, signal.SIGHUP)}
     try:
         if args.script:

@@ -44,10 +44,11 @@ from typing import Deque, Dict, List, Optional, Tuple
 from ..protocol.profiles import passive_signature_ids
 from . import lpf2
 from .active_link import RESTART, ActiveLink, Failure
-from .devices import ActiveDevice, Device, MotorDevice, PassiveDevice, make_device
+from .devices import ActiveDevice, Device, PassiveDevice, make_device
 from .devices.active import setup_timing
 from .devices.info import DeviceInfo
 from .devices.passive import BUTTON_ID, BUTTON_RELEASED
+from .devices.port_actions import PortActions
 from .listing import active_dump, empty_line, passive_line
 from .mode_store import ModeStore
 from .port_uart import PortUart
@@ -66,7 +67,7 @@ SIGNATURE_ACTIVE = 0x00CF
 _WAITING = ("scan", "pause", "idle", "detect")   # phases that only wait for ``_next``
 
 
-class Port:
+class Port(PortActions):
     """The HAT side of one device port (see the module docstring)."""
 
     def __init__(self, hat: PortServices, index: int):
@@ -178,43 +179,6 @@ class Port:
             self.device.port = None
         self.device = None
         self._wire.clear()
-        self.wake()
-
-    def _active(self, what: str) -> ActiveDevice:
-        dev = self.device
-        if not isinstance(dev, ActiveDevice):
-            raise ValueError(f"{what}: no active device on port {self.index}")
-        return dev
-
-    def device_data(self, mode: int, payload) -> None:
-        """``@data P M HH..`` (payload bytes or a list of ints) / ``@data P M auto`` (None)."""
-        data = None if payload is None else bytes(payload)
-        self._active("@data").world_data(int(mode), data)
-        self.wake()
-
-    def set_data_rate(self, ms: int) -> None:
-        self._active("@rate").set_rate(int(ms))
-        self.wake()
-
-    def press_button(self, pressed: bool) -> None:
-        dev = self.device
-        if not isinstance(dev, PassiveDevice):
-            raise ValueError(f"@button: no passive device on port {self.index}")
-        dev.press(pressed)
-        self.wake()
-
-    def _motor(self, what: str) -> MotorDevice:
-        dev = self.device
-        if not isinstance(dev, MotorDevice):
-            raise ValueError(f"{what}: no motor on port {self.index}")
-        return dev
-
-    def hold_shaft(self, held: bool) -> None:
-        self._motor("@hold").hold(held)
-        self.wake()
-
-    def set_shaft_position(self, deg: float) -> None:
-        self._motor("@pos").set_position(deg)
         self.wake()
 
     # -- time ------------------------------------------------------------------------------------

@@ -20,8 +20,8 @@ __all__ = ["charge_soft_float", "MAX_FP_PER_BLOCK"]
 
 MAX_FP_PER_BLOCK = 16
 _COV = re.compile(r"^(\s*)call\s+__sanitizer_cov_trace_pc(@PLT)?\s*$")
-_FP = re.compile(r"^\s*(add|sub|mul|div|sqrt|min|max|ucomi|comi|cvtsi2|cvtts|cvtt|cvts)(ss|sd|s2sd|d2ss|i2ss|i2sd|"
-                 r"s2si|d2si|s2siq|d2siq|s2sil|d2sil)[lq]?\s")
+_FP = re.compile(r"^\s*(add|sub|mul|div|sqrt|min|max|ucomi|comi|cvtsi2|cvtts|cvtt|cvts)"
+                 r"(ss|sd|s2sd|d2ss|i2ss|i2sd|s2si|d2si|s2siq|d2siq|s2sil|d2sil)[lq]?\s")
 
 
 def charge_soft_float(asm: str) -> Tuple[str, int]:

@@ -189,8 +189,11 @@ def _one(mutant: Mutant, tree: Path, base: Build, work: Path, keyword: Optional[
     return out
 
 
-def run_campaign(tree: str, mutants: Sequence[Mutant], work: Path, jobs: int = 2, keyword: Optional[str] = None,
-                 progress: Callable[[Outcome, int, int], None] = lambda o, i, n: None) -> Campaign:
+Progress = Callable[[Outcome, int, int], None]
+
+
+def run_campaign(tree: str, mutants: Sequence[Mutant], work: Path, jobs: int = 2,
+                 keyword: Optional[str] = None, progress: Progress = lambda o, i, n: None) -> Campaign:
     """Run ``mutants`` of ``tree``; ``work`` keeps the reference run and each survivor's transcripts."""
     t0 = time.monotonic()
     work.mkdir(parents=True, exist_ok=True)

@@ -15,8 +15,9 @@ import argparse
 import os
 import signal
 import sys
-from typing import Dict, List, Optional, Sequence
+from typing import Optional, Sequence
 
+from ..emulator.cli import device_options
 from ..harness.cli_options import OneLineParser
 from .process import FirmwareDied
 
@@ -44,27 +45,14 @@ def build_parser(prog: str = "buildhat-conformance sil serve") -> argparse.Argum
     return p
 
 
-def _devices(values: List[str], parser: argparse.ArgumentParser) -> Dict[int, object]:
-    from ..protocol.devices import parse_device_spec
-    out: Dict[int, object] = {}
-    for v in values:
-        port, sep, spec = v.partition("=")
-        if not sep or not port.strip().isdigit() or not 0 <= int(port) <= 3:
-            parser.error(f"--device takes P=SPEC with P 0..3, got {v!r}")
-        try:
-            out[int(port)] = parse_device_spec(spec)
-        except (ValueError, KeyError) as exc:
-            parser.error(f"--device {v!r}: {exc.args[0]}")
-    return out
-
-
 def _hat(args: argparse.Namespace, parser: argparse.ArgumentParser):  # -> SilHat
     from ..harness.targets.base import TargetError
     from ..harness.targets.sil import SilTarget, program_for
     try:
         program, _build = program_for(args.program, [s for s in args.sanitize.split(",") if s], False)
-        target = SilTarget(program, f"sil:{program}", devices=_devices(args.device, parser), seed=args.seed,
-                           boot=False, firmware=args.firmware)
+        devices = device_options(args.device, parser)
+        target = SilTarget(program, f"sil:{program}", devices=dict(devices), seed=args.seed, boot=False,
+                           firmware=args.firmware)
         return target._new()
     except TargetError as exc:
         parser.error(str(exc))

@@ -25,6 +25,7 @@ from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Union
 from ..emulator import lpf2
 from ..emulator.api import DEFAULT_ADC
 from ..emulator.devices import ActiveDevice, MotorDevice, PassiveDevice, make_device
+from ..emulator.devices.port_actions import PortActions
 from ..emulator.faults import DEFAULT_FLAGS
 from ..emulator.ports import SIGNATURE_ACTIVE, SIGNATURE_EMPTY
 from .protocol import NS_PER_MS, Frame, encode
@@ -54,7 +55,7 @@ class _DriveView:
         return self._world.ports[self._index].duty
 
 
-class SilPort:
+class SilPort(PortActions):
     """One port: its device model, the wire from the firmware, the drive on its terminals."""
 
     def __init__(self, world: SilWorld, index: int):
@@ -114,37 +115,8 @@ class SilPort:
         self.device = None
         self.sync_id()
 
-    def _active(self, what: str) -> ActiveDevice:
-        if not isinstance(self.device, ActiveDevice):
-            raise ValueError(f"{what}: no active device on port {self.index}")
-        return self.device
-
-    def _motor(self, what: str) -> MotorDevice:
-        if not isinstance(self.device, MotorDevice):
-            raise ValueError(f"{what}: no motor on port {self.index}")
-        return self.device
-
-    def device_data(self, mode: int, payload) -> None:
-        self._active("@data").world_data(int(mode), None if payload is None else bytes(payload))
-        self.wake()
-
-    def set_data_rate(self, ms: int) -> None:
-        self._active("@rate").set_rate(int(ms))
-        self.wake()
-
-    def press_button(self, pressed: bool) -> None:
-        if not isinstance(self.device, PassiveDevice):
-            raise ValueError(f"@button: no passive device on port {self.index}")
-        self.device.press(pressed)
+    def button_changed(self) -> None:
         self.sync_id()
-
-    def hold_shaft(self, held: bool) -> None:
-        self._motor("@hold").hold(held)
-        self.wake()
-
-    def set_shaft_position(self, deg: float) -> None:
-        self._motor("@pos").set_position(deg)
-        self.wake()
 
     # -- the firmware's side of the wire ------------------------------------------------------
     def from_firmware(self, frame: Frame) -> None:
