@@ -114,6 +114,10 @@ def _groups(quick: bool) -> List[Group]:
             (Figure("firmware branch coverage, whole suite", "%"), "suite_branch_pct"),
             (Figure("firmware line coverage, one fuzz campaign", "%"), "fuzz_line_pct"),
             (Figure("firmware branch coverage, one fuzz campaign", "%"), "fuzz_branch_pct")], 1),
+        ("mutation score", lambda: sil.mutation(count=8 if quick else 20), [
+            (Figure("mutants killed by a failing case (not likely equivalent)", "%", ">= 95 %", "higher",
+                    95.0), "score_pct"),
+            (Figure("mutation campaign wall time", "s"), "seconds")], 1),
         ("firmware load", firmware_load.upload, [
             (Figure("upload of a 51 KB image (load, 115200 baud)", "s"), "upload_s"),
             (Figure("upload time above the wire's minimum", "%", "<= 5 %", target=5.0), "over_min_pct"),

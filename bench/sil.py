@@ -79,3 +79,17 @@ def coverage(fuzz_seconds: float) -> Dict:
             "fuzz_line_pct": float(m.group(1)) if m else float("nan"),
             "fuzz_branch_pct": float(m.group(2)) if m else float("nan"),
             "note": f"fuzz {fuzz_seconds:g} s, {fuzz_res['lines_per_s']:.0f} lines/s"}
+
+
+def mutation(count: int) -> Dict:
+    """``sil mutate --count N --seed 1``: the mutation score its summary line prints."""
+    import re
+    with tempfile.TemporaryDirectory(prefix="bench-mutate-") as tmp:
+        argv = _command() + ["sil", "mutate", firmware_tree(), "--count", str(count), "--seed", "1", "-o", tmp]
+        done = subprocess.run(argv, capture_output=True, text=True, timeout=7200)
+    m = re.search(r"mutation score ([\d.]+)% \((\d+) killed by a failing case of (\d+) not likely "
+                  r"equivalent\); (\d+) mutants: (.*); (\d+) s", done.stdout)
+    if m is None:
+        last = (done.stderr.strip().splitlines() or done.stdout.strip().splitlines() or ["no output"])[-1]
+        raise RuntimeError(f"sil mutate exited {done.returncode}: {last}")
+    return {"score_pct": float(m.group(1)), "seconds": float(m.group(6)), "note": m.group(5)}
