@@ -85,7 +85,8 @@ def mutation(count: int) -> Dict:
     """``sil mutate --count N --seed 1``: the mutation score its summary line prints."""
     import re
     with tempfile.TemporaryDirectory(prefix="bench-mutate-") as tmp:
-        argv = _command() + ["sil", "mutate", firmware_tree(), "--count", str(count), "--seed", "1", "-o", tmp]
+        argv = _command() + ["sil", "mutate", firmware_tree(), "--count", str(count), "--seed", "1"]
+        argv += ["-o", tmp]
         done = subprocess.run(argv, capture_output=True, text=True, timeout=7200)
     m = re.search(r"mutation score ([\d.]+)% \((\d+) killed by a failing case of (\d+) not likely "
                   r"equivalent\); (\d+) mutants: (.*); (\d+) s", done.stdout)
