@@ -74,7 +74,8 @@ def test_two_runs_give_the_same_bytes_at_the_same_times(cache, tmp_path):
         rows = [json.loads(line) for line in out.read_text().splitlines()]
         # A half line may be written early (when it waits on the wall clock): the bytes are
         # compared, not where the writer cut them.
-        hat = "".join(r["partial"] if "partial" in r else r["line"] + "\n" for r in rows if r.get("dir") == "hat")
+        hat = "".join(r["partial"] if "partial" in r else r["line"] + "\n"
+                      for r in rows if r.get("dir") == "hat")
         host = [(r["t"], r["bytes"]) for r in rows if r.get("dir") == "host"]
         runs.append((hat, host))
     assert runs[0] == runs[1]
