@@ -65,6 +65,7 @@ class SilPort(PortActions):
         self.listening = False
         self.due: float = math.inf
         self._from_hat = lpf2.Assembler(keep_system=True)
+        self._last_byte_ns = -(10 ** 18)
         self._id_sent: Optional[tuple] = None
         self.rng = random.Random(world.seed * 31 + index)
 
@@ -124,6 +125,13 @@ class SilPort(PortActions):
         kind = frame.kind
         dev = self.device
         if kind == "p":
+            # A device's receiver starts over after a pause in the bytes, as the emulator's does
+            # at each frame the HAT sends (emulator/port_uart.py): a frame whose header promises
+            # more bytes than came does not swallow the next one.
+            baud = struct.unpack("<I", frame.payload[:4])[0] or 115200
+            if frame.t - self._last_byte_ns > 2 * 10 * 1_000_000_000 // baud:
+                self._from_hat.reset()
+            self._last_byte_ns = frame.t
             msg = self._from_hat.feed(frame.payload[4])
             if msg is None:
                 return
