@@ -10,7 +10,9 @@ from setuptools import setup
 
 ROOT = "buildhat_conformance"
 FOLDERS = ["protocol", "harness", "emulator", "sil", "conformance", "fuzz", "bench"]
-DATA = ["*.c", "*.h", "*.json", "*.txt", "*.md", "*.script", "*.jsonl", "*.html", "*.css", "*.pem", "*.bin"]
+# sil/standin/ is C source the user's machine compiles (`sil build`): shipped as data, the wheel stays pure.
+STANDIN = ["standin/*.c", "standin/*.h", "standin/include/*.h", "standin/include/*/*.h", "standin/include/*/*/*.h"]
+DATA = ["*.json", "*.txt", "*.md", "*.script", "*.jsonl", "*.html", "*.css", "*.pem", "*.bin"]
 
 
 def packages():
@@ -26,4 +28,5 @@ def packages():
 
 
 pkgs, pkg_dirs = packages()
-setup(packages=pkgs, package_dir=pkg_dirs, package_data={name: DATA for name in pkgs})
+setup(packages=pkgs, package_dir=pkg_dirs,
+      package_data={name: DATA + (STANDIN if name.endswith(".sil") else []) for name in pkgs})

@@ -105,5 +105,27 @@ def test_sdist_manifest_carries_docs_examples_and_golden_transcripts():
     assert not any("reports" in pathlib.Path(f).parts for f in files)
 
 
+def test_the_firmware_stand_in_ships_as_source_and_no_firmware_does(tmp_path):
+    """The wheel carries the stand-in's C (built on the user's machine by `sil build`), stays pure
+    Python, and carries nothing of any firmware tree."""
+    import subprocess
+    import zipfile
+
+    proc = subprocess.run([sys.executable, "-m", "build", "--wheel", "-o", str(tmp_path), str(REPO)],
+                          capture_output=True, text=True, timeout=600)
+    if proc.returncode != 0 and "No module named build" in proc.stderr:
+        pytest.skip("the 'build' package is not installed")
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    wheel = next(tmp_path.glob("*.whl"))
+    assert wheel.name.endswith("-py3-none-any.whl")
+    names = zipfile.ZipFile(wheel).namelist()
+    standin = REPO / "sil" / "standin"
+    for src in [*standin.glob("*.c"), *standin.glob("*.h"), *standin.rglob("include/**/*.h")]:
+        assert f"buildhat_conformance/sil/standin/{src.relative_to(standin).as_posix()}" in names
+    assert not [n for n in names if n.endswith((".so", ".o")) or "firmware-pico" in n]
+    ours = {p.name for p in standin.glob("*.c")}
+    assert ours == {"board.c", "link.c", "machine.c", "periph.c"}
+
+
 if __name__ == "__main__":
     sys.exit(pytest.main([__file__, "-q"]))
