@@ -26,7 +26,7 @@ Firmware -> world (lower case):
 |---|---|---|---|---|
 | ``y`` | - | now | ``SIL1`` on the first (a copy adds its pid, i32) | yield: the firmware waits |
 | ``k`` | - | now | the copy's pid (i32; negative: errno) | answer to ``K`` |
-| ``h`` | - | end of the byte | 1 byte | a byte to the host |
+| ``h`` | - | end of the last byte | bytes | bytes to the host (one frame per stretch) |
 | ``p`` | port | end of the byte | baud (u32), byte | a byte to the port's device |
 | ``u`` | port | now | on (u8), baud (u32) | the port's receiver was switched on/off |
 | ``d`` | port | now | duty (i16, -255..255), driven (u8; 0 = outputs off) | the motor driver's output |

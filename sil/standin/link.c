@@ -81,6 +81,8 @@ static void fork_copy(const char *socket_path, const char *stderr_path) {
         return;
     }
     out_len = 0;                                   /* the parent's unsent frames are not ours */
+    periph_flush_output();                         /* (empty at a yield, where copies are made) */
+    out_len = 0;
     int fd = socket(AF_UNIX, SOCK_STREAM, 0);
     struct sockaddr_un addr;
     memset(&addr, 0, sizeof addr);
@@ -152,12 +154,16 @@ static void obey(void) {
 }
 
 void link_yield(void) {
+    periph_flush_output();
     link_emit('y', 0, sil_now, NULL, 0);
     link_flush();
     obey();
 }
 
-static void flush_at_exit(void) { link_flush(); }
+static void flush_at_exit(void) {
+    periph_flush_output();
+    link_flush();
+}
 
 void link_start(void) {
     static const char hello[] = "SIL1";

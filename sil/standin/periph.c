@@ -93,6 +93,24 @@ uint uart_init(uart_inst_t *uart, uint baudrate) {
 
 void uart_set_fifo_enabled(uart_inst_t *uart, bool enabled) { (void)uart; (void)enabled; }
 
+/* Bytes to the host go to the world in one frame per stretch (the frame's time is the last
+ * byte's): one frame a byte would cost the world more than the firmware. */
+static uint8_t host_out[4096];
+static uint16_t host_out_n;
+static uint64_t host_out_t;
+
+void periph_flush_output(void) {
+    if (host_out_n == 0) return;
+    link_emit('h', 0, host_out_t, host_out, host_out_n);
+    host_out_n = 0;
+}
+
+static void host_out_add(uint64_t t, uint8_t b) {
+    if (host_out_n == sizeof host_out) periph_flush_output();
+    host_out[host_out_n++] = b;
+    host_out_t = t;
+}
+
 void periph_host_bytes(uint64_t t, const uint8_t *b, uint16_t n) {
     wire_push(&cu.rx, t, (uint32_t)(10ull * 1000000000ull / cu.byte_ns), b, n);
 }
@@ -484,7 +502,7 @@ void periph_run_events(void) {
         sil_touch();
     }
     if (cu.tx_busy && cu.tx_done <= sil_now) {
-        link_emit('h', 0, cu.tx_done, &cu.tx_byte, 1);
+        host_out_add(cu.tx_done, cu.tx_byte);
         cu.tx_busy = 0;
         cu.tx_irq = 1;
         sil_touch();

@@ -30,6 +30,7 @@ void periph_set_fault_pins(uint8_t port_ok, uint8_t motor_ok);
 void periph_set_fault_regs(int port, const uint8_t *regs3);
 void periph_set_adc(uint16_t raw);
 void periph_init(void);
+void periph_flush_output(void);       /* bytes to the host not yet in a frame */
 
 /* board.c: where the Build HAT wires its ports (from its published pin-out) */
 #define SIL_PORTS 4
