@@ -48,7 +48,9 @@ def reduce_finding(script: Script, finding: Finding, replay: Replay,
 
     def fails(trial: List[List[Action]]) -> Optional[Finding]:
         again = replay(_script(script, trial))
-        return again if again is not None and again.oracle == finding.oracle else None
+        if again is None or again.oracle != finding.oracle or again.details.get("prelude"):
+            return None
+        return again
 
     # Whole steps, latest first: the failing step is usually the last, and what sets its scene
     # comes shortly before it.

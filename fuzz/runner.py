@@ -42,6 +42,8 @@ class Stats:
     startup_s: float = 0.0        # time spent starting kept-open targets (not fuzzing)
     checking_s: float = 0.0       # time spent confirming and reducing findings (not fuzzing)
     liveness_only: int = 0        # steps judged on liveness alone (a raw serial trace on a timed link)
+    answered: int = 0             # steps whose fence the (first) target answered: input it took
+    ring_lossy: int = 0           # steps that lost output to a full TX ring, as the facts allow
     on_progress: Optional[Callable[[Stats], None]] = None
     on_note: Optional[Callable[[str], None]] = None     # what the campaign is doing besides fuzzing
 
@@ -117,7 +119,7 @@ class Runner:
             try:
                 target = opener()
             except TargetError as exc:
-                self.fail("liveness", f"{label}: the target could not be opened: {exc}", {})
+                self.fail("liveness", f"{label}: the target could not be opened: {exc}", {"prelude": True})
             side = Side(label, target, profile, fence_s)
             if devices is not None and fresh:
                 # The layout the target booted with (known only for targets started fresh).
@@ -128,7 +130,7 @@ class Runner:
             try:
                 target.open()
             except TargetError as exc:
-                self.fail("liveness", f"{label}: the target could not be opened: {exc}", {})
+                self.fail("liveness", f"{label}: the target could not be opened: {exc}", {"prelude": True})
 
     def start(self, prelude: bytes = PRELUDE) -> None:
         """Drain the start-up output and send the prelude (not judged: the state before it is unknown).
@@ -141,8 +143,9 @@ class Runner:
                     side.link.sync(side.fence_line)
                 side.link.exchange(prelude, side.fence_line, 1)
             except LinkTimeout as exc:
+                # Not a finding: no fuzzed input was sent yet (the campaign counts these apart).
                 self.fail("liveness", f"{side.label}: no answer after the prelude: {exc}",
-                          {"step": prelude, "received": exc.received})
+                          {"step": prelude, "received": exc.received, "prelude": True})
             side.model.feed(prelude)
             side.model.feed(FENCE)
             if not self.fresh:
@@ -191,6 +194,8 @@ class Runner:
                                         prompt=None if side.model.tainted else bool(side.model.echo))
             except LinkTimeout as exc:
                 self.fail("liveness", f"{side.label}: {exc}", {"step": plan.blob, "received": exc.received})
+            if side is self.sides[0]:
+                self.stats.answered += 1
             answers.append(got)
             compared.append(got)
             self._note_kinds(got)

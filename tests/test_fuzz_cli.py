@@ -17,7 +17,7 @@ import xml.etree.ElementTree as ET
 import pytest
 
 from buildhat_conformance.fuzz.campaign import Budget, parse_budget
-from buildhat_conformance.fuzz.cli import Progress
+from buildhat_conformance.fuzz.summary import Progress
 from buildhat_conformance.fuzz.runner import PRELUDE, Stats
 
 HERE = pathlib.Path(__file__).parent
