@@ -24,6 +24,7 @@ from ..harness.targets import make_target
 from ..harness.targets.base import Target, TargetError
 from ..protocol.devices import DEFAULT_LAYOUT
 from .campaign import CampaignConfig, CampaignResult, new_seed, parse_budget, run_campaign
+from .explain import header_lines
 from .findings import write_finding, write_junit
 from .generate import FAMILIES, check_families
 from .grammar import grammar_for
@@ -182,7 +183,7 @@ def run(args: argparse.Namespace, primary: Optional[Callable[[], Target]] = None
             *([] if f.finding.details.get("fresh", True) else [f"began on: {KEPT_OPEN}"]),
             f"reproduce: {shlex.join(reproduce_cmd)}",
             f"replay: {shlex.join(['buildhat-conformance', 'script', '--target', target, script_path])}",
-            f"finding: {f.finding.message[:300]}"]
+            *header_lines(f.finding.details), f"finding: {f.finding.message}"]
         layout = config.devices if config.fresh else None
         files[f.oracle] = write_finding(f.finding, args.out, header, meta, layout)
     oracles = ["liveness", "fate", "state", "hygiene"] + (["differential"] if config.open_secondary else [])

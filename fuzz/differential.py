@@ -14,7 +14,7 @@ from typing import List, Optional, Tuple
 from ..harness.events import Event, classify
 from .stream import ASYNC_KINDS
 
-__all__ = ["compare_answers", "VIN_TOLERANCE_V", "VALUE_TOLERANCE", "synchronous_part"]
+__all__ = ["compare_answers", "first_difference", "VIN_TOLERANCE_V", "VALUE_TOLERANCE", "synchronous_part"]
 
 VIN_TOLERANCE_V = 0.10
 VALUE_TOLERANCE = 0.05      # relative, for positions/speeds in data lines
@@ -73,19 +73,29 @@ def _num_close(x: float, y: float) -> bool:
     return abs(x - y) <= max(1.0, VALUE_TOLERANCE * max(abs(x), abs(y)))
 
 
-def compare_answers(a: bytes, b: bytes, label_a: str = "A", label_b: str = "B") -> Optional[str]:
-    """None when the answers agree within tolerance, else a description of the first difference."""
+def first_difference(a: bytes, b: bytes) -> Optional[Tuple[int, Optional[bytes], Optional[bytes]]]:
+    """(index, A's piece, B's piece) of the first answer piece that differs beyond tolerance
+    (a missing piece is None); None when the answers agree."""
     sync_a, _ = synchronous_part(a)
     sync_b, _ = synchronous_part(b)
     for i in range(max(len(sync_a), len(sync_b))):
         pa = sync_a[i] if i < len(sync_a) else None
         pb = sync_b[i] if i < len(sync_b) else None
         if pa is None or pb is None:
-            return (f"answer piece {i + 1}: {label_a} printed {pa!r}, {label_b} printed {pb!r}")
+            return i, pa, pb
         if pa == pb:
             continue
         ea, eb = classify(pa.rstrip(b"\r\n")), classify(pb.rstrip(b"\r\n"))
         if pa.endswith(b"\r\n") == pb.endswith(b"\r\n") and _close(ea, eb):
             continue
-        return f"answer piece {i + 1}: {label_a} printed {pa!r}, {label_b} printed {pb!r}"
+        return i, pa, pb
     return None
+
+
+def compare_answers(a: bytes, b: bytes, label_a: str = "A", label_b: str = "B") -> Optional[str]:
+    """None when the answers agree within tolerance, else a description of the first difference."""
+    diff = first_difference(a, b)
+    if diff is None:
+        return None
+    i, pa, pb = diff
+    return f"answer piece {i + 1}: {label_a} printed {pa!r}, {label_b} printed {pb!r}"

@@ -10,8 +10,9 @@ from typing import Callable, Dict, List, Optional, Sequence, Set, Tuple
 from ..harness.events import line_kind
 from ..harness.targets.base import Target, TargetError
 from ..protocol.profiles import Profile
-from .differential import compare_answers
+from .differential import first_difference
 from .expect import LineFate
+from .explain import differential_message, liveness_message, stream_message
 from .link import FENCE, Link, LinkTimeout
 from .model import HatModel
 from .oracles import raise_finding
@@ -193,7 +194,9 @@ class Runner:
                 got = side.link.receive(side.fence_line, plan.fences, plan.size, len(plan.blob),
                                         prompt=None if side.model.tainted else bool(side.model.echo))
             except LinkTimeout as exc:
-                self.fail("liveness", f"{side.label}: {exc}", {"step": plan.blob, "received": exc.received})
+                message, more = liveness_message(side.label, str(exc), plan.blob, side.fence_line,
+                                                 exc.received)
+                self.fail("liveness", message, dict(more, step=plan.blob, received=exc.received))
             if side is self.sides[0]:
                 self.stats.answered += 1
             answers.append(got)
@@ -211,8 +214,7 @@ class Runner:
             compared[-1] = without_torn(got, res)
             observe(side.model, res, plan.states, self.stats.count)
             side.model.ports[:] = plan.states[-1]   # reports seen (once-selections) move the model on
-            self._judge(side, res.problems, {"step": b"".join(plan.datas), "expected": plan.expected,
-                                             "received": got})
+            self._judge(side, res.problems, {"step": plan.blob, "expected": plan.expected, "received": got})
             self._check_records(side, before, plan.fates)
         if len(self.sides) == 2:
             self._differential(first.datas, compared)
@@ -273,7 +275,11 @@ class Runner:
         if not problems:
             return
         first = sorted(problems, key=lambda p: _PRIORITY.index(p.oracle))[0]
-        self.fail(first.oracle, f"{side.label}: {first.message}", details)
+        step = details["step"]
+        blob = step if isinstance(step, bytes) else step.encode()
+        message, more = stream_message(side.label, first.message, first.at, blob, details.get("expected", ()),
+                                       details["received"])
+        self.fail(first.oracle, message, dict(details, **more))
 
     def _differential(self, datas: Sequence[bytes], answers: List[bytes]) -> None:
         a_side, b_side = self.sides
@@ -282,11 +288,11 @@ class Runner:
         # The fence's own answer names each release: compare up to it.
         a_cut = a[:a.rfind(a_side.fence_line)] if a_side.fence_line in a else a
         b_cut = b[:b.rfind(b_side.fence_line)] if b_side.fence_line in b else b
-        diff = compare_answers(a_cut, b_cut, a_side.label, b_side.label)
+        diff = first_difference(a_cut, b_cut)
         if diff is not None:
-            step = b"".join(datas)
-            self.fail("differential", f"input {step!r}: {diff}",
-                      {"step": step, "received": a, "received_other": b})
+            step = b"".join(datas) + FENCE
+            message, more = differential_message((a_side.label, b_side.label), step, *diff)
+            self.fail("differential", message, dict(more, step=step, received=a, received_other=b))
 
     def fail(self, oracle: str, message: str, details: dict) -> None:
         traces = [s.link.trace.copy() for s in self.sides]

@@ -37,6 +37,7 @@ _LIST_HEADER = re.compile(rb"P([0-3]): (no device detected|connected to passive 
 class Problem:
     oracle: str       # liveness | fate | state | hygiene
     message: str
+    at: Optional[Tuple[int, int]] = None    # (expected item, received byte) where the answer went wrong
 
 
 @dataclass
@@ -199,12 +200,13 @@ def match_stream(expected: List[Expect], actual: bytes, allowed: frozenset) -> M
             else:
                 oracle = item.oracle
                 what = _show(actual[pos:])
-            res.problems.append(Problem(oracle, f"expected {item.describe()}, got {what}"))
+            res.problems.append(Problem(oracle, f"expected {item.describe()}, got {what}", (idx, pos)))
             res.consumed = pos
             return res
         pos = nxt
     rest = actual[pos:]
     if rest:
-        res.problems.append(Problem("hygiene", f"unexpected trailing output {_show(rest)}"))
+        res.problems.append(Problem("hygiene", f"unexpected trailing output {_show(rest)}",
+                                    (len(expected), pos)))
     res.consumed = len(actual)
     return res
