@@ -96,6 +96,7 @@ class CampaignConfig:
     fresh: bool = True            # every open starts a freshly booted HAT (the layout is known)
     keep_open: bool = False       # one target for many runs (the prelude resets it)
     out_limit: Optional[int] = None   # bytes one exchange may print (a wire's TX ring)
+    tx_ring: bool = False         # a paced or real wire: a full TX ring drops output (fuzz/txring.py)
     confirm: int = 3
     reduce_seconds: float = 30.0
     labels: Tuple[str, str] = ("target", "against")
@@ -181,7 +182,8 @@ class Campaign:
         openers = [(c.labels[0], self.keepers[0], c.profile)]
         if self.against is not None:
             openers.append((c.labels[1], self.keepers[1], self.against[1]))
-        runner = Runner(openers, c.fence_s, c.fresh, c.stats, c.devices, keep_open=c.keep_open)
+        runner = Runner(openers, c.fence_s, c.fresh, c.stats, c.devices, keep_open=c.keep_open,
+                        tx_ring=c.tx_ring)
         # A target kept open knows its layout only for the first run after it booted.
         runner.fresh = c.fresh and all(k.runs <= 1 for k in self.keepers)
         return runner
@@ -255,7 +257,7 @@ class Campaign:
         c = self.config
         fresh = c.fresh and not c.keep_open
         return replay_script(script, self.keepers[0], c.profile, c.fence_s, fresh=fresh, against=self.against,
-                             keep_open=c.keep_open, on_fail=self.after_failure)
+                             keep_open=c.keep_open, on_fail=self.after_failure, tx_ring=c.tx_ring)
 
     def _note(self, text: str) -> None:
         if self.config.stats.on_note is not None:

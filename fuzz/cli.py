@@ -144,7 +144,7 @@ def _config(args: argparse.Namespace, target: str, primary: Optional[Callable[[]
         # Targets that take seconds to boot stay open from run to run (the prelude resets them).
         # A paced wire (a HAT's, or an emulator told baud=) drops output once the TX ring is full.
         keep_open=not virtual, out_limit=OUT_LIMIT if not virtual or is_wire(target) else None,
-        confirm=args.confirm,
+        tx_ring=is_wire(target) or bool(args.against and is_wire(args.against)), confirm=args.confirm,
         reduce_seconds=args.shrink_time, devices=devices)
 
 
@@ -228,7 +228,8 @@ def reproduce(args: argparse.Namespace, primary: Optional[Callable[[], Target]] 
     attempts = max(1, args.confirm)
     hits, first, others = 0, None, []
     for _ in range(attempts):
-        finding = replay_script(script, open_primary, profile, fence_s, fresh=is_fresh(target), against=other)
+        finding = replay_script(script, open_primary, profile, fence_s, fresh=is_fresh(target), against=other,
+                                tx_ring=is_wire(target) or bool(against and is_wire(against)))
         if finding is None:
             continue
         if oracle is None or finding.oracle == oracle:

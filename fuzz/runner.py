@@ -19,6 +19,7 @@ from .oracles import raise_finding
 from .statecheck import check_drive, expect_reports, observe
 from .stepplan import plan_step
 from .stream import Problem, allowed_kinds, match_stream, without_torn
+from .txring import drain_ms, headroom, match_lossy
 
 __all__ = ["Runner", "Side", "Stats", "PRELUDE"]
 
@@ -107,15 +108,18 @@ class Runner:
 
     def __init__(self, openers: Sequence[Tuple[str, Callable[[], Target], Profile]], fence_s: float = 2.0,
                  fresh: bool = True, stats: Optional[Stats] = None,
-                 devices: Optional[Dict[int, Optional[tuple]]] = None, keep_open: bool = False):
+                 devices: Optional[Dict[int, Optional[tuple]]] = None, keep_open: bool = False,
+                 tx_ring: bool = False):
         """``openers`` may hand out targets that are already open (a campaign reusing one
-        target for many runs); ``keep_open``: :meth:`close` leaves them open."""
+        target for many runs); ``keep_open``: :meth:`close` leaves them open. ``tx_ring``: the
+        targets sit behind a paced or real wire, where a full TX ring drops output (fuzz/txring.py)."""
         self.stats = stats or Stats()
         self.sides: List[Side] = []
         self.kinds_seen: Set[str] = set()
         self.fresh = fresh
         self.keep_open = keep_open
         self.settled = False      # the targets come from a run that ended cleanly (see start)
+        self.tx_ring = tx_ring
         for label, opener, profile in openers:
             try:
                 target = opener()
@@ -171,32 +175,48 @@ class Runner:
                 side.close()
 
     # -- steps ---------------------------------------------------------------------------------
-    def exchange(self, datas: Sequence[bytes], guard: bool = False) -> List[bytes]:
+    def _send(self, side: Side, data: bytes, blob: bytes) -> None:
+        try:
+            side.link.send(data)
+        except TargetError as exc:
+            self.fail("liveness", f"{side.label}: the target went away: {exc}",
+                      {"step": blob, "received": b""})
+
+    def exchange(self, datas: Sequence[bytes], guard: bool = False,
+                 pause_ms: Optional[int] = None) -> List[bytes]:
         """One step: the inputs back to back and one fence, written to every side before any
         answer is read; then each answer is checked. With ``guard``, inputs that would leave
         debug bit 1 set get :data:`DEBUG_OFF` (decided on the first side's model, so every side
-        receives the same bytes). Returns each side's answer."""
+        receives the same bytes). A step whose output may meet a full TX ring lets it drain
+        before the fence (``pause_ms``: that many HAT ms, as a replayed script says; None: as
+        fuzz/txring.py reckons). Returns each side's answer."""
         first = plan_step(self.sides[0].model, datas, guard)
         plans = [first] + [plan_step(side.model, first.datas) for side in self.sides[1:]]
+        keeps = [headroom(p.states, p.debug, side.model.selrate_engine, p.size) if self.tx_ring else None
+                 for side, p in zip(self.sides, plans)]
+        if pause_ms is None:
+            pause_ms = max([drain_ms(p.size, len(p.blob)) for p, k in zip(plans, keeps) if k is not None],
+                           default=0)
         records = []
         for side, plan in zip(self.sides, plans):
             records.append(len(getattr(side.link.target, "line_records", ())))
-            try:
-                side.link.send(plan.blob)
-            except TargetError as exc:
-                self.fail("liveness", f"{side.label}: the target went away: {exc}",
-                          {"step": plan.blob, "received": b""})
+            self._send(side, plan.blob[:-len(FENCE)] if pause_ms else plan.blob, plan.blob)
+        early = [side.link.wait(pause_ms) if pause_ms else b"" for side in self.sides]
+        for side, plan in zip(self.sides, plans):
+            if pause_ms:
+                self._send(side, FENCE, plan.blob)
+        lost = False
         answers: List[bytes] = []
         compared: List[bytes] = []       # what the differential oracle compares (echo made whole)
-        for side, plan, before in zip(self.sides, plans, records):
+        for side, plan, before, keep, ahead in zip(self.sides, plans, records, keeps, early):
             self.stats.count("liveness")
             try:
-                got = side.link.receive(side.fence_line, plan.fences, plan.size, len(plan.blob),
-                                        prompt=None if side.model.tainted else bool(side.model.echo))
+                got = ahead + side.link.receive(side.fence_line, plan.fences, plan.size, len(plan.blob),
+                                                prompt=None if side.model.tainted else bool(side.model.echo))
             except LinkTimeout as exc:
                 message, more = liveness_message(side.label, str(exc), plan.blob, side.fence_line,
-                                                 exc.received)
-                self.fail("liveness", message, dict(more, step=plan.blob, received=exc.received))
+                                                 ahead + exc.received)
+                self.fail("liveness", message, dict(more, step=plan.blob, received=ahead + exc.received))
             if side is self.sides[0]:
                 self.stats.answered += 1
             answers.append(got)
@@ -211,12 +231,18 @@ class Runner:
                 self.stats.liveness_only += 1
                 continue      # (the trace ends before the guard's `debug 0`, so before the fence line)
             res = match_stream(plan.expected, got, self._allowed(side, plan.debug))
+            if res.problems and keep is not None:
+                # Bytes a full TX ring dropped are no finding (FIRMWARE-FACTS §1); anything else is.
+                lossy = match_lossy(plan.expected, got, self._allowed(side, plan.debug), keep)
+                if lossy is not None:
+                    res, lost = lossy, True
+                    self.stats.ring_lossy += 1
             compared[-1] = without_torn(got, res)
             observe(side.model, res, plan.states, self.stats.count)
             side.model.ports[:] = plan.states[-1]   # reports seen (once-selections) move the model on
             self._judge(side, res.problems, {"step": plan.blob, "expected": plan.expected, "received": got})
             self._check_records(side, before, plan.fates)
-        if len(self.sides) == 2:
+        if len(self.sides) == 2 and not lost:   # (a ring's drops differ by timing: each side judged its own)
             self._differential(first.datas, compared)
         return answers
 
