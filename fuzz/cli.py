@@ -193,8 +193,9 @@ def run(args: argparse.Namespace, primary: Optional[Callable[[], Target]] = None
                  "seed": str(seed), "budget": str(budget), "inputs": str(stats.executions),
                  "lines": str(stats.lines), **({"not_done": result.not_done} if result.not_done else {})},
                 files)
-    print_summary(result, stats, grammar.productions, files, junit, seed, chosen, is_wire(target),
-                  config.out_limit)
+    # The share of the wire is a wall-clock figure: not for in-process targets (virtual time).
+    wire = is_wire(target) and _scheme(target) != "inprocess"
+    print_summary(result, stats, grammar.productions, files, junit, seed, chosen, wire, config.out_limit)
     return result, files
 
 

@@ -19,7 +19,7 @@ from .oracles import raise_finding
 from .statecheck import check_drive, expect_reports, observe
 from .stepplan import plan_step
 from .stream import Problem, allowed_kinds, match_stream, without_torn
-from .txring import drain_ms, headroom, match_lossy
+from .txring import UNHELD_DEBUG, drain_ms, headroom, match_lossy
 
 __all__ = ["Runner", "Side", "Stats", "PRELUDE"]
 
@@ -186,14 +186,17 @@ class Runner:
                  pause_ms: Optional[int] = None) -> List[bytes]:
         """One step: the inputs back to back and one fence, written to every side before any
         answer is read; then each answer is checked. With ``guard``, inputs that would leave
-        debug bit 1 set get :data:`DEBUG_OFF` (decided on the first side's model, so every side
-        receives the same bytes). A step whose output may meet a full TX ring lets it drain
-        before the fence (``pause_ms``: that many HAT ms, as a replayed script says; None: as
-        fuzz/txring.py reckons). Returns each side's answer."""
-        first = plan_step(self.sides[0].model, datas, guard)
+        debug bit 1 set (on a wire, also 8 or 16) get :data:`DEBUG_OFF` (decided on the first
+        side's model, so every side receives the same bytes). A step whose output may meet a
+        full TX ring lets it drain before the fence (``pause_ms``: that many HAT ms, as a
+        replayed script says; None: as fuzz/txring.py reckons). Returns each side's answer."""
+        # On a wire the debug streams a full ring does not hold back are guarded too (fuzz/txring.py).
+        mask = (1 | UNHELD_DEBUG if self.tx_ring else 1) if guard else 0
+        before = [side.model.debug for side in self.sides]
+        first = plan_step(self.sides[0].model, datas, mask)
         plans = [first] + [plan_step(side.model, first.datas) for side in self.sides[1:]]
-        keeps = [headroom(p.states, p.debug, side.model.selrate_engine, p.size) if self.tx_ring else None
-                 for side, p in zip(self.sides, plans)]
+        keeps = [headroom(p.states, d | side.model.debug, side.model.selrate_engine, p.size) if self.tx_ring
+                 else None for side, p, d in zip(self.sides, plans, before)]
         if pause_ms is None:
             pause_ms = max([drain_ms(p.size, len(p.blob)) for p, k in zip(plans, keeps) if k is not None],
                            default=0)
@@ -211,7 +214,9 @@ class Runner:
         for side, plan, before, keep, ahead in zip(self.sides, plans, records, keeps, early):
             self.stats.count("liveness")
             try:
-                got = ahead + side.link.receive(side.fence_line, plan.fences, plan.size, len(plan.blob),
+                # (fence lines that came during the pause count: a `version` among the inputs)
+                got = ahead + side.link.receive(side.fence_line, plan.fences - ahead.count(side.fence_line),
+                                                plan.size, len(plan.blob),
                                                 prompt=None if side.model.tainted else bool(side.model.echo))
             except LinkTimeout as exc:
                 message, more = liveness_message(side.label, str(exc), plan.blob, side.fence_line,

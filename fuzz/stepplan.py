@@ -54,9 +54,9 @@ class StepPlan:
         return _size(self.expected)
 
 
-def plan_step(model: HatModel, datas: Sequence[bytes], guard: bool = False) -> StepPlan:
-    """Feed ``datas`` and the fence to ``model`` (it moves on). With ``guard``, :data:`DEBUG_OFF`
-    is appended to each input that leaves debug bit 1 set (and fed)."""
+def plan_step(model: HatModel, datas: Sequence[bytes], guard: int = 0) -> StepPlan:
+    """Feed ``datas`` and the fence to ``model`` (it moves on). With ``guard`` (debug bits; True
+    is bit 1), :data:`DEBUG_OFF` is appended to each input that leaves one of them set (and fed)."""
     states = [[p.copy() for p in model.ports]]
     model.debug_seen = model.debug
     expected: List[Expect] = []
@@ -64,7 +64,7 @@ def plan_step(model: HatModel, datas: Sequence[bytes], guard: bool = False) -> S
     sent: List[bytes] = []
     for data in datas:
         items, more_fates = model.feed(data)
-        if guard and model.debug & 1:
+        if model.debug & guard:
             data += DEBUG_OFF
             more, off_fates = model.feed(DEBUG_OFF)
             items = joined(items, more)          # what feeding ``data + DEBUG_OFF`` at once predicts
