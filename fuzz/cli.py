@@ -227,20 +227,25 @@ def reproduce(args: argparse.Namespace, primary: Optional[Callable[[], Target]] 
     named = _ORACLE_OF.search(script.name or "")
     oracle = named.group(1) if named else None
     attempts = max(1, args.confirm)
-    hits, first, others = 0, None, []
+    hits, first, others, refused = 0, None, [], []
     for _ in range(attempts):
         finding = replay_script(script, open_primary, profile, fence_s, fresh=is_fresh(target), against=other,
                                 tx_ring=is_wire(target) or bool(against and is_wire(against)))
         if finding is None:
             continue
-        if oracle is None or finding.oracle == oracle:
+        if finding.details.get("prelude"):
+            refused.append(finding)           # the target did not take the prelude: proves nothing
+        elif oracle is None or finding.oracle == oracle:
             hits += 1
             first = first or finding
         else:
             others.append(finding)
     where = f"{target}" + (f" against {against}" if against else "")
+    if len(refused) == attempts:
+        raise TargetError(f"could not replay on {where}: the target did not take the prelude "
+                          f"({refused[0].message})")
     if first is not None:
-        print(f"reproduced ({hits}/{attempts} replays) on {where}: [{first.oracle}] {first.message[:400]}")
+        print(f"reproduced ({hits}/{attempts} replays) on {where}: [{first.oracle}] {first.message}")
     else:
         print(f"not reproduced (0/{attempts} replays) on {where}")
         if "began on" in recorded and is_fresh(target):

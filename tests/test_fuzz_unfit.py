@@ -103,3 +103,12 @@ def test_no_wire_share_for_an_unpaced_cmd_target(tmp_path):
                 "-t", f"cmd:{EMULATOR} --stdio")
     assert res.returncode in (0, 1), res.stdout + res.stderr
     assert res.stdout.startswith("fuzz: 2 runs") and "wire:" not in res.stdout, res.stdout
+
+
+def test_reproduce_on_a_target_that_takes_no_prelude_is_not_a_reproduction(tmp_path):
+    script = tmp_path / "liveness.script"
+    script.write_text("@name fuzz finding (liveness): x\n> echo 0\n> version\n> vin\n> version\n", encoding="utf-8")
+    res = subprocess.run([EXE, "fuzz", "--reproduce", str(script), "-t", "inprocess:R7?hang_after=1",
+                          "--confirm", "2"], capture_output=True, text=True, timeout=120)
+    assert res.returncode == 3, res.stdout + res.stderr
+    assert res.stdout == "" and len(_lines(res.stderr)) == 1 and "did not take the prelude" in res.stderr
