@@ -198,7 +198,7 @@ class Runner:
         keeps = [headroom(p.states, d | side.model.debug, side.model.selrate_engine, p.size) if self.tx_ring
                  else None for side, p, d in zip(self.sides, plans, before)]
         if pause_ms is None:
-            pause_ms = max([drain_ms(p.size, len(p.blob)) for p, k in zip(plans, keeps) if k is not None],
+            pause_ms = max([drain_ms(p.size, len(p.blob), k) for p, k in zip(plans, keeps) if k is not None],
                            default=0)
         records = []
         for side, plan in zip(self.sides, plans):

@@ -31,6 +31,7 @@ __all__ = ["RING_SIZE", "THROTTLE", "UNHELD_DEBUG", "headroom", "drain_ms", "mat
 RING_SIZE = 8192            # §1
 THROTTLE = 4096             # §6.2: no report is printed while the ring holds this much
 REPORT_LINE_MAX = 256       # a report line (held back as a whole, never cut) is shorter than this
+FENCE_ROOM = 128            # the fence's answer (CRLF, the version line, a prompt) fits in this
 WIRE_BYTES_PER_MS = 11.52   # 115200 baud, 8N1 (§1)
 UNHELD_DEBUG = 8 | 16      # DATA payloads and PID lines: printed whatever the ring holds (§7.4)
 _LIST_START = re.compile(rb"P[0-3]: |  ")   # how the lines of a `list` dump begin (§4.4)
@@ -52,9 +53,13 @@ def headroom(states: Sequence[Sequence[PortModel]], debug: int, selrate_engine: 
     return room if size > room else None
 
 
-def drain_ms(size: int, sent: int) -> int:
-    """HAT ms for ``sent`` input bytes to arrive and a full ring, or the step's output, to leave."""
-    return math.ceil((sent + min(RING_SIZE, size + THROTTLE + REPORT_LINE_MAX)) / WIRE_BYTES_PER_MS)
+def drain_ms(size: int, sent: int, keep: int) -> int:
+    """HAT ms to wait before the fence of a step that sends ``sent`` bytes and may print ``size``
+    into a ring with room for ``keep``: its input must arrive, and enough must leave that the
+    fence's answer fits (what reports add meanwhile is held back at 4096 bytes). A fifth more,
+    and 10 ms, for a target that runs a little slower than the wire."""
+    must_leave = max(0, size + FENCE_ROOM - keep)
+    return math.ceil((sent + must_leave) / WIRE_BYTES_PER_MS * 1.2) + 10
 
 
 def _fence_at(expected: Sequence[Expect]) -> Optional[int]:
