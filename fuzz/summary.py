@@ -135,7 +135,7 @@ def print_summary(result: CampaignResult, stats: Stats, productions, files: Dict
           + (f"; {stats.liveness_only} step(s) judged on liveness only (debug bit 1's raw trace)"
              if stats.liveness_only else ""))
     if stats.ring_lossy:
-        print(f"  {stats.ring_lossy} step(s) lost output to a full TX ring while reports streamed "
+        print(f"  {stats.ring_lossy} step(s) lost output to a full TX ring while output streamed "
               "(allowed: FIRMWARE-FACTS §1, §6.2); judged on what a full ring leaves")
     if stats.left_out and out_limit is not None:
         print(f"  {stats.left_out} input(s) not sent: the answer of each alone is over {out_limit} bytes, "
