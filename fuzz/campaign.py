@@ -303,7 +303,10 @@ def not_done(result: CampaignResult, stats: Stats) -> Optional[str]:
         return None
     why = f" ({result.prelude_failures[0]})" if result.prelude_failures else ""
     if stats.executions == 0:
-        return f"no input was sent: none of {result.runs} run(s) got past the prelude{why}"
+        if len(result.prelude_failures) >= result.runs:
+            return f"no input was sent: none of {result.runs} run(s) got past the prelude{why}"
+        return (f"no input was sent in {result.runs} run(s): the budget ran out before the first step, "
+                "or every step drawn was a wait (give more --steps or a larger --budget)")
     if result.findings:
         return None
     if stats.answered == 0:

@@ -94,7 +94,8 @@ def test_help_cut_short_by_a_full_tx_ring_while_modes_stream_is_no_finding():
 
 @pytest.mark.parametrize("factory", [CorruptsQuestionMark, "drops"])
 def test_a_real_corruption_while_modes_stream_is_still_a_finding(factory):
-    finding, _dropped, _lossy, _trace = _help_while_streaming(_drops_bytes() if factory == "drops" else factory)
+    planted = _drops_bytes() if factory == "drops" else factory
+    finding, _dropped, _lossy, _trace = _help_while_streaming(planted)
     assert finding is not None and finding.oracle in ("fate", "hygiene", "state"), finding
 
 

@@ -45,7 +45,8 @@ def test_a_target_of_another_release_than_firmware_stops_at_once_with_one_line(t
 
 
 def test_the_release_the_target_runs_is_accepted_when_named(tmp_path):
-    res = _fuzz(tmp_path, "--budget", "1x", "--steps", "3", "-t", "inprocess:R2", "--firmware", "R2", "--quiet")
+    res = _fuzz(tmp_path, "--budget", "1x", "--steps", "3", "--seed", "1", "-t", "inprocess:R2",
+                "--firmware", "R2", "--quiet")
     assert res.returncode == 0, res.stdout + res.stderr
 
 
@@ -64,8 +65,9 @@ def _finding(message: str):
 
 
 def test_not_done_names_no_input_sent_none_accepted_or_none_of_it():
-    stats = Stats(executions=0)
-    assert not_done(CampaignResult(runs=4), stats).startswith("no input was sent: none of 4 run(s)")
+    refused = CampaignResult(runs=4, prelude_failures=["target: no answer after the prelude"] * 4)
+    assert not_done(refused, Stats()).startswith("no input was sent: none of 4 run(s) got past the prelude")
+    assert "budget ran out" in not_done(CampaignResult(runs=1), Stats())
     stats = Stats(executions=12, answered=0)
     result = CampaignResult(runs=3, unconfirmed=[(_finding("no answer to the fence"), 3)])
     why = not_done(result, stats)
@@ -107,7 +109,8 @@ def test_no_wire_share_for_an_unpaced_cmd_target(tmp_path):
 
 def test_reproduce_on_a_target_that_takes_no_prelude_is_not_a_reproduction(tmp_path):
     script = tmp_path / "liveness.script"
-    script.write_text("@name fuzz finding (liveness): x\n> echo 0\n> version\n> vin\n> version\n", encoding="utf-8")
+    script.write_text("@name fuzz finding (liveness): x\n> echo 0\n> version\n> vin\n> version\n",
+                      encoding="utf-8")
     res = subprocess.run([EXE, "fuzz", "--reproduce", str(script), "-t", "inprocess:R7?hang_after=1",
                           "--confirm", "2"], capture_output=True, text=True, timeout=120)
     assert res.returncode == 3, res.stdout + res.stderr
