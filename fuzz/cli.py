@@ -102,6 +102,14 @@ def is_wire(url: str) -> bool:
     return True
 
 
+def has_tx_ring(url: str, against: Optional[str] = None) -> bool:
+    """Output may meet a full TX ring (fuzz/txring.py): any target but our emulator unpaced, whose
+    output never waits (a `cmd:` target may be firmware behind a pipe, with a ring of its own)."""
+    def one(u: str) -> bool:
+        return is_wire(u) or _scheme(u) not in ("inprocess", "emulator")
+    return one(url) or bool(against and one(against))
+
+
 def opener_for(url: str) -> Callable[[], Target]:
     make_target(url)   # fail early with the registry's message for a bad URL
     return lambda: make_target(url)
@@ -144,7 +152,7 @@ def _config(args: argparse.Namespace, target: str, primary: Optional[Callable[[]
         # Targets that take seconds to boot stay open from run to run (the prelude resets them).
         # A paced wire (a HAT's, or an emulator told baud=) drops output once the TX ring is full.
         keep_open=not virtual, out_limit=OUT_LIMIT if not virtual or is_wire(target) else None,
-        tx_ring=is_wire(target) or bool(args.against and is_wire(args.against)), confirm=args.confirm,
+        tx_ring=has_tx_ring(target, args.against), confirm=args.confirm,
         reduce_seconds=args.shrink_time, devices=devices)
 
 
@@ -230,7 +238,7 @@ def reproduce(args: argparse.Namespace, primary: Optional[Callable[[], Target]] 
     hits, first, others, refused = 0, None, [], []
     for _ in range(attempts):
         finding = replay_script(script, open_primary, profile, fence_s, fresh=is_fresh(target), against=other,
-                                tx_ring=is_wire(target) or bool(against and is_wire(against)))
+                                tx_ring=has_tx_ring(target, against))
         if finding is None:
             continue
         if finding.details.get("prelude"):

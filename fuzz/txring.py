@@ -41,7 +41,9 @@ def _backlog(states: Sequence[Sequence[PortModel]], debug: int, selrate_engine: 
     """The most the ring may hold, from what streams, when the step's output starts."""
     if debug & UNHELD_DEBUG:
         return RING_SIZE
-    streaming = any(not p.known or p.reporting(selrate_engine) for ports in states for p in ports)
+    # A port whose state the model lost (a link change) may still report if a mode is selected.
+    streaming = any(p.reporting(selrate_engine) or (not p.known and p.mode >= 0)
+                    for ports in states for p in ports)
     return THROTTLE + REPORT_LINE_MAX if streaming else 0
 
 
