@@ -199,8 +199,7 @@ def run(args: argparse.Namespace, primary: Optional[Callable[[], Target]] = None
     write_junit(junit, oracles, [f.finding for f in result.findings], stats.checks, result.elapsed,
                 {"target": target, "against": args.against or "", "release": config.profile.name,
                  "seed": str(seed), "budget": str(budget), "inputs": str(stats.executions),
-                 "lines": str(stats.lines), **({"not_done": result.not_done} if result.not_done else {})},
-                files)
+                 "lines": str(stats.lines)}, files, result.not_done)
     # The share of the wire is a wall-clock figure: not for in-process targets (virtual time).
     wire = is_wire(target) and _scheme(target) != "inprocess"
     print_summary(result, stats, grammar.productions, files, junit, seed, chosen, wire, config.out_limit)

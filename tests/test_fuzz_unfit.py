@@ -8,6 +8,7 @@ import io
 import os
 import subprocess
 import sys
+import xml.etree.ElementTree as ET
 
 import pytest
 
@@ -57,6 +58,9 @@ def test_a_target_that_takes_no_input_exits_3_with_one_line_why(tmp_path):
     err = _lines(res.stderr)
     assert len(err) == 1 and "no input was sent" in err[0], res.stderr
     assert " 0 inputs " in res.stdout and "not a finding" in res.stdout
+    junit = ET.parse(tmp_path / "junit.xml").getroot()
+    error = junit.find("testcase[@name='campaign']/error")
+    assert junit.get("errors") == "1" and error is not None and "no input was sent" in error.get("message")
     assert len([x for x in res.stdout.splitlines() if "could not start" in x]) == 1   # collapsed
 
 
