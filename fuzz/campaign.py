@@ -96,7 +96,7 @@ class CampaignConfig:
     fresh: bool = True            # every open starts a freshly booted HAT (the layout is known)
     keep_open: bool = False       # one target for many runs (the prelude resets it)
     out_limit: Optional[int] = None   # bytes one exchange may print (a wire's TX ring)
-    tx_ring: bool = False         # a paced or real wire: a full TX ring drops output (fuzz/txring.py)
+    tx_ring: bool = False         # output may meet a full TX ring (a wire, cmd:): fuzz/txring.py
     confirm: int = 3
     reduce_seconds: float = 30.0
     labels: Tuple[str, str] = ("target", "against")

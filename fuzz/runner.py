@@ -112,7 +112,8 @@ class Runner:
                  tx_ring: bool = False):
         """``openers`` may hand out targets that are already open (a campaign reusing one
         target for many runs); ``keep_open``: :meth:`close` leaves them open. ``tx_ring``: the
-        targets sit behind a paced or real wire, where a full TX ring drops output (fuzz/txring.py)."""
+        targets' output may wait in a TX ring that drops it when full (a paced or real wire, a
+        `cmd:` target: fuzz/txring.py)."""
         self.stats = stats or Stats()
         self.sides: List[Side] = []
         self.kinds_seen: Set[str] = set()
@@ -186,11 +187,11 @@ class Runner:
                  pause_ms: Optional[int] = None) -> List[bytes]:
         """One step: the inputs back to back and one fence, written to every side before any
         answer is read; then each answer is checked. With ``guard``, inputs that would leave
-        debug bit 1 set (on a wire, also 8 or 16) get :data:`DEBUG_OFF` (decided on the first
+        debug bit 1 set (with ``tx_ring``, also 8 or 16) get :data:`DEBUG_OFF` (decided on the first
         side's model, so every side receives the same bytes). A step whose output may meet a
         full TX ring lets it drain before the fence (``pause_ms``: that many HAT ms, as a
         replayed script says; None: as fuzz/txring.py reckons). Returns each side's answer."""
-        # On a wire the debug streams a full ring does not hold back are guarded too (fuzz/txring.py).
+        # Where a ring applies, the debug streams it does not hold back are guarded too (fuzz/txring.py).
         mask = (1 | UNHELD_DEBUG if self.tx_ring else 1) if guard else 0
         before = [side.model.debug for side in self.sides]
         first = plan_step(self.sides[0].model, datas, mask)
