@@ -196,11 +196,11 @@ class Runner:
         before = [side.model.debug for side in self.sides]
         first = plan_step(self.sides[0].model, datas, mask)
         plans = [first] + [plan_step(side.model, first.datas) for side in self.sides[1:]]
-        keeps = [headroom(p.states, d | side.model.debug, side.model.selrate_engine, p.size) if self.tx_ring
-                 else None for side, p, d in zip(self.sides, plans, before)]
+        keeps = [headroom(p.states, d | side.model.debug, side.model.selrate_engine, p.size_max)
+                 if self.tx_ring else None for side, p, d in zip(self.sides, plans, before)]
         if pause_ms is None:
-            pause_ms = max([drain_ms(p.size, len(p.blob), k) for p, k in zip(plans, keeps) if k is not None],
-                           default=0)
+            pause_ms = max([drain_ms(p.size_max, len(p.blob), k)
+                            for p, k in zip(plans, keeps) if k is not None], default=0)
         records = []
         for side, plan in zip(self.sides, plans):
             records.append(len(getattr(side.link.target, "line_records", ())))

@@ -13,7 +13,7 @@ from .link import FENCE
 from .model import HatModel
 from .portmodel import PortModel
 
-__all__ = ["DEBUG_OFF", "StepPlan", "plan_step", "output_groups"]
+__all__ = ["DEBUG_OFF", "StepPlan", "plan_step", "output_groups", "LISTING_MAX"]
 
 # Debug bit 1 is a raw serial trace with no line structure (§7.4): after any input that leaves
 # it set, this is sent at once so the line-level oracles stay meaningful.
@@ -24,8 +24,16 @@ def _count_fences(items: Sequence[Expect]) -> int:
     return sum(1 for it in items if it.kind == "exact" and it.what == "version line")
 
 
-def _size(items: Sequence[Expect]) -> int:
-    return sum(len(it.data) if it.kind == "exact" else (4000 if it.kind == "listing" else 80) for it in items)
+# A `list` dump's size depends on the devices: 4000 bytes is a typical guess (four motors print about
+# 4,300), LISTING_MAX what four of the largest device of the catalogue print (about 1,870 bytes each):
+# the bound the TX ring must be judged by (fuzz/txring.py).
+LISTING_GUESS = 4000
+LISTING_MAX = 4 * 1900
+
+
+def _size(items: Sequence[Expect], listing: int = LISTING_GUESS) -> int:
+    return sum(len(it.data) if it.kind == "exact" else (listing if it.kind == "listing" else 80)
+               for it in items)
 
 
 @dataclass
@@ -52,6 +60,11 @@ class StepPlan:
     def size(self) -> int:
         """Bytes the step is predicted to print (an upper guess for lists and patterns)."""
         return _size(self.expected)
+
+    @property
+    def size_max(self) -> int:
+        """The most the step may print (a `list` dump at its largest)."""
+        return _size(self.expected, LISTING_MAX)
 
 
 def plan_step(model: HatModel, datas: Sequence[bytes], guard: int = 0) -> StepPlan:

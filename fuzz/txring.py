@@ -35,6 +35,7 @@ FENCE_ROOM = 128            # the fence's answer (CRLF, the version line, a prom
 WIRE_BYTES_PER_MS = 11.52   # 115200 baud, 8N1 (§1)
 UNHELD_DEBUG = 8 | 16      # DATA payloads and PID lines: printed whatever the ring holds (§7.4)
 _LIST_START = re.compile(rb"P[0-3]: |  ")   # how the lines of a `list` dump begin (§4.4)
+_LIST_KINDS = ("list_port", "list_line")
 
 
 def _backlog(states: Sequence[Sequence[PortModel]], debug: int, selrate_engine: bool) -> int:
@@ -83,36 +84,44 @@ def _async_line(actual: bytes, pos: int, allowed: frozenset):  # type: ignore[no
     return None, pos
 
 
-def _list_stub(actual: bytes, pos: int, allowed: frozenset) -> int:
-    """The end of a `list` line cut by the ring, when an asynchronous line printed after it
-    drained follows right on (``pos`` when there is none)."""
-    end = actual.find(b"\r\n", pos)
-    if end < 0 or not _LIST_START.match(actual, pos):
+def _listing_run(actual: bytes, pos: int, allowed: frozenset) -> int:
+    """The end of the `list` dump lines from ``pos`` on, the last one perhaps cut by the ring,
+    when a line printed once it drained follows right on (``pos`` when none starts here)."""
+    while True:
+        end = actual.find(b"\r\n", pos)
+        if end < 0:
+            return pos
+        if classify(actual[pos:end]).kind in _LIST_KINDS:
+            pos = end + 2
+            continue
+        if _LIST_START.match(actual, pos):
+            for q in range(pos + 1, end):
+                if _async_line(actual, q, allowed)[0] is not None:
+                    return q
         return pos
-    for q in range(pos + 1, end):
-        if _async_line(actual, q, allowed)[0] is not None:
-            return q
-    return pos
 
 
 def _lossy_walk(items: Sequence[Expect], actual: bytes, allowed: frozenset, keep: int,
                 res: MatchResult) -> bool:
-    """``actual`` is ``items`` with bytes missing only past the first ``keep`` bytes, with whole
-    allowed asynchronous lines anywhere between (a line after a cut may follow its stub)."""
-    i = j = pos = passed = 0       # item, byte in item, position in actual, expected bytes passed
+    """``actual`` is ``items`` with bytes missing only past the first ``keep`` bytes of output,
+    with whole allowed asynchronous lines anywhere between (a line after a cut may follow its stub)."""
+    i = j = pos = 0
+    passed = 0          # bytes of output before this point: received, or predicted and missing
     while pos < len(actual):
+        while i < len(items) and items[i].kind == "exact" and j >= len(items[i].data):
+            i, j = i + 1, 0                       # (an item fully matched: on to the next)
+        if i < len(items) and items[i].kind == "listing":
+            # The dump first (its lines would pass as asynchronous: a connecting device prints
+            # them too); whole, or cut short by the ring.
+            end = _match_item(items[i], actual, pos) or _listing_run(actual, pos, allowed)
+            if end > pos:
+                passed, pos, i, j = passed + end - pos, end, i + 1, 0
+                continue
         ev, nxt = _async_line(actual, pos, allowed)
         if ev is not None:
             res.asynchronous.append((i, ev))
-            pos = nxt
+            passed, pos = passed + nxt - pos, nxt
             continue
-        if i < len(items) and items[i].kind == "listing":
-            # The dump's lines pass as asynchronous above (a connecting device prints them too);
-            # its last one may be cut short.
-            stub = _list_stub(actual, pos, allowed)
-            if stub > pos:
-                passed, pos = passed + stub - pos, stub
-                continue
         while True:
             if i >= len(items):
                 return False                      # output the prediction does not have

@@ -134,3 +134,19 @@ def test_lossy_match_allows_only_what_a_full_ring_drops():
     # a line no HAT prints in this state (here: a PID line with debug 16 off) is no drop
     pid = text[:keep + 40] + b"P0: pv=0.00000 sp=0.00000: e=0.00000 ie=0.00000 de=0.00000 cv=0.00000\r\n"
     assert match_lossy(plan.expected, pid + FENCE_ANSWER, allowed, keep) is None
+
+
+@pytest.mark.parametrize("step", [[b"list\r", b"list\r", b"vin\r"], [b"help\r", b"list\r", b"port 2\r"]])
+def test_a_step_longer_than_the_whole_ring_loses_only_its_tail(step):
+    """Nothing streams, but two long answers in one step print more than 8192 bytes: the emulator
+    drops the rest of the second (the list dump cut mid-line, then its stall line): no finding."""
+    target = InProcessTarget("R7", devices=MOTORS, baud=115200)
+    runner = Runner([("target", lambda: target, R7)], 0.3, True, devices=MOTORS, tx_ring=True)
+    uart = target.emulator.uart
+    try:
+        runner.start()
+        runner.exchange(step)
+        runner.exchange([b"vin\r"])
+    finally:
+        runner.close()
+    assert uart.tx_dropped > 0 and runner.stats.ring_lossy == 1
