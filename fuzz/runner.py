@@ -14,12 +14,13 @@ from .differential import first_difference
 from .expect import LineFate
 from .explain import differential_message, liveness_message, stream_message
 from .link import FENCE, Link, LinkTimeout
+from .lossymatch import match_lossy
 from .model import HatModel
 from .oracles import raise_finding
 from .statecheck import check_drive, expect_reports, observe
 from .stepplan import plan_step
 from .stream import Problem, allowed_kinds, match_stream, without_torn
-from .txring import UNHELD_DEBUG, drain_ms, headroom, match_lossy
+from .txring import UNHELD_DEBUG, WIRE_BYTES_PER_MS, backlog, drain_ms, headroom
 
 __all__ = ["Runner", "Side", "Stats", "PRELUDE"]
 
@@ -121,6 +122,7 @@ class Runner:
         self.keep_open = keep_open
         self.settled = False      # the targets come from a run that ended cleanly (see start)
         self.tx_ring = tx_ring
+        self._queued: List[int] = []   # per side: what streams may have queued in the TX ring
         for label, opener, profile in openers:
             try:
                 target = opener()
@@ -131,6 +133,7 @@ class Runner:
                 # The layout the target booted with (known only for targets started fresh).
                 side.model = HatModel(profile, devices)
             self.sides.append(side)
+            self._queued.append(0)
             if target.is_open:
                 continue
             try:
@@ -196,8 +199,12 @@ class Runner:
         before = [side.model.debug for side in self.sides]
         first = plan_step(self.sides[0].model, datas, mask)
         plans = [first] + [plan_step(side.model, first.datas) for side in self.sides[1:]]
-        keeps = [headroom(p.states, d | side.model.debug, side.model.selrate_engine, p.size_max)
-                 if self.tx_ring else None for side, p, d in zip(self.sides, plans, before)]
+        queued = [backlog(p.states, d | side.model.debug, side.model.selrate_engine,
+                          bool(side.profile.feature("tx_throttle_reports"))) if self.tx_ring else 0
+                  for side, p, d in zip(self.sides, plans, before)]
+        # What a stream stopped by the last step queued may still be draining ahead of this answer.
+        queued, self._queued = [max(q, last) for q, last in zip(queued, self._queued)], queued
+        keeps = [headroom(q, p.size_max) if self.tx_ring else None for p, q in zip(plans, queued)]
         if pause_ms is None:
             pause_ms = max([drain_ms(p.size_max, len(p.blob), k)
                             for p, k in zip(plans, keeps) if k is not None], default=0)
@@ -212,13 +219,17 @@ class Runner:
         lost = False
         answers: List[bytes] = []
         compared: List[bytes] = []       # what the differential oracle compares (echo made whole)
-        for side, plan, before, keep, ahead in zip(self.sides, plans, records, keeps, early):
+        for side, plan, before, keep, ahead, queue in zip(self.sides, plans, records, keeps, early, queued):
             self.stats.count("liveness")
             try:
-                # (fence lines that came during the pause count: a `version` among the inputs)
+                # (fence lines that came during the pause count: a `version` among the inputs; the
+                # answer may wait behind what streams in the TX ring)
+                # A `version` among the inputs may lose its answer to a full ring: then the last
+                # fence's, sent after the pause, is enough.
                 got = ahead + side.link.receive(side.fence_line, plan.fences - ahead.count(side.fence_line),
-                                                plan.size, len(plan.blob),
-                                                prompt=None if side.model.tainted else bool(side.model.echo))
+                                                plan.size + queue, len(plan.blob),
+                                                prompt=None if side.model.tainted else bool(side.model.echo),
+                                                at_least=1 if keep is not None and pause_ms else None)
             except LinkTimeout as exc:
                 message, more = liveness_message(side.label, str(exc), plan.blob, side.fence_line,
                                                  ahead + exc.received)
@@ -275,6 +286,8 @@ class Runner:
 
     def wait(self, ms: int) -> None:
         """Let HAT time pass; what arrives meanwhile must be asynchronous lines the state allows."""
+        # A wait long enough for the ring to drain leaves only what still streams queued.
+        self._queued = [0 if ms * WIRE_BYTES_PER_MS >= q else q for q in self._queued]
         for side in self.sides:
             out = side.link.wait(ms)
             self._note_kinds(out)

@@ -16,13 +16,14 @@ import pytest
 
 from buildhat_conformance.emulator import Emulator
 from buildhat_conformance.fuzz.findings import script_text
+from buildhat_conformance.fuzz.lossymatch import match_lossy
 from buildhat_conformance.fuzz.model import HatModel
 from buildhat_conformance.fuzz.oracles import Finding, finding_class
 from buildhat_conformance.fuzz.replay import replay_script
 from buildhat_conformance.fuzz.runner import Runner
 from buildhat_conformance.fuzz.stepplan import plan_step
 from buildhat_conformance.fuzz.stream import allowed_kinds
-from buildhat_conformance.fuzz.txring import headroom, match_lossy
+from buildhat_conformance.fuzz.txring import backlog, headroom
 from buildhat_conformance.harness.script import parse_script
 from buildhat_conformance.harness.targets.inprocess import InProcessTarget
 from buildhat_conformance.protocol.profiles import get_profile
@@ -105,7 +106,7 @@ def _help_plan(streaming: bool):
     if streaming:
         model.feed(b"select 0\r")
     plan = plan_step(model, [b"help\r"])
-    keep = headroom(plan.states, 0, model.selrate_engine, plan.size)
+    keep = headroom(backlog(plan.states, 0, model.selrate_engine, True), plan.size)
     return plan, keep
 
 
@@ -150,3 +151,20 @@ def test_a_step_longer_than_the_whole_ring_loses_only_its_tail(step):
     finally:
         runner.close()
     assert uart.tx_dropped > 0 and runner.stats.ring_lossy == 1
+
+
+def test_what_survives_a_full_ring_is_matched_against_the_later_output():
+    """Past the drop, what gets through is output written as the ring drained: a `vin` answer cut
+    to its last bytes after help's cut tail passes; a byte no output has there does not."""
+    model = HatModel(R7, MOTORS)
+    model.feed(b"echo 0\r")
+    model.feed(b"select 0\r")
+    plan = plan_step(model, [b"help\r", b"vin\r"])
+    keep = headroom(backlog(plan.states, 0, model.selrate_engine, True), plan.size)
+    allowed = allowed_kinds(R7, 0)
+    text = b"\r\n" + R7.help_bytes
+    assert match_lossy(plan.expected, text[:keep + 40] + b"0 V\r\n" + FENCE_ANSWER, allowed, keep) is not None
+    assert match_lossy(plan.expected, text[:keep + 40] + b"\r\n7.2X V\r\n" + FENCE_ANSWER, allowed, keep) is None
+    # a report printed once the ring drained, right after the stub of a cut help line
+    stub = text[:keep + 40] + b"P0M0: +5\r\n" + b"\r\n7.20 V\r\n" + FENCE_ANSWER
+    assert match_lossy(plan.expected, stub, allowed, keep) is not None
