@@ -163,8 +163,9 @@ def test_what_survives_a_full_ring_is_matched_against_the_later_output():
     keep = headroom(backlog(plan.states, 0, model.selrate_engine, True), plan.size)
     allowed = allowed_kinds(R7, 0)
     text = b"\r\n" + R7.help_bytes
-    assert match_lossy(plan.expected, text[:keep + 40] + b"0 V\r\n" + FENCE_ANSWER, allowed, keep) is not None
-    assert match_lossy(plan.expected, text[:keep + 40] + b"\r\n7.2X V\r\n" + FENCE_ANSWER, allowed, keep) is None
+    head = text[:keep + 40]
+    assert match_lossy(plan.expected, head + b"0 V\r\n" + FENCE_ANSWER, allowed, keep) is not None
+    assert match_lossy(plan.expected, head + b"\r\n7.2X V\r\n" + FENCE_ANSWER, allowed, keep) is None
     # a report printed once the ring drained, right after the stub of a cut help line
     stub = text[:keep + 40] + b"P0M0: +5\r\n" + b"\r\n7.20 V\r\n" + FENCE_ANSWER
     assert match_lossy(plan.expected, stub, allowed, keep) is not None
