@@ -45,7 +45,7 @@ class MatchResult:
     asynchronous: List[Tuple[int, Event]] = field(default_factory=list)  # (expected index, event)
     problems: List[Problem] = field(default_factory=list)
     consumed: int = 0
-    torn: List[Tuple[int, int]] = field(default_factory=list)   # asynchronous lines found inside an echo
+    torn: List[Tuple[int, int]] = field(default_factory=list)   # async lines in an echo or after a prompt
 
 
 def without_torn(actual: bytes, res: MatchResult) -> bytes:
@@ -183,6 +183,9 @@ def match_stream(expected: List[Expect], actual: bytes, allowed: frozenset) -> M
             if ev.kind not in ASYNC_KINDS:
                 break
             _asynchronous(res, idx, ev, line, allowed)
+            if pos >= 2 and actual[pos - 2:pos] != b"\r\n":
+                # Right after a prompt: the line comes apart from what follows it, for comparison.
+                res.torn.append((pos, pos + len(line) + 2))
             pos += len(line) + 2
         if item is None:
             break
