@@ -9,6 +9,7 @@ position depend on timing; each side's own hygiene and state oracles judge them.
 from __future__ import annotations
 
 import math
+import re
 from typing import List, Optional, Tuple
 
 from ..harness.events import Event, classify
@@ -20,12 +21,34 @@ VIN_TOLERANCE_V = 0.10
 VALUE_TOLERANCE = 0.05      # relative, for positions/speeds in data lines
 
 
+_PROMPTS = re.compile(rb"((?:P[0-3]>)+)(.+)", re.S)
+
+
+def _prompts_apart(parts: List[bytes]) -> List[bytes]:
+    """A line the HAT printed by itself right after a prompt (``P0>P0V: ...``) comes apart from
+    it; the prompt goes with the next line (the echo it would have preceded)."""
+    out: List[bytes] = []
+    carry = b""
+    for i, raw in enumerate(parts):
+        raw = carry + raw
+        carry = b""
+        m = _PROMPTS.fullmatch(raw)
+        if m and i < len(parts) - 1 and classify(m.group(2)).kind in ASYNC_KINDS:
+            out.append(m.group(2))
+            carry = m.group(1)
+            continue
+        out.append(raw)
+    if carry:
+        out.append(carry)
+    return out
+
+
 def synchronous_part(data: bytes) -> Tuple[List[bytes], List[Event]]:
     """(pieces that answer commands, asynchronous events). Pieces are complete lines, or the
     unterminated rest (a prompt). Listing lines answer `list`, except the device dump a HAT
     prints on connecting (§5): one port's header and block, then that port's ``established``
     line. Its time depends on each target's clock, so it is not compared."""
-    parts = data.split(b"\r\n")
+    parts = _prompts_apart(data.split(b"\r\n"))
     sync: List[bytes] = []
     async_events: List[Event] = []
     block: List[Tuple[bytes, Event]] = []     # listing lines since the last other line
