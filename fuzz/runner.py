@@ -246,6 +246,7 @@ class Runner:
                 # takes time to arrive it runs until the guard's `debug 0` is read. Liveness only.
                 side.model.ports[:] = plan.states[-1]
                 self.stats.liveness_only += 1
+                lost = True   # (its bytes and where they cut in are timing: not compared either)
                 continue      # (the trace ends before the guard's `debug 0`, so before the fence line)
             res = match_stream(plan.expected, got, self._allowed(side, plan.debug))
             if res.problems and keep is not None:
@@ -259,7 +260,7 @@ class Runner:
             side.model.ports[:] = plan.states[-1]   # reports seen (once-selections) move the model on
             self._judge(side, res.problems, {"step": plan.blob, "expected": plan.expected, "received": got})
             self._check_records(side, before, plan.fates)
-        if len(self.sides) == 2 and not lost:   # (a ring's drops differ by timing: each side judged its own)
+        if len(self.sides) == 2 and not lost:   # (drops, a raw trace: timing; each side judged its own)
             self._differential(first.datas, compared)
         return answers
 
