@@ -37,9 +37,10 @@ from .runner import Runner, Stats
 from .stepplan import output_groups
 
 __all__ = ["Budget", "parse_budget", "CampaignConfig", "CampaignResult", "Confirmed", "run_campaign",
-           "run_seed", "new_seed"]
+           "run_seed", "new_seed", "not_done", "PRELUDE_REFUSALS"]
 
 _GENERATOR_VERSION = 2      # part of the database key: a stored run seed means nothing to another generator
+PRELUDE_REFUSALS = 3        # runs in a row the target may refuse to start before the campaign stops
 
 
 @dataclass(frozen=True)
@@ -95,6 +96,7 @@ class CampaignConfig:
     fresh: bool = True            # every open starts a freshly booted HAT (the layout is known)
     keep_open: bool = False       # one target for many runs (the prelude resets it)
     out_limit: Optional[int] = None   # bytes one exchange may print (a wire's TX ring)
+    tx_ring: bool = False         # output may meet a full TX ring (a wire, cmd:): fuzz/txring.py
     confirm: int = 3
     reduce_seconds: float = 30.0
     labels: Tuple[str, str] = ("target", "against")
@@ -128,6 +130,9 @@ class CampaignResult:
     runs: int = 0
     seed: int = 0
     interrupted: bool = False     # stopped by Ctrl-C before the budget was spent
+    prelude_failures: List[str] = field(default_factory=list)   # runs the target did not let start
+    stopped: Optional[str] = None     # the target let no run start this many times in a row
+    not_done: Optional[str] = None    # why the campaign could not do its job (exit 3), if it could not
 
     def finding(self, oracle: str) -> Optional[Confirmed]:
         return next((f for f in self.findings if f.oracle == oracle), None)
@@ -177,7 +182,8 @@ class Campaign:
         openers = [(c.labels[0], self.keepers[0], c.profile)]
         if self.against is not None:
             openers.append((c.labels[1], self.keepers[1], self.against[1]))
-        runner = Runner(openers, c.fence_s, c.fresh, c.stats, c.devices, keep_open=c.keep_open)
+        runner = Runner(openers, c.fence_s, c.fresh, c.stats, c.devices, keep_open=c.keep_open,
+                        tx_ring=c.tx_ring)
         # A target kept open knows its layout only for the first run after it booted.
         runner.fresh = c.fresh and all(k.runs <= 1 for k in self.keepers)
         return runner
@@ -251,7 +257,7 @@ class Campaign:
         c = self.config
         fresh = c.fresh and not c.keep_open
         return replay_script(script, self.keepers[0], c.profile, c.fence_s, fresh=fresh, against=self.against,
-                             keep_open=c.keep_open, on_fail=self.after_failure)
+                             keep_open=c.keep_open, on_fail=self.after_failure, tx_ring=c.tx_ring)
 
     def _note(self, text: str) -> None:
         if self.config.stats.on_note is not None:
@@ -262,7 +268,7 @@ class Campaign:
         hits = 0
         for _ in range(max(1, self.config.confirm)):
             again = self.replay(script)
-            hits += again is not None and again.oracle == oracle
+            hits += _same(again, oracle)
         return hits
 
     def check(self, finding: Finding, seed: int) -> Optional[Confirmed]:
@@ -283,6 +289,33 @@ class Campaign:
             if again:
                 return Confirmed(smaller, reduced, again, max(1, c.confirm), seed)
         return Confirmed(finding, script, hits, max(1, c.confirm), seed)
+
+
+def _same(finding: Optional[Finding], oracle: str) -> bool:
+    """A replay failed ``oracle`` again (a replay the target did not let start proves nothing)."""
+    return finding is not None and finding.oracle == oracle and not finding.details.get("prelude")
+
+
+def not_done(result: CampaignResult, stats: Stats) -> Optional[str]:
+    """Why a campaign did not do its job, in one line (None if it did): it sent no input, or
+    the target answered none of it, or stopped answering so that the budget could not be used."""
+    if result.interrupted:
+        return None
+    why = f" ({result.prelude_failures[0]})" if result.prelude_failures else ""
+    if stats.executions == 0:
+        if len(result.prelude_failures) >= result.runs:
+            return f"no input was sent: none of {result.runs} run(s) got past the prelude{why}"
+        return (f"no input was sent in {result.runs} run(s): the budget ran out before the first step, "
+                "or every step drawn was a wait (give more --steps or a larger --budget)")
+    if result.findings:
+        return None
+    if stats.answered == 0:
+        first = f" (first: {result.unconfirmed[0][0].message})" if result.unconfirmed else why
+        return (f"no input was accepted: {stats.executions} input(s) sent in {result.runs} run(s), and no "
+                f"step's fence was answered{first}")
+    if result.stopped:
+        return f"the target stopped answering after {stats.answered} answered step(s): {result.stopped}"
+    return None
 
 
 def _database_key(config: CampaignConfig, scheme: str) -> str:
@@ -330,7 +363,7 @@ def run_campaign(config: CampaignConfig, budget: Budget, seed: int, database: Op
     stored = _stored_runs(folder)
     start = time.monotonic()
     cpu_start, checking_cpu = time.process_time(), 0.0
-    index = 0
+    index = refused = 0
 
     def spent() -> bool:
         return budget.seconds is not None and time.monotonic() - start - result.checking \
@@ -349,11 +382,23 @@ def run_campaign(config: CampaignConfig, budget: Budget, seed: int, database: Op
             config.stats.examples = result.runs
             try:
                 campaign.run(seed_i, spent)
+                refused = 0
                 if from_store:
                     _forget_run(folder, seed_i)      # it passes now
                 continue
             except Finding as exc:
                 finding = exc
+            if finding.details.get("prelude"):
+                # The target did not take the prelude: no fuzzed input was judged, so this is not a
+                # finding; a target that keeps refusing ends the campaign (it cannot use its budget).
+                result.prelude_failures.append(finding.message)
+                campaign.after_failure(finding)
+                refused += 1
+                if refused >= PRELUDE_REFUSALS:
+                    result.stopped = f"{refused} runs in a row could not start: {finding.message}"
+                    break
+                continue
+            refused = 0
             t0, c0 = time.monotonic(), time.process_time()
             known = result.finding(finding.oracle)
             if known is not None:
@@ -375,4 +420,5 @@ def run_campaign(config: CampaignConfig, budget: Budget, seed: int, database: Op
         campaign.discard_targets()
     result.elapsed = time.monotonic() - start - result.checking - config.stats.startup_s
     result.cpu = time.process_time() - cpu_start - checking_cpu
+    result.not_done = not_done(result, config.stats)
     return result

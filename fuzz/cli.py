@@ -6,9 +6,9 @@
 
 Findings (one per oracle, confirmed by replays and reduced) are written to ``-o/--output`` (default
 ``reports/fuzz``; ``--out`` is its old spelling): ``<oracle>.script`` (replay with ``--reproduce``
-or ``buildhat-conformance script``), ``<oracle>.<target>.jsonl`` transcripts and ``junit.xml``.
-Exit status: 0 no findings, 1 findings (with ``--reproduce``: 1 reproduced, 0 not), 2 usage
-errors, 3 a target that cannot be reached.
+or ``buildhat-conformance script``), ``<oracle>.<target>.jsonl`` transcripts and ``junit.xml``. Exit status: 0 no findings, 1 findings
+(with ``--reproduce``: 1 reproduced, 0 not), 2 usage errors, 3 a campaign that could not do its job
+(a target that cannot be reached, answers as another release than ``--firmware``, or took no input).
 """
 from __future__ import annotations
 
@@ -17,7 +17,6 @@ import os
 import re
 import shlex
 import sys
-import time
 from typing import Callable, Dict, Optional, Tuple
 
 from ..harness.cli_options import RELEASE_HELP, add_hidden_alias
@@ -25,14 +24,14 @@ from ..harness.script import ScriptError, load_script
 from ..harness.targets import make_target
 from ..harness.targets.base import Target, TargetError
 from ..protocol.devices import DEFAULT_LAYOUT
-from ..protocol.profiles import Profile, get_profile
-from .campaign import Budget, CampaignConfig, CampaignResult, new_seed, parse_budget, run_campaign
+from .campaign import CampaignConfig, CampaignResult, new_seed, parse_budget, run_campaign
+from .explain import header_lines
 from .findings import write_finding, write_junit
 from .generate import FAMILIES, check_families
 from .grammar import grammar_for
-from .link import WIRE_BYTES_PER_S
+from .release import detect_profile, judged_profile
 from .replay import replay_script
-from .runner import Stats
+from .summary import KEPT_OPEN, Progress, print_summary
 
 __all__ = ["add_arguments", "main", "detect_profile", "opener_for", "is_fresh", "run", "reproduce",
            "DEFAULT_TARGET"]
@@ -41,8 +40,6 @@ DEFAULT_OUT = os.path.join("reports", "fuzz")
 DEFAULT_TARGET = "inprocess"
 _FRESH_SCHEMES = ("inprocess", "emulator", "cmd", "sil")   # every open starts a new, freshly booted HAT
 _VIRTUAL_SCHEMES = ("inprocess", "sil")     # HAT time, not wall time: the in-process emulator, the firmware
-# A finding whose run began on a target that earlier runs left (kept open) says so.
-_KEPT_OPEN = "a target earlier runs had left open; a freshly started one may not reproduce it"
 # On a wire the firmware's 8192-byte TX ring must never fill: one exchange may print this much.
 OUT_LIMIT = 6000
 
@@ -100,82 +97,35 @@ def _scheme(url: str) -> str:
     return url.split(":", 1)[0].split("?", 1)[0].lower()
 
 
-def _all_in_process(target: str, against: Optional[str]) -> bool:
-    return _scheme(target) == "inprocess" and (not against or _scheme(against) == "inprocess")
-
-
 def is_fresh(url: str) -> bool:
     return _scheme(url) in _FRESH_SCHEMES
+
+
+def is_wire(url: str) -> bool:
+    """A paced or real 115200-baud wire: a serial port or socket, or an emulator told ``baud=``
+    (a pty, a pipe or the in-process emulator unpaced move bytes as fast as they come)."""
+    scheme = _scheme(url)
+    if scheme in ("cmd", "loop"):
+        return False
+    if scheme == "sil":              # HAT time, unless paced to the wall clock (speed=)
+        return "speed=" in url
+    if scheme in ("inprocess", "emulator"):
+        target = make_target(url)
+        return bool(getattr(target, "baud", None) or getattr(target, "wire_baud", None))
+    return True
+
+
+def has_tx_ring(url: str, against: Optional[str] = None) -> bool:
+    """Output may meet a full TX ring (fuzz/txring.py): any target but our emulator unpaced, whose
+    output never waits (a `cmd:` target may be firmware behind a pipe, with a ring of its own)."""
+    def one(u: str) -> bool:
+        return is_wire(u) or _scheme(u) not in ("inprocess", "emulator")
+    return one(url) or bool(against and one(against))
 
 
 def opener_for(url: str) -> Callable[[], Target]:
     make_target(url)   # fail early with the registry's message for a bad URL
     return lambda: make_target(url)
-
-
-def detect_profile(open_target: Callable[[], Target], timeout: float = 2.0) -> Profile:
-    """The release a target runs, from its answer to ``version`` (via the harness session)."""
-    from ..harness.session import Session
-    session = Session(open_target())
-    try:
-        session.open(timeout=timeout)
-        if session.in_bootloader:
-            raise TargetError("the target is in its bootloader; the fuzzer needs the firmware running")
-        if session.profile is None:
-            raise TargetError("the target did not say which firmware it runs (no answer to `version`)")
-        return session.profile
-    finally:
-        session.close()
-
-
-
-class Progress:
-    """The progress line on stderr: rewritten in place on a terminal (at most twice a second),
-    else a plain line every few seconds (a log must not fill with carriage returns)."""
-
-    def __init__(self, budget: Budget, grammar_size: int, productions: set, enabled: bool,
-                 stream=None, every: float = 5.0):  # type: ignore[no-untyped-def]
-        self.stream = stream or sys.stderr
-        self.start = time.monotonic()
-        self.last = self.start
-        self.budget = budget
-        self.grammar_size = grammar_size
-        self.productions = productions
-        self.enabled = enabled
-        self.tty = bool(getattr(self.stream, "isatty", lambda: False)())
-        self.every = 0.5 if self.tty else every
-
-    def line(self, stats: Stats) -> str:
-        # The budget counts fuzzing time; confirming and reducing findings come on top.
-        el = max(time.monotonic() - self.start - stats.checking_s - stats.startup_s, 1e-9)
-        spent = f"{el:.0f}/{self.budget.seconds:g} s" if self.budget.seconds is not None else \
-            f"{stats.examples}/{self.budget.examples} runs, {el:.0f} s"
-        if stats.checking_s >= 1:
-            spent += f" (+{stats.checking_s:.0f} s confirming findings)"
-        return (f"[fuzz] {spent}: {stats.executions} inputs, {stats.lines / el:.0f} lines/s, "
-                f"productions {len(stats.productions & self.productions)}/{self.grammar_size}, "
-                f"response classes {len(stats.responses)}")
-
-    def __call__(self, stats: Stats) -> None:
-        now = time.monotonic()
-        if self.enabled and now - self.last >= self.every:
-            self.last = now
-            if self.tty:
-                self.stream.write("\r" + self.line(stats) + " " * 4)
-            else:
-                self.stream.write(self.line(stats) + "\n")
-            self.stream.flush()
-
-    def note(self, text: str) -> None:
-        """A plain line (on a terminal, below the progress line)."""
-        if self.enabled:
-            self.stream.write(("\n" if self.tty else "") + f"[fuzz] {text}\n")
-            self.stream.flush()
-
-    def end(self, stats: Stats) -> None:
-        if self.enabled and self.tty:
-            self.stream.write("\r" + self.line(stats) + "\n")
-            self.stream.flush()
 
 
 def _config(args: argparse.Namespace, target: str, primary: Optional[Callable[[], Target]],
@@ -194,12 +144,13 @@ def _config(args: argparse.Namespace, target: str, primary: Optional[Callable[[]
     if args.steps < 1 or args.batch < 1 or args.confirm < 0:
         raise ValueError("--steps and --batch take a positive number, --confirm zero or more")
     open_primary = primary or opener_for(target)
-    profile = get_profile(args.profile) if args.profile else detect_profile(open_primary, args.fence_timeout)
+    # Read first what the target runs: a release other than --firmware stops here (exit 3).
+    profile = judged_profile(open_primary, args.profile, args.fence_timeout)
     open_secondary, secondary_profile = secondary, None
     if open_secondary is None and args.against:
         open_secondary = opener_for(args.against)
     if open_secondary is not None:
-        secondary_profile = detect_profile(open_secondary, args.fence_timeout)
+        secondary_profile = detect_profile(open_secondary, args.fence_timeout)   # judged as itself
     devices = getattr(args, "devices", None)
     if devices is None and _scheme(target) in _VIRTUAL_SCHEMES:
         layout = dict(DEFAULT_LAYOUT)
@@ -213,10 +164,10 @@ def _config(args: argparse.Namespace, target: str, primary: Optional[Callable[[]
         wait_share=0.1 if virtual else 0.01,
         fresh=is_fresh(target) and (not args.against or is_fresh(args.against)),
         # Targets that take seconds to boot stay open from run to run (the prelude resets them).
-        # Only the in-process emulator empties its TX ring at once; the firmware in the loop (sil:)
-        # drains it at 115200 baud as on a HAT, so its ring can fill.
-        keep_open=not virtual, out_limit=None if _all_in_process(target, args.against) else OUT_LIMIT,
-        confirm=args.confirm,
+        # A paced wire (a HAT's, or an emulator told baud=) drops output once the TX ring is full, and
+        # so does the firmware in the loop (sil:), whose ring drains at 115200 baud in HAT time.
+        keep_open=not virtual, out_limit=OUT_LIMIT if not virtual or has_tx_ring(target, args.against)
+        else None, tx_ring=has_tx_ring(target, args.against), confirm=args.confirm,
         reduce_seconds=args.shrink_time, devices=devices)
 
 
@@ -252,10 +203,10 @@ def run(args: argparse.Namespace, primary: Optional[Callable[[], Target]] = None
         header = [f"target: {target}"] + ([f"against: {args.against}"] if args.against else []) + [
             f"release: {release}", f"seed: {seed}  run seed: {f.run_seed}  budget: {budget}",
             f"reproduced: {f.reproduced}/{f.attempts} replays",
-            *([] if f.finding.details.get("fresh", True) else [f"began on: {_KEPT_OPEN}"]),
+            *([] if f.finding.details.get("fresh", True) else [f"began on: {KEPT_OPEN}"]),
             f"reproduce: {shlex.join(reproduce_cmd)}",
             f"replay: {shlex.join(['buildhat-conformance', 'script', '--target', target, script_path])}",
-            f"finding: {f.finding.message[:300]}"]
+            *header_lines(f.finding.details), f"finding: {f.finding.message}"]
         layout = config.devices if config.fresh else None
         files[f.oracle] = write_finding(f.finding, args.out, header, meta, layout)
     oracles = ["liveness", "fate", "state", "hygiene"] + (["differential"] if config.open_secondary else [])
@@ -263,55 +214,11 @@ def run(args: argparse.Namespace, primary: Optional[Callable[[], Target]] = None
     write_junit(junit, oracles, [f.finding for f in result.findings], stats.checks, result.elapsed,
                 {"target": target, "against": args.against or "", "release": config.profile.name,
                  "seed": str(seed), "budget": str(budget), "inputs": str(stats.executions),
-                 "lines": str(stats.lines)}, files)
-    _summary(result, stats, grammar.productions, files, junit, target, seed, chosen)
+                 "lines": str(stats.lines)}, files, result.not_done)
+    # The share of the wire is a wall-clock figure: not for in-process targets (virtual time).
+    wire = is_wire(target) and _scheme(target) != "inprocess"
+    print_summary(result, stats, grammar.productions, files, junit, seed, chosen, wire, config.out_limit)
     return result, files
-
-
-def _summary(result: CampaignResult, stats: Stats, productions, files, junit: str, target: str,  # type: ignore[no-untyped-def]
-             seed: int, chosen: bool) -> None:
-    el = max(result.elapsed, 1e-9)
-    apart = ([f"{result.checking:.1f} s confirming findings"] if result.checking >= 0.05 else []) + \
-        ([f"{stats.startup_s:.1f} s starting targets"] if stats.startup_s >= 0.05 else [])
-    checking = f" (and {', '.join(apart)})" if apart else ""
-    print(f"fuzz: {result.runs} runs, {stats.executions} inputs ({stats.lines} lines, "
-          f"{stats.lines / el:.0f} lines/s) in {result.elapsed:.1f} s{checking}")
-    if result.cpu > 0:
-        # On a shared machine the wall-clock rate is what others leave over; this is the fuzzer's own.
-        print(f"  this process: {result.cpu:.1f} s of CPU, "
-              f"{stats.lines / result.cpu:.0f} lines per CPU second")
-    if _scheme(target) not in _VIRTUAL_SCHEMES:
-        sent, recv = stats.sent_bytes / el, stats.recv_bytes / el
-        print(f"  wire: sent {sent:.0f} B/s, received {recv:.0f} B/s; the busier direction carries "
-              f"{100 * max(sent, recv) / WIRE_BYTES_PER_S:.0f} % of what 115200 baud can")
-    print(f"  seed: {seed}" + (f" (chosen at random; --seed {seed} repeats this campaign)" if chosen else ""))
-    missing = sorted(set(productions) - stats.productions)
-    more = " ..." if len(missing) > 12 else ""
-    print(f"  grammar productions covered: {len(set(productions) & stats.productions)}/{len(productions)}"
-          + (f" (not reached: {', '.join(missing[:12])}{more})" if missing else ""))
-    print(f"  response classes seen: {', '.join(sorted(stats.responses))}")
-    print("  checks: " + ", ".join(f"{k} {v}" for k, v in sorted(stats.checks.items()))
-          + (f"; {stats.liveness_only} step(s) judged on liveness only (debug bit 1's raw trace)"
-             if stats.liveness_only else ""))
-    if stats.left_out:
-        print(f"  {stats.left_out} input(s) not sent: the answer of each alone is over {OUT_LIMIT} bytes, "
-              f"more than the TX ring keeps on this wire")
-    if not result.findings:
-        print("  no findings")
-    for f in result.findings:
-        again = f", seen {f.also_seen} more time(s)" if f.also_seen else ""
-        print(f"  FINDING [{f.oracle}] (reproduced {f.reproduced}/{f.attempts}{again}): "
-              f"{f.finding.message[:400]}")
-        if not f.finding.details.get("fresh", True):
-            print(f"      began on {_KEPT_OPEN}")
-        for what, path in files.get(f.oracle, {}).items():
-            print(f"      {what}: {path}")
-    for finding, tries in result.unconfirmed:
-        print(f"  unconfirmed [{finding.oracle}] (0/{tries} replays failed again; not reported): "
-              f"{finding.message[:200]}")
-    print(f"  junit: {junit}")
-    if result.interrupted:
-        print("  interrupted (Ctrl-C): the figures and findings above cover what ran")
 
 
 _HEADER = re.compile(r"^;; (target|against|release|began on): (.*)$", re.M)
@@ -333,7 +240,7 @@ def reproduce(args: argparse.Namespace, primary: Optional[Callable[[], Target]] 
     fence_s = args.fence_timeout if args.fence_timeout is not None else (
         0.3 if _scheme(target) in _VIRTUAL_SCHEMES else 2.0)
     open_primary = primary or opener_for(target)
-    profile = get_profile(args.profile) if args.profile else detect_profile(open_primary, fence_s)
+    profile = judged_profile(open_primary, args.profile, fence_s)
     other = None
     if secondary is not None or against:
         open_secondary = secondary or opener_for(against or "")
@@ -342,19 +249,25 @@ def reproduce(args: argparse.Namespace, primary: Optional[Callable[[], Target]] 
     named = _ORACLE_OF.search(script.name or "")
     oracle = named.group(1) if named else None
     attempts = max(1, args.confirm)
-    hits, first, others = 0, None, []
+    hits, first, others, refused = 0, None, [], []
     for _ in range(attempts):
-        finding = replay_script(script, open_primary, profile, fence_s, fresh=is_fresh(target), against=other)
+        finding = replay_script(script, open_primary, profile, fence_s, fresh=is_fresh(target), against=other,
+                                tx_ring=has_tx_ring(target, against))
         if finding is None:
             continue
-        if oracle is None or finding.oracle == oracle:
+        if finding.details.get("prelude"):
+            refused.append(finding)           # the target did not take the prelude: proves nothing
+        elif oracle is None or finding.oracle == oracle:
             hits += 1
             first = first or finding
         else:
             others.append(finding)
     where = f"{target}" + (f" against {against}" if against else "")
+    if len(refused) == attempts:
+        raise TargetError(f"could not replay on {where}: the target did not take the prelude "
+                          f"({refused[0].message})")
     if first is not None:
-        print(f"reproduced ({hits}/{attempts} replays) on {where}: [{first.oracle}] {first.message[:400]}")
+        print(f"reproduced ({hits}/{attempts} replays) on {where}: [{first.oracle}] {first.message}")
     else:
         print(f"not reproduced (0/{attempts} replays) on {where}")
         if "began on" in recorded and is_fresh(target):
@@ -412,4 +325,8 @@ def _main(args: argparse.Namespace) -> int:
         return 1
     if result.interrupted:
         return 130
+    if result.not_done:
+        # After the summary, so the last line says why the campaign did not count.
+        print(f"buildhat-conformance fuzz: {result.not_done}", file=sys.stderr)
+        return 3
     return 1 if result.findings else 0

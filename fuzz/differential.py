@@ -9,15 +9,38 @@ position depend on timing; each side's own hygiene and state oracles judge them.
 from __future__ import annotations
 
 import math
+import re
 from typing import List, Optional, Tuple
 
 from ..harness.events import Event, classify
 from .stream import ASYNC_KINDS
 
-__all__ = ["compare_answers", "VIN_TOLERANCE_V", "VALUE_TOLERANCE", "synchronous_part"]
+__all__ = ["compare_answers", "first_difference", "VIN_TOLERANCE_V", "VALUE_TOLERANCE", "synchronous_part"]
 
 VIN_TOLERANCE_V = 0.10
 VALUE_TOLERANCE = 0.05      # relative, for positions/speeds in data lines
+
+
+_PROMPTS = re.compile(rb"((?:P[0-3]>)+)(.+)", re.S)
+
+
+def _prompts_apart(parts: List[bytes]) -> List[bytes]:
+    """A line the HAT printed by itself right after a prompt (``P0>P0V: ...``) comes apart from
+    it; the prompt goes with the next line (the echo it would have preceded)."""
+    out: List[bytes] = []
+    carry = b""
+    for i, raw in enumerate(parts):
+        raw = carry + raw
+        carry = b""
+        m = _PROMPTS.fullmatch(raw)
+        if m and i < len(parts) - 1 and classify(m.group(2)).kind in ASYNC_KINDS:
+            out.append(m.group(2))
+            carry = m.group(1)
+            continue
+        out.append(raw)
+    if carry:
+        out.append(carry)
+    return out
 
 
 def synchronous_part(data: bytes) -> Tuple[List[bytes], List[Event]]:
@@ -25,7 +48,7 @@ def synchronous_part(data: bytes) -> Tuple[List[bytes], List[Event]]:
     unterminated rest (a prompt). Listing lines answer `list`, except the device dump a HAT
     prints on connecting (§5): one port's header and block, then that port's ``established``
     line. Its time depends on each target's clock, so it is not compared."""
-    parts = data.split(b"\r\n")
+    parts = _prompts_apart(data.split(b"\r\n"))
     sync: List[bytes] = []
     async_events: List[Event] = []
     block: List[Tuple[bytes, Event]] = []     # listing lines since the last other line
@@ -73,19 +96,29 @@ def _num_close(x: float, y: float) -> bool:
     return abs(x - y) <= max(1.0, VALUE_TOLERANCE * max(abs(x), abs(y)))
 
 
-def compare_answers(a: bytes, b: bytes, label_a: str = "A", label_b: str = "B") -> Optional[str]:
-    """None when the answers agree within tolerance, else a description of the first difference."""
+def first_difference(a: bytes, b: bytes) -> Optional[Tuple[int, Optional[bytes], Optional[bytes]]]:
+    """(index, A's piece, B's piece) of the first answer piece that differs beyond tolerance
+    (a missing piece is None); None when the answers agree."""
     sync_a, _ = synchronous_part(a)
     sync_b, _ = synchronous_part(b)
     for i in range(max(len(sync_a), len(sync_b))):
         pa = sync_a[i] if i < len(sync_a) else None
         pb = sync_b[i] if i < len(sync_b) else None
         if pa is None or pb is None:
-            return (f"answer piece {i + 1}: {label_a} printed {pa!r}, {label_b} printed {pb!r}")
+            return i, pa, pb
         if pa == pb:
             continue
         ea, eb = classify(pa.rstrip(b"\r\n")), classify(pb.rstrip(b"\r\n"))
         if pa.endswith(b"\r\n") == pb.endswith(b"\r\n") and _close(ea, eb):
             continue
-        return f"answer piece {i + 1}: {label_a} printed {pa!r}, {label_b} printed {pb!r}"
+        return i, pa, pb
     return None
+
+
+def compare_answers(a: bytes, b: bytes, label_a: str = "A", label_b: str = "B") -> Optional[str]:
+    """None when the answers agree within tolerance, else a description of the first difference."""
+    diff = first_difference(a, b)
+    if diff is None:
+        return None
+    i, pa, pb = diff
+    return f"answer piece {i + 1}: {label_a} printed {pa!r}, {label_b} printed {pb!r}"

@@ -121,8 +121,10 @@ def write_finding(finding: Finding, outdir: str, header: Sequence[str], meta: di
 
 
 def write_junit(path: str, oracles: Sequence[str], findings: Sequence[Finding], checks: Dict[str, int],
-                elapsed: float, properties: Dict[str, str], files: Dict[str, Dict[str, str]]) -> str:
-    """One test case per oracle: a failure carries the finding and the files to replay it."""
+                elapsed: float, properties: Dict[str, str], files: Dict[str, Dict[str, str]],
+                not_done: Optional[str] = None) -> str:
+    """One test case per oracle: a failure carries the finding and the files to replay it. A
+    campaign that could not do its job (``not_done``) adds a ``campaign`` case in error saying why."""
     unknown = set(oracles) - set(ORACLES)
     if unknown:
         raise ValueError(f"unknown oracles {sorted(unknown)}")
@@ -139,12 +141,16 @@ def write_junit(path: str, oracles: Sequence[str], findings: Sequence[Finding], 
             body = '<skipped message="no check of this oracle ran"/>'
         cases.append(f'  <testcase classname="fuzz" name={quoteattr(oracle)} time="{elapsed:.3f}">'
                      f'<system-out>{checks.get(oracle, 0)} checks</system-out>{body}</testcase>')
+    if not_done:
+        cases.append(f'  <testcase classname="fuzz" name="campaign" time="{elapsed:.3f}">'
+                     f'<error message={quoteattr(not_done)} type="fuzz.not_done"/></testcase>')
     props = "".join(f"<property name={quoteattr(k)} value={quoteattr(str(v))}/>"
                     for k, v in properties.items())
     failures = sum(1 for o in oracles if o in by_oracle)
     skipped = sum(1 for o in oracles if o not in by_oracle and not checks.get(o))
+    errors = 1 if not_done else 0
     xml = ('<?xml version="1.0" encoding="utf-8"?>\n'
-           f'<testsuite name="fuzz" tests="{len(oracles)}" failures="{failures}" errors="0" '
+           f'<testsuite name="fuzz" tests="{len(cases)}" failures="{failures}" errors="{errors}" '
            f'skipped="{skipped}" time="{elapsed:.3f}">\n  <properties>{props}</properties>\n'
            + "\n".join(cases) + "\n</testsuite>\n")
     os.makedirs(os.path.dirname(path) or ".", exist_ok=True)

@@ -1,6 +1,6 @@
 """Shrinking a finding by replaying smaller scripts: whole steps first, then single lines.
 
-A step is the lines up to and including a fence, or one ``@wait``; the first step is the
+A step is the lines up to and including a fence, or one ``@wait`` between steps; the first step is the
 prelude and stays. A removal is kept when the replay still fails the same oracle. This works on
 every target the fuzzer can drive, real ones included: it needs nothing but replays (which bring
 the target to a known state with the prelude).
@@ -25,7 +25,9 @@ def steps_of(script: Script) -> List[List[Action]]:
     current: List[Action] = []
     for action in script.actions:
         current.append(action)
-        if action.kind == "wait" or (action.kind == "send" and action.data == FENCE):
+        # A wait inside a step (sends before it, its fence after) is the step's own pause.
+        if (action.kind == "wait" and not any(a.kind == "send" for a in current)) or \
+                (action.kind == "send" and action.data == FENCE):
             steps.append(current)
             current = []
     if current:
@@ -48,7 +50,9 @@ def reduce_finding(script: Script, finding: Finding, replay: Replay,
 
     def fails(trial: List[List[Action]]) -> Optional[Finding]:
         again = replay(_script(script, trial))
-        return again if again is not None and again.oracle == finding.oracle else None
+        if again is None or again.oracle != finding.oracle or again.details.get("prelude"):
+            return None
+        return again
 
     # Whole steps, latest first: the failing step is usually the last, and what sets its scene
     # comes shortly before it.

@@ -21,11 +21,14 @@ __all__ = ["replay_script"]
 def replay_script(script: Union[str, Script], open_target: Callable[[], Target], profile: Profile,
                   fence_s: float = 2.0, fresh: bool = True,
                   against: Optional[Tuple[Callable[[], Target], Profile]] = None, keep_open: bool = False,
-                  on_fail: Optional[Callable[[Finding], None]] = None) -> Optional[Finding]:
+                  on_fail: Optional[Callable[[Finding], None]] = None,
+                  tx_ring: bool = False) -> Optional[Finding]:
     """The finding the replay produces (None if every check passed). With ``against`` (an opener
     and its release) the script goes to both targets and the differential oracle runs too.
     ``keep_open``: the openers hand out targets that stay open after the replay (``on_fail`` is
-    called with the finding of a failed replay, which may have left them broken)."""
+    called with the finding of a failed replay, which may have left them broken). ``tx_ring``:
+    as :class:`~.runner.Runner`; a ``@wait`` between a step's lines and its fence is the pause that
+    let a full TX ring drain, and is kept there (a step without one pauses as the runner reckons)."""
     if not isinstance(script, Script):
         script = load_script(script)
     runner: Optional[Runner] = None
@@ -36,7 +39,8 @@ def replay_script(script: Union[str, Script], open_target: Callable[[], Target],
         if against is not None:
             openers.append(("against", against[0], against[1]))
         layout = dict(script.devices) if script.explicit_devices else None
-        runner = Runner(openers, fence_s, fresh, devices=layout, keep_open=keep_open)
+        runner = Runner(openers, fence_s, fresh, devices=layout, keep_open=keep_open, tx_ring=tx_ring)
+        pause: Optional[int] = None
         for action in script.actions:
             if action.kind == "send":
                 if action.data != FENCE:
@@ -48,9 +52,12 @@ def replay_script(script: Union[str, Script], open_target: Callable[[], Target],
                     runner.start(blob)
                     started = True
                 else:
-                    runner.exchange([blob])
+                    runner.exchange([blob], pause_ms=pause)
+                pause = None
             elif action.kind == "wait":
-                if started:
+                if pending:
+                    pause = (pause or 0) + int(action.args[0])     # before this step's fence
+                elif started:
                     runner.wait(int(action.args[0]))
             else:
                 for side in runner.sides:

@@ -10,14 +10,17 @@ from typing import Callable, Dict, List, Optional, Sequence, Set, Tuple
 from ..harness.events import line_kind
 from ..harness.targets.base import Target, TargetError
 from ..protocol.profiles import Profile
-from .differential import compare_answers
+from .differential import first_difference
 from .expect import LineFate
+from .explain import differential_message, liveness_message, stream_message
 from .link import FENCE, Link, LinkTimeout
+from .lossymatch import match_lossy
 from .model import HatModel
 from .oracles import raise_finding
 from .statecheck import check_drive, expect_reports, observe
 from .stepplan import plan_step
 from .stream import Problem, allowed_kinds, match_stream, without_torn
+from .txring import UNHELD_DEBUG, WIRE_BYTES_PER_MS, backlog, drain_ms, headroom
 
 __all__ = ["Runner", "Side", "Stats", "PRELUDE"]
 
@@ -42,6 +45,8 @@ class Stats:
     startup_s: float = 0.0        # time spent starting kept-open targets (not fuzzing)
     checking_s: float = 0.0       # time spent confirming and reducing findings (not fuzzing)
     liveness_only: int = 0        # steps judged on liveness alone (a raw serial trace on a timed link)
+    answered: int = 0             # steps whose fence the (first) target answered: input it took
+    ring_lossy: int = 0           # steps that lost output to a full TX ring, as the facts allow
     on_progress: Optional[Callable[[Stats], None]] = None
     on_note: Optional[Callable[[str], None]] = None     # what the campaign is doing besides fuzzing
 
@@ -104,31 +109,37 @@ class Runner:
 
     def __init__(self, openers: Sequence[Tuple[str, Callable[[], Target], Profile]], fence_s: float = 2.0,
                  fresh: bool = True, stats: Optional[Stats] = None,
-                 devices: Optional[Dict[int, Optional[tuple]]] = None, keep_open: bool = False):
+                 devices: Optional[Dict[int, Optional[tuple]]] = None, keep_open: bool = False,
+                 tx_ring: bool = False):
         """``openers`` may hand out targets that are already open (a campaign reusing one
-        target for many runs); ``keep_open``: :meth:`close` leaves them open."""
+        target for many runs); ``keep_open``: :meth:`close` leaves them open. ``tx_ring``: the
+        targets' output may wait in a TX ring that drops it when full (a paced or real wire, a
+        `cmd:` target: fuzz/txring.py)."""
         self.stats = stats or Stats()
         self.sides: List[Side] = []
         self.kinds_seen: Set[str] = set()
         self.fresh = fresh
         self.keep_open = keep_open
         self.settled = False      # the targets come from a run that ended cleanly (see start)
+        self.tx_ring = tx_ring
+        self._queued: List[int] = []   # per side: what streams may have queued in the TX ring
         for label, opener, profile in openers:
             try:
                 target = opener()
             except TargetError as exc:
-                self.fail("liveness", f"{label}: the target could not be opened: {exc}", {})
+                self.fail("liveness", f"{label}: the target could not be opened: {exc}", {"prelude": True})
             side = Side(label, target, profile, fence_s)
             if devices is not None and fresh:
                 # The layout the target booted with (known only for targets started fresh).
                 side.model = HatModel(profile, devices)
             self.sides.append(side)
+            self._queued.append(0)
             if target.is_open:
                 continue
             try:
                 target.open()
             except TargetError as exc:
-                self.fail("liveness", f"{label}: the target could not be opened: {exc}", {})
+                self.fail("liveness", f"{label}: the target could not be opened: {exc}", {"prelude": True})
 
     def start(self, prelude: bytes = PRELUDE) -> None:
         """Drain the start-up output and send the prelude (not judged: the state before it is unknown).
@@ -141,8 +152,9 @@ class Runner:
                     side.link.sync(side.fence_line)
                 side.link.exchange(prelude, side.fence_line, 1)
             except LinkTimeout as exc:
+                # Not a finding: no fuzzed input was sent yet (the campaign counts these apart).
                 self.fail("liveness", f"{side.label}: no answer after the prelude: {exc}",
-                          {"step": prelude, "received": exc.received})
+                          {"step": prelude, "received": exc.received, "prelude": True})
             side.model.feed(prelude)
             side.model.feed(FENCE)
             if not self.fresh:
@@ -167,30 +179,63 @@ class Runner:
                 side.close()
 
     # -- steps ---------------------------------------------------------------------------------
-    def exchange(self, datas: Sequence[bytes], guard: bool = False) -> List[bytes]:
+    def _send(self, side: Side, data: bytes, blob: bytes) -> None:
+        try:
+            side.link.send(data)
+        except TargetError as exc:
+            self.fail("liveness", f"{side.label}: the target went away: {exc}",
+                      {"step": blob, "received": b""})
+
+    def exchange(self, datas: Sequence[bytes], guard: bool = False,
+                 pause_ms: Optional[int] = None) -> List[bytes]:
         """One step: the inputs back to back and one fence, written to every side before any
         answer is read; then each answer is checked. With ``guard``, inputs that would leave
-        debug bit 1 set get :data:`DEBUG_OFF` (decided on the first side's model, so every side
-        receives the same bytes). Returns each side's answer."""
-        first = plan_step(self.sides[0].model, datas, guard)
+        debug bit 1 set (with ``tx_ring``, also 8 or 16) get :data:`DEBUG_OFF` (decided on the first
+        side's model, so every side receives the same bytes). A step whose output may meet a
+        full TX ring lets it drain before the fence (``pause_ms``: that many HAT ms, as a
+        replayed script says; None: as fuzz/txring.py reckons). Returns each side's answer."""
+        # Where a ring applies, the debug streams it does not hold back are guarded too (fuzz/txring.py).
+        mask = (1 | UNHELD_DEBUG if self.tx_ring else 1) if guard else 0
+        before = [side.model.debug for side in self.sides]
+        first = plan_step(self.sides[0].model, datas, mask)
         plans = [first] + [plan_step(side.model, first.datas) for side in self.sides[1:]]
+        queued = [backlog(p.states, d | side.model.debug, side.model.selrate_engine,
+                          bool(side.profile.feature("tx_throttle_reports"))) if self.tx_ring else 0
+                  for side, p, d in zip(self.sides, plans, before)]
+        # What a stream stopped by the last step queued may still be draining ahead of this answer.
+        queued, self._queued = [max(q, last) for q, last in zip(queued, self._queued)], queued
+        keeps = [headroom(q, p.size_max) if self.tx_ring else None for p, q in zip(plans, queued)]
+        if pause_ms is None:
+            pause_ms = max([drain_ms(p.size_max, len(p.blob), k)
+                            for p, k in zip(plans, keeps) if k is not None], default=0)
         records = []
         for side, plan in zip(self.sides, plans):
             records.append(len(getattr(side.link.target, "line_records", ())))
-            try:
-                side.link.send(plan.blob)
-            except TargetError as exc:
-                self.fail("liveness", f"{side.label}: the target went away: {exc}",
-                          {"step": plan.blob, "received": b""})
+            self._send(side, plan.blob[:-len(FENCE)] if pause_ms else plan.blob, plan.blob)
+        early = [side.link.wait(pause_ms) if pause_ms else b"" for side in self.sides]
+        for side, plan in zip(self.sides, plans):
+            if pause_ms:
+                self._send(side, FENCE, plan.blob)
+        lost = False
         answers: List[bytes] = []
         compared: List[bytes] = []       # what the differential oracle compares (echo made whole)
-        for side, plan, before in zip(self.sides, plans, records):
+        for side, plan, before, keep, ahead, queue in zip(self.sides, plans, records, keeps, early, queued):
             self.stats.count("liveness")
             try:
-                got = side.link.receive(side.fence_line, plan.fences, plan.size, len(plan.blob),
-                                        prompt=None if side.model.tainted else bool(side.model.echo))
+                # (fence lines that came during the pause count: a `version` among the inputs; the
+                # answer may wait behind what streams in the TX ring)
+                # A `version` among the inputs may lose its answer to a full ring: then the last
+                # fence's, sent after the pause, is enough.
+                got = ahead + side.link.receive(side.fence_line, plan.fences - ahead.count(side.fence_line),
+                                                plan.size + queue, len(plan.blob),
+                                                prompt=None if side.model.tainted else bool(side.model.echo),
+                                                at_least=1 if keep is not None and pause_ms else None)
             except LinkTimeout as exc:
-                self.fail("liveness", f"{side.label}: {exc}", {"step": plan.blob, "received": exc.received})
+                message, more = liveness_message(side.label, str(exc), plan.blob, side.fence_line,
+                                                 ahead + exc.received)
+                self.fail("liveness", message, dict(more, step=plan.blob, received=ahead + exc.received))
+            if side is self.sides[0]:
+                self.stats.answered += 1
             answers.append(got)
             compared.append(got)
             self._note_kinds(got)
@@ -201,15 +246,21 @@ class Runner:
                 # takes time to arrive it runs until the guard's `debug 0` is read. Liveness only.
                 side.model.ports[:] = plan.states[-1]
                 self.stats.liveness_only += 1
+                lost = True   # (its bytes and where they cut in are timing: not compared either)
                 continue      # (the trace ends before the guard's `debug 0`, so before the fence line)
             res = match_stream(plan.expected, got, self._allowed(side, plan.debug))
+            if res.problems and keep is not None:
+                # Bytes a full TX ring dropped are no finding (FIRMWARE-FACTS §1); anything else is.
+                lossy = match_lossy(plan.expected, got, self._allowed(side, plan.debug), keep)
+                if lossy is not None:
+                    res, lost = lossy, True
+                    self.stats.ring_lossy += 1
             compared[-1] = without_torn(got, res)
             observe(side.model, res, plan.states, self.stats.count)
             side.model.ports[:] = plan.states[-1]   # reports seen (once-selections) move the model on
-            self._judge(side, res.problems, {"step": b"".join(plan.datas), "expected": plan.expected,
-                                             "received": got})
+            self._judge(side, res.problems, {"step": plan.blob, "expected": plan.expected, "received": got})
             self._check_records(side, before, plan.fates)
-        if len(self.sides) == 2:
+        if len(self.sides) == 2 and not lost:   # (drops, a raw trace: timing; each side judged its own)
             self._differential(first.datas, compared)
         return answers
 
@@ -236,6 +287,8 @@ class Runner:
 
     def wait(self, ms: int) -> None:
         """Let HAT time pass; what arrives meanwhile must be asynchronous lines the state allows."""
+        # A wait long enough for the ring to drain leaves only what still streams queued.
+        self._queued = [0 if ms * WIRE_BYTES_PER_MS >= q else q for q in self._queued]
         for side in self.sides:
             out = side.link.wait(ms)
             self._note_kinds(out)
@@ -268,7 +321,11 @@ class Runner:
         if not problems:
             return
         first = sorted(problems, key=lambda p: _PRIORITY.index(p.oracle))[0]
-        self.fail(first.oracle, f"{side.label}: {first.message}", details)
+        step = details["step"]
+        blob = step if isinstance(step, bytes) else step.encode()
+        message, more = stream_message(side.label, first.message, first.at, blob, details.get("expected", ()),
+                                       details["received"])
+        self.fail(first.oracle, message, dict(details, **more))
 
     def _differential(self, datas: Sequence[bytes], answers: List[bytes]) -> None:
         a_side, b_side = self.sides
@@ -277,11 +334,11 @@ class Runner:
         # The fence's own answer names each release: compare up to it.
         a_cut = a[:a.rfind(a_side.fence_line)] if a_side.fence_line in a else a
         b_cut = b[:b.rfind(b_side.fence_line)] if b_side.fence_line in b else b
-        diff = compare_answers(a_cut, b_cut, a_side.label, b_side.label)
+        diff = first_difference(a_cut, b_cut)
         if diff is not None:
-            step = b"".join(datas)
-            self.fail("differential", f"input {step!r}: {diff}",
-                      {"step": step, "received": a, "received_other": b})
+            step = b"".join(datas) + FENCE
+            message, more = differential_message((a_side.label, b_side.label), step, *diff)
+            self.fail("differential", message, dict(more, step=step, received=a, received_other=b))
 
     def fail(self, oracle: str, message: str, details: dict) -> None:
         traces = [s.link.trace.copy() for s in self.sides]

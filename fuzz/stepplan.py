@@ -13,7 +13,7 @@ from .link import FENCE
 from .model import HatModel
 from .portmodel import PortModel
 
-__all__ = ["DEBUG_OFF", "StepPlan", "plan_step", "output_groups"]
+__all__ = ["DEBUG_OFF", "StepPlan", "plan_step", "output_groups", "LISTING_MAX"]
 
 # Debug bit 1 is a raw serial trace with no line structure (§7.4): after any input that leaves
 # it set, this is sent at once so the line-level oracles stay meaningful.
@@ -24,8 +24,16 @@ def _count_fences(items: Sequence[Expect]) -> int:
     return sum(1 for it in items if it.kind == "exact" and it.what == "version line")
 
 
-def _size(items: Sequence[Expect]) -> int:
-    return sum(len(it.data) if it.kind == "exact" else (4000 if it.kind == "listing" else 80) for it in items)
+# A `list` dump's size depends on the devices: 4000 bytes is a typical guess (four motors print about
+# 4,300), LISTING_MAX what four of the largest device of the catalogue print (about 1,870 bytes each):
+# the bound the TX ring must be judged by (fuzz/txring.py).
+LISTING_GUESS = 4000
+LISTING_MAX = 4 * 1900
+
+
+def _size(items: Sequence[Expect], listing: int = LISTING_GUESS) -> int:
+    return sum(len(it.data) if it.kind == "exact" else (listing if it.kind == "listing" else 80)
+               for it in items)
 
 
 @dataclass
@@ -53,10 +61,15 @@ class StepPlan:
         """Bytes the step is predicted to print (an upper guess for lists and patterns)."""
         return _size(self.expected)
 
+    @property
+    def size_max(self) -> int:
+        """The most the step may print (a `list` dump at its largest)."""
+        return _size(self.expected, LISTING_MAX)
 
-def plan_step(model: HatModel, datas: Sequence[bytes], guard: bool = False) -> StepPlan:
-    """Feed ``datas`` and the fence to ``model`` (it moves on). With ``guard``, :data:`DEBUG_OFF`
-    is appended to each input that leaves debug bit 1 set (and fed)."""
+
+def plan_step(model: HatModel, datas: Sequence[bytes], guard: int = 0) -> StepPlan:
+    """Feed ``datas`` and the fence to ``model`` (it moves on). With ``guard`` (debug bits; True
+    is bit 1), :data:`DEBUG_OFF` is appended to each input that leaves one of them set (and fed)."""
     states = [[p.copy() for p in model.ports]]
     model.debug_seen = model.debug
     expected: List[Expect] = []
@@ -64,7 +77,7 @@ def plan_step(model: HatModel, datas: Sequence[bytes], guard: bool = False) -> S
     sent: List[bytes] = []
     for data in datas:
         items, more_fates = model.feed(data)
-        if guard and model.debug & 1:
+        if model.debug & guard:
             data += DEBUG_OFF
             more, off_fates = model.feed(DEBUG_OFF)
             items = joined(items, more)          # what feeding ``data + DEBUG_OFF`` at once predicts

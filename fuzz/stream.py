@@ -37,6 +37,7 @@ _LIST_HEADER = re.compile(rb"P([0-3]): (no device detected|connected to passive 
 class Problem:
     oracle: str       # liveness | fate | state | hygiene
     message: str
+    at: Optional[Tuple[int, int]] = None    # (expected item, received byte) where the answer went wrong
 
 
 @dataclass
@@ -44,7 +45,7 @@ class MatchResult:
     asynchronous: List[Tuple[int, Event]] = field(default_factory=list)  # (expected index, event)
     problems: List[Problem] = field(default_factory=list)
     consumed: int = 0
-    torn: List[Tuple[int, int]] = field(default_factory=list)   # asynchronous lines found inside an echo
+    torn: List[Tuple[int, int]] = field(default_factory=list)   # async lines in an echo or after a prompt
 
 
 def without_torn(actual: bytes, res: MatchResult) -> bytes:
@@ -182,6 +183,9 @@ def match_stream(expected: List[Expect], actual: bytes, allowed: frozenset) -> M
             if ev.kind not in ASYNC_KINDS:
                 break
             _asynchronous(res, idx, ev, line, allowed)
+            if pos >= 2 and actual[pos - 2:pos] != b"\r\n":
+                # Right after a prompt: the line comes apart from what follows it, for comparison.
+                res.torn.append((pos, pos + len(line) + 2))
             pos += len(line) + 2
         if item is None:
             break
@@ -199,12 +203,13 @@ def match_stream(expected: List[Expect], actual: bytes, allowed: frozenset) -> M
             else:
                 oracle = item.oracle
                 what = _show(actual[pos:])
-            res.problems.append(Problem(oracle, f"expected {item.describe()}, got {what}"))
+            res.problems.append(Problem(oracle, f"expected {item.describe()}, got {what}", (idx, pos)))
             res.consumed = pos
             return res
         pos = nxt
     rest = actual[pos:]
     if rest:
-        res.problems.append(Problem("hygiene", f"unexpected trailing output {_show(rest)}"))
+        res.problems.append(Problem("hygiene", f"unexpected trailing output {_show(rest)}",
+                                    (len(expected), pos)))
     res.consumed = len(actual)
     return res

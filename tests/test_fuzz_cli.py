@@ -17,8 +17,8 @@ import xml.etree.ElementTree as ET
 import pytest
 
 from buildhat_conformance.fuzz.campaign import Budget, parse_budget
-from buildhat_conformance.fuzz.cli import Progress
 from buildhat_conformance.fuzz.runner import PRELUDE, Stats
+from buildhat_conformance.fuzz.summary import Progress
 
 HERE = pathlib.Path(__file__).parent
 EXE = os.path.join(os.path.dirname(sys.executable), "buildhat-conformance")

@@ -69,3 +69,12 @@ def test_a_device_dump_on_connecting_is_asynchronous_but_a_listing_is_not():
     listing = b"P0: no device detected\r\nP1: connected to active ID 40\r\ntype 40\r\n"
     shorter = b"P0: no device detected\r\nP1: connected to active ID 40\r\n"
     assert compare_answers(listing, shorter) is not None
+
+
+def test_a_report_right_after_a_prompt_is_not_compared():
+    """A data report can land between a prompt and the next line's echo on either side (its time
+    is each target's own): `P3>P3V: ...` then `version` is `P3>version` with a report apart."""
+    other = b"\r\nP3>P1V: 0.00000\r\nversion\r\n"
+    assert compare_answers(b"\r\nP3>P3V: 0.00000\r\nversion\r\n", other) is None
+    assert compare_answers(b"\r\nP3>version\r\n", other) is None
+    assert compare_answers(b"\r\nP3>vin\r\n", other) is not None

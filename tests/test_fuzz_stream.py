@@ -45,3 +45,15 @@ def test_the_echo_is_made_whole_for_comparison():
     torn = b"por" + b"P3: D5 signature=0CC0 id=0\r\n" + b"t 2\r\nP2>"
     res = match_stream(items, torn, allowed_kinds(R7, 4))
     assert not res.problems and without_torn(torn, res) == b"port 2\r\nP2>"
+
+
+def test_a_report_right_after_a_prompt_is_set_apart_for_comparison():
+    """On one side a report came between the prompt and the echo of the next line (`P0>P0V: ...`):
+    compared without it, the answer is the other side's `P0>version`."""
+    from buildhat_conformance.fuzz.expect import CRLF_ITEM, exact_item, prompt_item
+    from buildhat_conformance.fuzz.stream import allowed_kinds, match_stream, without_torn
+    from buildhat_conformance.protocol.profiles import get_profile
+    expected = [prompt_item(0), exact_item(b"version", "echo", "state"), CRLF_ITEM]
+    got = b"P0>P0V: 0.00000\r\nversion\r\n"
+    res = match_stream(expected, got, allowed_kinds(get_profile("R7"), 0))
+    assert not res.problems and without_torn(got, res) == b"P0>version\r\n"
