@@ -6,8 +6,9 @@
 
 Findings (one per oracle, confirmed by replays and reduced) are written to ``-o/--output`` (default
 ``reports/fuzz``; ``--out`` is its old spelling): ``<oracle>.script`` (replay with ``--reproduce``
-or ``buildhat-conformance script``), ``<oracle>.<target>.jsonl`` transcripts and ``junit.xml``. Exit status: 0 no findings, 1 findings
-(with ``--reproduce``: 1 reproduced, 0 not), 2 usage errors, 3 a campaign that could not do its job
+or ``buildhat-conformance script``), ``<oracle>.<target>.jsonl`` transcripts and ``junit.xml``.
+Exit status: 0 no findings, 1 findings (with ``--reproduce``: 1 reproduced, 0 not), 2 usage
+errors, 3 a campaign that could not do its job
 (a target that cannot be reached, answers as another release than ``--firmware``, or took no input).
 """
 from __future__ import annotations
