@@ -136,7 +136,7 @@ def print_summary(result: CampaignResult, stats: Stats, productions, files: Dict
              if stats.liveness_only else ""))
     if stats.ring_lossy:
         print(f"  {stats.ring_lossy} step(s) lost output to a full TX ring while output streamed "
-              "(allowed: FIRMWARE-FACTS §1, §6.2); judged on what a full ring leaves")
+              "(allowed: docs/FIRMWARE-BEHAVIOUR.md#fb-tx-ring); judged on what a full ring leaves")
     if stats.left_out and out_limit is not None:
         print(f"  {stats.left_out} input(s) not sent: the answer of each alone is over {out_limit} bytes, "
               f"more than the TX ring keeps on this wire")
