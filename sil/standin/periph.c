@@ -554,6 +554,11 @@ void periph_irq_enter(uint num) {
         W32(u->fr) = 0;                                /* RX not empty; TX not empty */
         W32(u->dr) = cu.rx_byte;
     } else {
+        /* The handler reads the flags now: the transmit condition is taken as it enters. A
+         * byte that finishes while the handler runs (time moves inside it) raises it again,
+         * as the PL011's level does, so it is not cleared at the exit (a lost interrupt left
+         * the TX ring unsent until the next byte was queued). */
+        cu.tx_irq = 0;
         W32(u->fr) = (cu.tx_busy ? 0u : 0x80u) | 0x10u;   /* TX empty?; RX empty */
         W32(u->dr) = DR_UNTOUCHED;
     }
@@ -566,13 +571,12 @@ void periph_irq_exit(uint num) {
         cu.rx_full = 0;
         return;
     }
-    cu.tx_irq = 0;
     uint32_t dr = u->dr;
     if (dr != DR_UNTOUCHED && !cu.tx_busy) {
         cu.tx_byte = (uint8_t)dr;
         cu.tx_busy = 1;
         cu.tx_done = sil_now + cu.byte_ns;
-    } else if (!cu.tx_busy && link_yield_on_host_idle) {
+    } else if (!cu.tx_busy && !cu.tx_irq && link_yield_on_host_idle) {
         sil_request_yield();                           /* the answer is complete for now */
     }
 }
