@@ -189,7 +189,8 @@ def _one(mutant: Mutant, tree: Path, base: Build, work: Path, keyword: Optional[
     return out
 
 
-def run_campaign(tree: str, mutants: Sequence[Mutant], work: Path, jobs: int = 2, keyword: Optional[str] = None,
+def run_campaign(tree: str, mutants: Sequence[Mutant], work: Path, jobs: int = 2,
+                 keyword: Optional[str] = None,
                  progress: Callable[[Outcome, int, int], None] = lambda o, i, n: None) -> Campaign:
     """Run ``mutants`` of ``tree``; ``work`` keeps the reference run and each survivor's transcripts."""
     t0 = time.monotonic()

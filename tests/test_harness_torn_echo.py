@@ -29,11 +29,13 @@ def test_an_echo_torn_by_a_pid_line_is_still_the_echo_of_its_host_line() -> None
     got = _events(b"echo 0 ; port 0\rversion\r",
                   b"ech" + PID_LINE + b"o 0 ; port 0\r\n\r\nFirmware version: 1\r\n")
     assert got[0][0] == "pid_debug"
-    assert got[1:] == [("echo", "echo 0 ; port 0", 1), ("blank", "", 2), ("version", "Firmware version: 1", None)]
+    assert got[1:] == [("echo", "echo 0 ; port 0", 1), ("blank", "", 2),
+                       ("version", "Firmware version: 1", None)]
 
 
 def test_an_echo_torn_twice_and_at_its_end() -> None:
-    got = _events(b"port 0 ; select 3\r", b"po" + REPORT + b"rt 0 ; sel" + PID_LINE + b"ect 3" + REPORT + b"\r\n")
+    got = _events(b"port 0 ; select 3\r",
+                  b"po" + REPORT + b"rt 0 ; sel" + PID_LINE + b"ect 3" + REPORT + b"\r\n")
     assert [k for k, _t, _n in got] == ["mode_data", "pid_debug", "mode_data", "echo"]
     assert got[-1] == ("echo", "port 0 ; select 3", 1)
 
