@@ -12,7 +12,7 @@ from typing import Any, Callable, List, Optional, Union
 from ..harness.errors import ExpectTimeout, TargetError
 from ..harness.matching import matcher
 from ..protocol.profiles import Profile, neighbours
-from .reply import ASYNC_BYTES, ASYNC_LINE, Reply
+from .reply import ASYNC_BYTES, ASYNC_LINE, Reply, without_fence_line
 from .resync import Resync
 from .target_fault import TargetFault, target_fault_of
 from .verdict import UnknownBuild
@@ -161,13 +161,9 @@ class Hat(Resync):
         raw = bytes(self.session.received[mark:])
         cut = raw.rfind(FENCE_ANSWER)
         if cut >= 0:
-            head = raw[:cut]
-            # The fence line's own CR gives CRLF first; with echo on "version" is echoed before it.
-            if head.endswith(b"\r\n"):
-                head = head[:-2]
-            if head.endswith(b"version"):
-                head = head[: -len(b"version")]
-            raw = head
+            # The fence line's own CR gives CRLF first; with echo on "version" is echoed before it
+            # (a stream's line may sit among those bytes: reply.py).
+            raw = without_fence_line(raw[:cut])
         return Reply(data, raw, list(self.session.events[first_event:boundary]))
 
     def fence(self, timeout: float, between_cases: bool = False) -> tuple[int, int]:

@@ -6,7 +6,7 @@ import re
 from dataclasses import dataclass, field
 from typing import Any, List
 
-__all__ = ["Reply", "ASYNC_LINE", "ASYNC_BYTES"]
+__all__ = ["Reply", "ASYNC_LINE", "ASYNC_BYTES", "without_fence_line"]
 
 # Lines the HAT may print at any time (FIRMWARE-FACTS §5, §6): a reply that contains one of
 # these was interleaved with something asynchronous and an exact comparison must retry.
@@ -23,6 +23,29 @@ ASYNC_BYTES = re.compile(
     rb"P[0-3]: (?:connected to passive ID [0-9]+|disconnected|button (?:pressed|released)|pulse done|"
     rb"ramp done|timeout during data phase: disconnecting)\r\n|P[0-3][MCV][0-9]*:[^\r\n]*\r\n|"
     rb"P[0-3]: (?:pv=|DATA )[^\r\n]*\r\n|deltat=[0-9A-F]{8}\r\n")
+
+
+def without_fence_line(head: bytes) -> bytes:
+    """``head`` (what came before the fence's ``Firmware version:`` answer) without the bytes of
+    the fence line itself at its end: the CRLF its CR gave and, with echo on, the echoed
+    ``version`` before that. A stream left on (PID lines every 10 ms) may print a whole line of
+    its own between any two of those bytes (after the echo, before the CRLF); such lines are
+    kept where they are, so that :attr:`Reply.raw` leaves them out and :attr:`Reply.wire` keeps
+    them, and the fence's bytes are found around them."""
+    own = bytearray(len(head))          # 1: a byte of an asynchronous line, never the fence's
+    for m in ASYNC_BYTES.finditer(head):
+        own[m.start():m.end()] = b"\x01" * (m.end() - m.start())
+    plain = [i for i in range(len(head)) if not own[i]]
+    cut: List[int] = []
+    for suffix in (b"\r\n", b"version"):
+        n = len(suffix)
+        rest = plain[:len(plain) - len(cut)]
+        if len(rest) >= n and bytes(head[i] for i in rest[-n:]) == suffix:
+            cut += rest[-n:]
+    if not cut:
+        return head
+    gone = set(cut)
+    return bytes(b for i, b in enumerate(head) if i not in gone)
 
 
 _LIST_HEADER = re.compile(r"P([0-3]): (?:no device detected|connected to )")

@@ -14,7 +14,7 @@ from functools import lru_cache
 from typing import Callable, Dict, FrozenSet, List, Optional, Pattern, Sequence, Tuple, Union
 
 __all__ = ["Event", "classify", "line_kind", "decode", "LINE_PATTERNS", "KINDS", "PORT_STATUS_KINDS",
-           "parse_value"]
+           "UNASKED_KINDS", "parse_value"]
 
 
 @dataclass
@@ -282,6 +282,14 @@ _COMPILED: List[Tuple[str, Pattern[str], FieldParser]] = [
 KINDS: FrozenSet[str] = frozenset(
     {k for k, _r, _p in LINE_PATTERNS} | {"prompt", "bootloader_prompt", "echo", "help", "unknown"})
 PORT_STATUS_KINDS: FrozenSet[str] = frozenset({"list_port", "connected_passive"})
+#: Whole lines a HAT prints on its own, whatever the host is typing: streams and debug output,
+#: device and fault events (FIRMWARE-BEHAVIOUR.md#fb-async, #fb-reporting, #fb-debug). With echo
+#: on, one may come between any two bytes of an echo (line_splitter.py).
+UNASKED_KINDS: FrozenSet[str] = frozenset({
+    "mode_data", "combi_data", "var_data", "pid_debug", "data_debug", "signature_debug", "unknown_debug",
+    "deltat", "connecting", "baud", "established", "connected_passive", "disconnected", "timeout",
+    "checksum_error", "framing_error", "too_many_errors", "button", "pulse_done", "ramp_done", "port_fault",
+    "motor_fault", "fault_dump", "mq_overrun"})
 
 
 @lru_cache(maxsize=1)

@@ -7,7 +7,7 @@ from __future__ import annotations
 import re
 from typing import List, Optional, Tuple
 
-from .events import Event, classify, decode
+from .events import UNASKED_KINDS, Event, classify, decode
 
 __all__ = ["LineSplitter", "expected_echo", "BOOTLOADER_PROMPT", "MAX_LINE"]
 
@@ -43,6 +43,12 @@ class LineSplitter:
     CRLF, preceded by the echo of the line when echo is on: the first line to arrive
     that is blank, or equal to that echo, is classified ``blank`` / ``echo`` and carries
     ``fields["host_line"]``, the number :meth:`host_sent` returned for that line.
+
+    With echo on, a line the HAT prints on its own (a PID line every 10 ms, a data report:
+    ``UNASKED_KINDS``) may come between two bytes of an echo, as the host's bytes are echoed
+    while they arrive: ``ech`` + ``P0: pv=...`` CRLF + ``o 0`` CRLF. That line is its own event
+    and the echo is put back together around it; otherwise the echo would never be recognised
+    and every later line ending counted against the wrong host line.
     """
 
     def __init__(self) -> None:
@@ -50,6 +56,7 @@ class LineSplitter:
         self._host_line = bytearray()      # host bytes since its last CR
         self._pending: List[Tuple[int, bytes]] = []  # (host line number, expected echo)
         self._next_line = 0
+        self._echo_head = b""              # the start of the oldest pending echo, torn by a line
 
     @property
     def partial(self) -> bytes:
@@ -78,6 +85,7 @@ class LineSplitter:
     def forget_pending(self) -> None:
         """Stop waiting for the CRLF of earlier host lines (after losing step with the target)."""
         self._pending.clear()
+        self._echo_head = b""
 
     def feed(self, data: bytes, t: float) -> List[Event]:
         self._buf += data
@@ -100,7 +108,7 @@ class LineSplitter:
                 break
             line = bytes(self._buf[:i])
             del self._buf[:i + 2]
-            out.append(self._line_event(line, t))
+            out += self._line_events(line, t)
         return out
 
     def _take_prompt(self, t: float) -> Optional[Event]:
@@ -115,15 +123,35 @@ class LineSplitter:
             return Event("prompt", raw.decode(), raw, t, {"port": port})
         return None
 
-    def _line_event(self, line: bytes, t: float) -> Event:
-        if self._pending:
-            number, echo = self._pending[0]
-            if line == echo:
-                self._pending.pop(0)
-                kind = "blank" if not line else "echo"
-                return Event(kind, decode(line), line, t, {"host_line": number, "echo": bool(line)})
-            if not line:
-                # Echo off (or an edited line whose echo we cannot predict): the CRLF alone.
-                self._pending.pop(0)
-                return Event("blank", "", line, t, {"host_line": number, "echo": False})
-        return classify(line, t)
+    def _line_events(self, line: bytes, t: float) -> List[Event]:
+        if not self._pending:
+            return [classify(line, t)]
+        number, echo = self._pending[0]
+        whole = self._echo_head + line
+        if whole == echo:
+            self._pending.pop(0)
+            self._echo_head = b""
+            kind = "blank" if not whole else "echo"
+            return [Event(kind, decode(whole), whole, t, {"host_line": number, "echo": bool(whole)})]
+        if not line:
+            # Echo off (or an edited line whose echo we cannot predict): the CRLF alone.
+            self._pending.pop(0)
+            self._echo_head = b""
+            return [Event("blank", "", line, t, {"host_line": number, "echo": False})]
+        torn = self._torn(line, echo, t)
+        if torn is not None:
+            return [torn]
+        return [classify(line, t)]
+
+    def _torn(self, line: bytes, echo: bytes, t: float) -> Optional[Event]:
+        """``line`` as more of the pending echo followed by a whole line the HAT printed on its
+        own: that line's event (the echo's part is kept for the next line), else None."""
+        head = self._echo_head
+        for k in range(1, len(line)):
+            if not echo.startswith(head + line[:k]):
+                return None
+            rest = classify(line[k:], t)
+            if rest.kind in UNASKED_KINDS:
+                self._echo_head = head + line[:k]
+                return rest
+        return None

@@ -34,6 +34,21 @@ def test_the_suite_passes_on_the_real_firmware_with_nothing_skipped(whole_suite)
         [(n, v, m) for n, v, m in verdicts if v in ("fail", "target-fault", "not-run", "skip")]
 
 
+def test_abbreviation_cases_after_the_link_clauses_are_neither_faults_nor_failures(cache, tmp_path):
+    # Deterministic (virtual time): this sequence once lost the stand-in's UART TX interrupt
+    # (a `list` stopped after "P0: con" until the next host line: a false "garbled" target fault)
+    # and then put a PID line between the fence's echo and its CRLF (the `port` probe's reply
+    # kept "version": a false failure). tests/test_sil_uart_model.py and
+    # tests/test_conformance_fence_echo.py hold each of them on its own.
+    junit = tmp_path / "junit.xml"
+    done = cli("run", "--target", f"sil:{firmware_tree()}", "-k",
+               "test_clause_semicolon or shortest_resolving_prefix_runs_the_command", "--junit", str(junit),
+               cache=cache)
+    verdicts = junit_verdicts(junit)
+    bad = [(n, v, m) for n, v, m in verdicts if v in ("fail", "target-fault", "not-run", "skip")]
+    assert done.returncode == 0 and not bad and len(verdicts) > 20, (bad, done.stdout[-2000:])
+
+
 def test_a_planted_change_in_a_reply_fails_the_suite(cache, tmp_path):
     tree = copy_tree(tmp_path / "planted")
     plant(tree, "command.c", 'ostrnl(" V")', 'ostrnl(" v")')      # `vin` prints "8.00 v"

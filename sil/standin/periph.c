@@ -567,11 +567,18 @@ int periph_irq_pend(uint num) {
 void periph_irq_enter(uint num) {
     if (num != UART0_IRQ) return;
     uart_hw_t *u = &sil_uart_hw[0];
+    /* The handler reads the flags and the data register as it enters, so what it sees is
+     * taken now: time moves inside a handler, and a byte that arrives or finishes sending
+     * meanwhile raises the interrupt again, as the PL011's levels do. Cleared at the exit
+     * instead, such an interrupt was lost: a received byte dropped as an overrun, or the rest
+     * of the TX ring left unsent until the firmware queued another byte. */
     cu.entered_rx = cu.rx_full && (u->imsc & 0x10);
     if (cu.entered_rx) {
+        cu.rx_full = 0;                                /* the holding register is read */
         W32(u->fr) = 0;                                /* RX not empty; TX not empty */
         W32(u->dr) = cu.rx_byte;
     } else {
+        cu.tx_irq = 0;
         W32(u->fr) = (cu.tx_busy ? 0u : 0x80u) | 0x10u;   /* TX empty?; RX empty */
         W32(u->dr) = DR_UNTOUCHED;
     }
@@ -580,17 +587,13 @@ void periph_irq_enter(uint num) {
 void periph_irq_exit(uint num) {
     if (num != UART0_IRQ) return;
     uart_hw_t *u = &sil_uart_hw[0];
-    if (cu.entered_rx) {
-        cu.rx_full = 0;
-        return;
-    }
-    cu.tx_irq = 0;
+    if (cu.entered_rx) return;
     uint32_t dr = u->dr;
     if (dr != DR_UNTOUCHED && !cu.tx_busy) {
         cu.tx_byte = (uint8_t)dr;
         cu.tx_busy = 1;
         cu.tx_done = sil_now + cu.byte_ns;
-    } else if (!cu.tx_busy && link_yield_on_host_idle) {
+    } else if (!cu.tx_busy && !cu.tx_irq && link_yield_on_host_idle) {
         sil_request_yield();                           /* the answer is complete for now */
     }
 }

@@ -1,0 +1,127 @@
+"""The stand-in's command-port UART keeps an interrupt that is raised while its handler runs
+(time moves inside a handler, as on the chip): a byte sent or received meanwhile is not lost.
+
+A handler entered while a byte is on the wire finds the transmitter busy and sends nothing; if
+that byte finishes before the handler returns, the PL011 raises its TX interrupt again and the
+next byte goes out. The stand-in used to clear that interrupt at the handler's exit, so the rest
+of the TX ring waited for the firmware's next output: the real firmware's ``list`` stopped after
+``P0: con`` for 3 s of HAT time and the suite called a healthy HAT garbled.
+
+Likewise a byte that arrives while the handler that read the previous one still runs waits in the
+receive holding register (the handler has read it empty); it was dropped as an overrun.
+
+The programs here are the test's own (not a Build HAT firmware): a message sent byte by byte
+from the UART interrupt, and received bytes sent back, each with a handler that stays longer
+than one byte takes on the wire (86.8 us at 115200)."""
+import shutil
+
+import pytest
+
+from buildhat_conformance.sil.build import build_tree
+from buildhat_conformance.sil.hat import SilHat
+
+pytestmark = pytest.mark.timeout(300)
+
+MESSAGE = "0123456789abcdef\r\n"
+
+SEND = r"""
+/* The test's program for the stand-in's command-port UART. */
+#include "pico/stdlib.h"
+#include "hardware/irq.h"
+#include "hardware/uart.h"
+
+static const char message[] = "%s";
+static volatile unsigned sent;
+
+static void on_uart(void) {
+    uart_hw_t *hw = uart_get_hw(uart0);
+    if (hw->fr & 0x80) {                       /* room to send */
+        if (message[sent]) hw->dr = (uint8_t)message[sent++];
+        else hw->icr = 0x20;
+    }
+    for (volatile int spin = 0; spin < 4000; spin++) {
+        /* longer than a byte on the wire at 115200 (86.8 us) */
+    }
+}
+
+int main(void) {
+    uart_init(uart0, 115200);
+    uart_set_fifo_enabled(uart0, false);
+    irq_set_exclusive_handler(UART0_IRQ, on_uart);
+    uart_get_hw(uart0)->imsc = 0x20;
+    irq_set_enabled(UART0_IRQ, true);
+    irq_set_pending(UART0_IRQ);                /* the first byte starts */
+    irq_set_pending(UART0_IRQ);                /* entered again while it is on the wire */
+    for (;;) sleep_ms(1);
+}
+"""
+
+
+ECHO = r"""
+/* The test's program for the stand-in's command-port UART: what arrives is sent back. */
+#include "pico/stdlib.h"
+#include "hardware/irq.h"
+#include "hardware/uart.h"
+
+static volatile char kept[64];
+static volatile unsigned received, sent, first = 1;
+
+static void on_uart(void) {
+    uart_hw_t *hw = uart_get_hw(uart0);
+    unsigned flags = hw->fr;
+    if (flags & 0x80) {                        /* room to send */
+        if (sent < received) hw->dr = (uint8_t)kept[sent++];
+        else hw->icr = 0x20;
+    }
+    if (!(flags & 0x10)) {                     /* a byte to read */
+        char c = (char)hw->dr;
+        if (received < sizeof kept) kept[received++] = c;
+        if (first) {
+            first = 0;
+            busy_wait_us(130);                 /* the next byte arrives meanwhile */
+        }
+    }
+}
+
+int main(void) {
+    uart_init(uart0, 115200);
+    uart_set_fifo_enabled(uart0, false);
+    irq_set_exclusive_handler(UART0_IRQ, on_uart);
+    uart_get_hw(uart0)->imsc = 0x30;
+    irq_set_enabled(UART0_IRQ, true);
+    for (;;) {
+        sleep_ms(1);
+        if (sent < received) irq_set_pending(UART0_IRQ);
+    }
+}
+"""
+
+
+def _program(tmp_path, source: str) -> SilHat:
+    if not (shutil.which("cc") or shutil.which("gcc") or shutil.which("clang")):
+        pytest.skip("no C compiler on this machine")
+    tree = tmp_path / "tree"
+    tree.mkdir()
+    (tree / "main.c").write_text(source)
+    build = build_tree(str(tree), cache=tmp_path / "cache")
+    return SilHat(str(build.program))
+
+
+def test_a_byte_that_ends_inside_the_handler_raises_the_tx_interrupt_again(tmp_path):
+    hat = _program(tmp_path, SEND % MESSAGE.replace("\r", "\\r").replace("\n", "\\n"))
+    try:
+        hat.advance(20)              # 18 bytes take 1.6 ms on the wire (the handler's spins more)
+        assert hat.read() == MESSAGE.encode()
+    finally:
+        hat.close()
+
+
+def test_a_byte_that_arrives_inside_the_handler_is_read_after_it(tmp_path):
+    hat = _program(tmp_path, ECHO)
+    try:
+        hat.advance(2)
+        hat.write(b"abcdef")
+        hat.advance(20)
+        assert hat.read() == b"abcdef"
+    finally:
+        hat.close()
