@@ -70,7 +70,7 @@ def checked_target(url: str, layout: Optional[dict] = None, **options) -> Target
     """The target for ``url`` (not opened), after the checks that need no traffic.
     ``layout`` (a scenario's start-up devices): an emulator target whose URL names no
     ``device=`` is started with it; other targets are left as they are (the runner checks)."""
-    if layout and _scheme(url) in ("emulator", "inprocess") and "device=" not in url:
+    if layout and _scheme(url) in ("emulator", "inprocess", "sil") and "device=" not in url:
         options["devices"] = dict(layout)
     try:
         target = make_target(url, **options)

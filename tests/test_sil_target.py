@@ -107,3 +107,17 @@ def test_a_coverage_build_reports_the_firmwares_coverage(cache, tmp_path):
     assert {"main.c", "command.c", "ports.c"} <= names
     assert 10 < summary["line_percent"] < 100
     assert "firmware coverage: lines" in done.stdout
+
+
+def test_a_long_list_stretches_the_main_loop_as_on_a_hat(cache, tmp_path):
+    """docs/FIRMWARE-BEHAVIOUR.md#fb-stall: a real HAT prints deltat=00000003 right after the
+    `list` of a motor, a distance sensor and a colour sensor. The stand-in's CPU model (the cost
+    of a basic block and of software float) is calibrated on that fact."""
+    script = tmp_path / "list.script"
+    script.write_text("@device 0 0x30\n@device 1 0x3E\n@device 2 0x3D\n@device 3 none\n> list\n@wait 400\n")
+    out = tmp_path / "list.jsonl"
+    done = cli("script", str(script), "--target", f"sil:{firmware_tree()}", "-o", str(out), cache=cache)
+    assert done.returncode == 0, done.stderr
+    lines = [json.loads(r).get("line") for r in out.read_text().splitlines()]
+    after_list = lines[max(i for i, ln in enumerate(lines) if ln and ln.startswith("P3: ")):]
+    assert "deltat=00000003" in after_list, after_list[:8]

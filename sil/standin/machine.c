@@ -17,11 +17,11 @@
 
 #include <stdlib.h>
 
-/* What a basic block costs: about five Cortex-M0+ instructions at 133 MHz. The environment
- * variable BUILDHAT_SIL_NS_PER_BLOCK changes it: at 80 ns, a `list` of a motor, a distance and a
- * colour sensor stretches its main-loop pass to deltat=00000003 as on a real HAT
- * (docs/FIRMWARE-BEHAVIOUR.md#fb-deltat); sil/README.md says why 40 is the default. */
-#define NS_PER_BLOCK_DEFAULT 40
+/* What a basic block costs: five or six Cortex-M0+ instructions, about ten cycles at 133 MHz.
+ * Calibrated on a fact: a `list` of a motor, a distance and a colour sensor stretches its
+ * main-loop pass to deltat=00000003, as on a real HAT (docs/FIRMWARE-BEHAVIOUR.md#fb-stall).
+ * The environment variable BUILDHAT_SIL_NS_PER_BLOCK changes it (a faster or slower chip). */
+#define NS_PER_BLOCK_DEFAULT 80
 static uint64_t ns_per_block = NS_PER_BLOCK_DEFAULT;
 /* How often (in blocks) a running program is checked for interrupts that a register write
  * (which the stand-in cannot see as it happens) may have enabled: about 2.5 us. */
