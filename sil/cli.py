@@ -44,7 +44,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     serve.add_argument("rest", nargs=argparse.REMAINDER)
     mut = sub.add_parser("mutate", help="plant single-site changes in a tree and run the suite on each",
                          description="Seeded single-site mutants of a firmware tree, each built and run "
-                                     "against the suite in virtual time: killed, survived, likely equivalent.")
+                                     "against the suite in virtual time: killed, survived, likely "
+                                     "equivalent.")
     mut.add_argument("tree", metavar="TREE", help="a firmware-pico/ folder, or a checkout containing one")
     mut.add_argument("--files", default=",".join(DEFAULT_FILES), metavar="LIST",
                      help="the C files to mutate, comma-separated (default: %(default)s)")
@@ -52,7 +53,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     mut.add_argument("--count", type=int, default=20, metavar="N", help="how many mutants (default 20)")
     mut.add_argument("--seed", type=int, default=1, metavar="N", help="which mutants (default 1)")
     mut.add_argument("--jobs", type=int, default=2, metavar="N", help="mutants at once (default 2)")
-    mut.add_argument("-k", dest="keyword", default=None, metavar="EXPR", help="only the suite's cases matching EXPR")
+    mut.add_argument("-k", dest="keyword", default=None, metavar="EXPR",
+                     help="only the suite's cases matching EXPR")
     mut.add_argument("--plant", action="append", default=[], metavar="FILE:OLD:NEW",
                      help="also run this hand-made mutant (the first OLD in FILE becomes NEW)")
     mut.add_argument("-o", "--output", default=os.path.join("reports", "mutation"), metavar="DIR",

@@ -19,7 +19,8 @@ __all__ = ["Mutant", "find_mutants", "sample", "KINDS", "DEFAULT_FILES"]
 
 KINDS = ("relational", "logical", "arithmetic", "constant", "string", "call")
 # The firmware's command, number-formatting, device, message, controller and port files.
-DEFAULT_FILES = ("command.c", "ioconv.c", "device.c", "message.c", "control.c", "pwm_pid.c", "ports.c", "main.c")
+DEFAULT_FILES = ("command.c", "ioconv.c", "device.c", "message.c", "control.c", "pwm_pid.c", "ports.c",
+                 "main.c")
 
 _RELATIONAL = {"<": "<=", "<=": "<", ">": ">=", ">=": ">", "==": "!=", "!=": "=="}
 _LOGICAL = {"&&": "||", "||": "&&"}
@@ -126,8 +127,8 @@ def _sites(name: str, text: str, types: set) -> Iterator[Mutant]:
             yield mutant("logical", off, tok, _LOGICAL[tok])
         elif kind == "op" and tok in _ARITHMETIC and binary:
             yield mutant("arithmetic", off, tok, _ARITHMETIC[tok])
-        elif kind == "number" and re.fullmatch(r"\d+[uUlL]*", tok) and int(re.match(r"\d+", tok).group()) < 256:
-            value = int(re.match(r"\d+", tok).group())
+        elif kind == "number" and re.fullmatch(r"\d+[uUlL]*", tok) and int(tok.rstrip("uUlL")) < 256:
+            value = int(tok.rstrip("uUlL"))
             yield mutant("constant", off, tok, str(value + 1) if value in (0, 1) else str(value - 1))
         elif kind == "string" and len(tok) > 2:
             body = tok[1:-1]
@@ -148,7 +149,8 @@ def _sites(name: str, text: str, types: set) -> Iterator[Mutant]:
         offset += len(line)
 
 
-def find_mutants(tree: Path, files: Sequence[str] = DEFAULT_FILES, kinds: Sequence[str] = KINDS) -> List[Mutant]:
+def find_mutants(tree: Path, files: Sequence[str] = DEFAULT_FILES,
+                 kinds: Sequence[str] = KINDS) -> List[Mutant]:
     """Every mutation site of ``files`` (names in the tree; missing ones are skipped)."""
     types: set = set()
     for header in sorted(Path(tree).glob("*.[ch]")):

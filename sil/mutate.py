@@ -121,22 +121,32 @@ def _verdicts(junit: Path) -> List[Tuple[str, str, List[str], str]]:
 _SYNC_TOKEN = re.compile(r"sync-[0-9a-f]+-\d+")
 
 
-def _hat_bytes(path: str) -> List[tuple]:
-    """What the HAT sent in a case's transcript, in order, without times; the harness's own
-    sync tokens (a fresh one each run) echoed back are blanked."""
-    rows = []
+def _hat_bytes(path: str) -> List[str]:
+    """What the HAT sent in a case's transcript, line by line, without times. A ``partial`` entry
+    (the head of a line the reader saw before its end came) is joined to what follows: where the
+    reads cut the stream depends on timing, not on what the HAT sent. The harness's own sync
+    tokens (a fresh one each run) echoed back are blanked."""
+    rows: List[str] = []
+    head = ""
     try:
         with open(path, encoding="utf-8") as fh:
             for line in fh:
                 e = json.loads(line)
-                if e.get("dir") == "hat":
-                    rows.append(_SYNC_TOKEN.sub("sync-*", str(e.get("line", e.get("bytes")))))
+                if e.get("dir") != "hat":
+                    continue
+                if "partial" in e:
+                    head += str(e["partial"])
+                    continue
+                rows.append(_SYNC_TOKEN.sub("sync-*", head + str(e.get("line", e.get("bytes")))))
+                head = ""
     except OSError:
         return []
+    if head:
+        rows.append(_SYNC_TOKEN.sub("sync-*", head))
     return rows
 
 
-def _differences(reference: Dict[str, Tuple[List[str], List[tuple]]],
+def _differences(reference: Dict[str, Tuple[List[str], List[str]]],
                  verdicts: List[Tuple[str, str, List[str], str]]) -> List[Tuple[str, List[str]]]:
     """The cases whose HAT output differs from the reference run's, with their requirement IDs."""
     out = []
@@ -148,7 +158,7 @@ def _differences(reference: Dict[str, Tuple[List[str], List[tuple]]],
 
 
 def _one(mutant: Mutant, tree: Path, base: Build, work: Path, keyword: Optional[str],
-         reference: Dict[str, Tuple[List[str], List[tuple]]]) -> Outcome:
+         reference: Dict[str, Tuple[List[str], List[str]]]) -> Outcome:
     t0 = time.monotonic()
     folder = work / "mutants" / mutant.ident
     if folder.exists():
@@ -189,7 +199,8 @@ def _one(mutant: Mutant, tree: Path, base: Build, work: Path, keyword: Optional[
     return out
 
 
-def run_campaign(tree: str, mutants: Sequence[Mutant], work: Path, jobs: int = 2, keyword: Optional[str] = None,
+def run_campaign(tree: str, mutants: Sequence[Mutant], work: Path, jobs: int = 2,
+                 keyword: Optional[str] = None,
                  progress: Callable[[Outcome, int, int], None] = lambda o, i, n: None) -> Campaign:
     """Run ``mutants`` of ``tree``; ``work`` keeps the reference run and each survivor's transcripts."""
     t0 = time.monotonic()
