@@ -121,38 +121,51 @@ def _verdicts(junit: Path) -> List[Tuple[str, str, List[str], str]]:
 _SYNC_TOKEN = re.compile(r"sync-[0-9a-f]+-\d+")
 
 
-def _hat_bytes(path: str) -> List[str]:
-    """What the HAT sent in a case's transcript, line by line, without times. A ``partial`` entry
-    (the head of a line the reader saw before its end came) is joined to what follows: where the
-    reads cut the stream depends on timing, not on what the HAT sent. The harness's own sync
-    tokens (a fresh one each run) echoed back are blanked."""
-    rows: List[str] = []
-    head = ""
+def _hat_entries(path: str) -> List[Tuple[bool, str]]:
+    """(is a partial, text) of each entry of what the HAT sent in a case's transcript."""
+    out: List[Tuple[bool, str]] = []
     try:
         with open(path, encoding="utf-8") as fh:
             for line in fh:
                 e = json.loads(line)
-                if e.get("dir") != "hat":
-                    continue
-                if "partial" in e:
-                    head += str(e["partial"])
-                    continue
-                rows.append(_SYNC_TOKEN.sub("sync-*", head + str(e.get("line", e.get("bytes")))))
-                head = ""
+                if e.get("dir") == "hat":
+                    partial = "partial" in e
+                    out.append((partial, str(e["partial"] if partial else e.get("line", e.get("bytes")))))
     except OSError:
-        return []
+        pass
+    return out
+
+
+def _case_lines(verdicts: List[Tuple[str, str, List[str], str]]) -> Dict[str, List[str]]:
+    """Each case's HAT lines, without times. The transcripts are read in run order as one
+    stream: a ``partial`` entry (the head of a line the reader saw before its end came) is
+    joined to what follows, and a line counts in the case where it began. Where the reads cut
+    the stream, and so which transcript a line's end lands in, depends on the wall clock, not
+    on what the HAT sent. The harness's own sync tokens (a fresh one each run) are blanked."""
+    out: Dict[str, List[str]] = {}
+    head, head_case = "", ""
+    for case, _verdict, _reqs, transcript in verdicts:
+        out[case] = []
+        for partial, text in _hat_entries(transcript):
+            if not head:
+                head_case = case
+            head += text
+            if not partial:
+                out[head_case].append(_SYNC_TOKEN.sub("sync-*", head))
+                head = ""
     if head:
-        rows.append(_SYNC_TOKEN.sub("sync-*", head))
-    return rows
+        out[head_case].append(_SYNC_TOKEN.sub("sync-*", head))
+    return out
 
 
 def _differences(reference: Dict[str, Tuple[List[str], List[str]]],
                  verdicts: List[Tuple[str, str, List[str], str]]) -> List[Tuple[str, List[str]]]:
     """The cases whose HAT output differs from the reference run's, with their requirement IDs."""
+    lines = _case_lines(verdicts)
     out = []
-    for case, _verdict, reqs, transcript in verdicts:
+    for case, _verdict, reqs, _transcript in verdicts:
         ref = reference.get(case)
-        if ref is None or _hat_bytes(transcript) != ref[1]:
+        if ref is None or lines[case] != ref[1]:
             out.append((case, reqs))
     return out
 
@@ -216,7 +229,8 @@ def run_campaign(tree: str, mutants: Sequence[Mutant], work: Path, jobs: int = 2
     if code not in (0,) or bad:
         raise RuntimeError(f"the unmutated tree does not pass the suite (exit {code}; "
                            f"{len(bad)} case(s) not passing, first: {bad[:1]}): mutants cannot be judged")
-    reference = {c: (r, _hat_bytes(t)) for c, _v, r, t in ref}
+    ref_lines = _case_lines(ref)
+    reference = {c: (r, ref_lines[c]) for c, _v, r, _t in ref}
     outcomes: List[Outcome] = []
     with ThreadPoolExecutor(max_workers=max(1, jobs)) as pool:
         futures = [pool.submit(_one, m, Path(base.tree), base, work, keyword, reference) for m in mutants]
