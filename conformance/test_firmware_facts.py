@@ -103,10 +103,20 @@ START_UP = ["", "Type help <RETURN> for help", "Initialising ports", "Resetting 
 @pytest.mark.req("FW-STARTUP", "LINK-TEXT")
 def test_start_up_lines(hat: Hat, world: World) -> None:
     world.require("reset", "resetting the HAT (its reset line)")
+    active = [e.port for e in world.layout() if e.kind == "active"]
     mark = hat.mark()
     world.action("@reset")
     hat.expect(lambda e: e.text == START_UP[-1] and e in hat.since(mark), 8000)
     texts = [e.text for e in hat.since(mark)]
+    # The devices connect again after the start-up; the next cases expect them up.
+    def waiting() -> list:
+        up = {e.text[1] for e in hat.since(mark) if e.text[2:].startswith(": established")}
+        return [p for p in active if str(p) not in up]
+
+    while waiting():
+        ports = {str(p) for p in waiting()}
+        hat.expect(lambda e, ports=ports: e.text[2:].startswith(": established") and e.text[1] in ports, 8000)
+    hat.powered_ports = ()
     start = max((i for i, t in enumerate(texts) if t == START_UP[1]), default=-1) - 1
     assert start >= 0, f"no {START_UP[1]!r} line after the reset: {texts[:10]!r}"
     assert texts[start:start + len(START_UP)] == START_UP, \

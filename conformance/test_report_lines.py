@@ -6,6 +6,7 @@ cannot choose a payload; those runs check the forms leniently in test_select.py.
 from __future__ import annotations
 
 import re
+import struct
 from typing import List
 
 import pytest
@@ -84,7 +85,10 @@ def test_combi_line_bytes(hat: Hat, world: World, motor_port: int) -> None:
 FLOAT_CASES = [
     (b"\x00\x00\x80\x7f", "Inf"), (b"\x00\x00\x80\xff", "-Inf"), (b"\x00\x00\xc0\x7f", "NaN"),
     (b"\x00\x00\xc0\xff", "-NaN"), (b"\x00\x00\x00\x80", "-0.00000"), (b"\x01\x00\x00\x00", "0.00000"),
-]
+] + [(struct.pack("<f", value), text) for value, text in [
+    # Steps 5-7: E notation below 0.01 and from 10^6; six digits, the point omitted at e = 5.
+    (123456.4, "123456"), (999999.5, "1.00000E6"), (1234567, "1.23457E6"), (0.1, "0.100000"),
+    (0.01, "0.0100000"), (0.001, "1.00000E-3"), (65535, "65535.0"), (-180, "-180.000")]]
 
 
 @pytest.mark.req("CMD-SELECT-VAR", "FW-FLOAT-PRINTER")
