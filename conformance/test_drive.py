@@ -187,3 +187,24 @@ def test_pwmparams_shape_the_drive(hat: Hat, world: World, motor_port: int, para
     assert seen == duties, f"pwmparams {params}, set {setpoint}: drive levels {sorted(seen, key=str)}"
     assert abs(mean_duty(levels) - mean) <= 3, \
         f"pwmparams {params}, set {setpoint}: mean drive {mean_duty(levels):.1f}, {mean:.1f} expected"
+
+
+@pytest.mark.req("CMD-PID", "FW-PID-LAW")
+@pytest.mark.parametrize("sp,duty", [("2", 255), ("-2", -255)])
+def test_pid_output_drives_the_motor(hat: Hat, world: World, motor_port: int, sp: str, duty: int) -> None:
+    # FIRMWARE-BEHAVIOUR#fb-pid: a set-point far from the process variable saturates the output at
+    # ±1 (positive when the set-point is above it); #fb-pwm-path: with plimit 1, +1 drives 255 and
+    # -1 drives -255. The shaft is held, so the error stays. APOS / 360: the PV is in turns, |PV| < 1.
+    p = motor_port
+    world.require("hold", "holding a motor's shaft")
+    world.action(f"@hold {p} 1")
+    pid = hat.pid_command(p, 3, 0, "s2", "0.0027777778", "0", "100", "0", "0", "0")
+    try:
+        drive(hat, p, f"select 3 ; plimit 1 ; {pid} ; set {sp}")
+        hat.wait_ms(100)
+        levels = world.drive_levels(p, 500)
+    finally:
+        drive(hat, p, "select ; pwm ; set 0 ; plimit 0.1")
+        world.action(f"@hold {p} 0")
+    seen = {d for _t, d in levels[:-1]}
+    assert seen == {duty}, f"PID at set-point {sp} far from the PV: drive levels {sorted(seen, key=str)}"

@@ -104,3 +104,19 @@ def test_every_port_hosts_an_active_device(hat: Hat, world: World, port: int) ->
     lines = [e.text for e in reply.events + hat.wait_for(
         lambda e: e.text.startswith(f"P{port}M0:"), 1, 2000) if e.text.startswith(f"P{port}M0:")]
     assert reply.errors == 0 and lines, f"no data from the sensor on port {port}: {reply.raw!r}"
+
+
+@pytest.mark.req("FW-STALL-LINE", "CMD-LIST")
+def test_stall_line_only_past_2_ms(hat: Hat, world: World) -> None:
+    # FIRMWARE-BEHAVIOUR#fb-stall: `deltat=XXXXXXXX` (8 upper-case hex digits) when one main-loop pass
+    # took more than 2 ms, e.g. a long `list`. It may not come at all; when it comes, it says > 2.
+    for port in range(4):
+        if world.layout()[port].kind != "active":
+            world.plug(port, ("active", SENSOR))
+    mark = hat.mark()
+    for _ in range(3):
+        hat.exchange("list", timeout_ms=3000)
+    hat.exchange("help")
+    stalls = [e.text for e in hat.since(mark) if e.text.startswith("deltat=")]
+    bad = [t for t in stalls if not re.fullmatch(r"deltat=[0-9A-F]{8}", t) or int(t[7:], 16) <= 2]
+    assert not bad, f"stall lines must show more than 2 ms in 8 upper-case hex digits: {bad}"
