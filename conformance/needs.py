@@ -141,6 +141,26 @@ class World:
                                                           if self.spec_of(e) == spec and e.port in avoid]))
         return port
 
+    # -- what only the world sees -------------------------------------------------------
+    def _inner(self) -> Any:
+        target = self.hat.target
+        return getattr(target, "inner", target)     # under the suite's transcript tee
+
+    def drive_levels(self, port: int, hat_ms: float) -> List[Tuple[int, Any]]:
+        """The motor drive of ``port`` during the next ``hat_ms``: (HAT ms, duty ±255 or
+        "coast") for the level at the start and every change. Hardware does not print the drive;
+        a target whose world sees it (``drive_events``) shows it."""
+        self.require("drive_events", "seeing the motor drive a port puts out (drive levels and direction)")
+        inner = self._inner()
+        start = int(inner.now)
+        self.hat.wait_ms(hat_ms)
+        end = int(inner.now)
+        changes = [(int(e["t"]), e.get("value")) for e in list(inner.drive_events)
+                   if e.get("dir") == "pwm" and int(e.get("port", -1)) == port]
+        before = [c for c in changes if c[0] <= start]
+        level = [(start, before[-1][1] if before else 0)]
+        return level + [c for c in changes if start < c[0] <= end] + [(end, None)]
+
     # -- changing the world --------------------------------------------------------------
     def can(self, capability: str) -> bool:
         return self.hat.can(capability)

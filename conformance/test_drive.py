@@ -146,3 +146,65 @@ def test_pwm_keeps_the_configured_setpoint(hat: Hat, motor_port: int) -> None:
     moving = speed(hat, p)
     hat.exchange("set 0 ; plimit 0.1")
     assert moving > 10, f"after pid, set 0.6, pwm: SPEED {moving}"
+
+
+def mean_duty(levels: list) -> float:
+    """Time-weighted mean of (HAT ms, duty) levels; the last entry only marks the end."""
+    total = sum((t1 - t0) * (d if isinstance(d, int) else 0) for (t0, d), (t1, _n) in zip(levels, levels[1:]))
+    return total / max(1, levels[-1][0] - levels[0][0])
+
+
+# FIRMWARE-BEHAVIOUR#fb-pwm-path (R6+): u = (trunc(x*131072)+1)/2 toward 0; |u| < minpwm gives 0;
+# |u| < pwmthresh is "slow PWM" (the threshold or 0, at u's average); duty = (v*255+127)>>16.
+# set 0.2: u = 13107 -> 51; set 0.4: u = 26214 -> 102; threshold 0.5 = 32768 -> 127, -32768 -> -128;
+# slow PWM at 0.2 is at the threshold 13107/32768 of the time.
+PWM_PARAMS = [
+    ("0 0", "0.2", {51}, 51.0),
+    ("0 0", "0.149", {37}, 37.0),         # u = 9765: 9765*255 + 127 stays below 38 << 16
+    ("0 0.3", "0.2", {0}, 0.0),
+    ("0 0.3", "0.4", {102}, 102.0),
+    ("0.5 0", "0.2", {0, 127}, 127 * 13107 / 32768),
+    ("0.5 0", "-0.2", {0, -128}, -128 * 13106 / 32768),
+]
+
+
+@pytest.mark.req("FW-PWMPARAMS", "CMD-SET-CONST", "CMD-PWM")
+@pytest.mark.parametrize("params,setpoint,duties,mean", PWM_PARAMS,
+                         ids=[f"{p.replace(' ', '_')}-set{s}" for p, s, _d, _m in PWM_PARAMS])
+def test_pwmparams_shape_the_drive(hat: Hat, world: World, motor_port: int, params: str, setpoint: str,
+                                   duties: set, mean: float) -> None:
+    p = motor_port
+    if not hat.has("pwmparams"):
+        assert hat.exchange(f"port {p} ; pwmparams {params}").raw == b"\r\nError\r\n"
+        return
+    drive(hat, p, f"pwm ; plimit 1 ; pwmparams {params} ; set {setpoint}")
+    try:
+        hat.wait_ms(100)
+        levels = world.drive_levels(p, 1000)
+    finally:
+        drive(hat, p, "set 0 ; pwmparams 0 0 ; plimit 0.1")
+    seen = {d for _t, d in levels[:-1]}
+    assert seen == duties, f"pwmparams {params}, set {setpoint}: drive levels {sorted(seen, key=str)}"
+    assert abs(mean_duty(levels) - mean) <= 3, \
+        f"pwmparams {params}, set {setpoint}: mean drive {mean_duty(levels):.1f}, {mean:.1f} expected"
+
+
+@pytest.mark.req("CMD-PID", "FW-PID-LAW")
+@pytest.mark.parametrize("sp,duty", [("2", 255), ("-2", -255)])
+def test_pid_output_drives_the_motor(hat: Hat, world: World, motor_port: int, sp: str, duty: int) -> None:
+    # FIRMWARE-BEHAVIOUR#fb-pid: a set-point far from the process variable saturates the output at
+    # ±1 (positive when the set-point is above it); #fb-pwm-path: with plimit 1, +1 drives 255 and
+    # -1 drives -255. The shaft is held, so the error stays. APOS / 360: the PV is in turns, |PV| < 1.
+    p = motor_port
+    world.require("hold", "holding a motor's shaft")
+    world.action(f"@hold {p} 1")
+    pid = hat.pid_command(p, 3, 0, "s2", "0.0027777778", "0", "100", "0", "0", "0")
+    try:
+        drive(hat, p, f"select 3 ; plimit 1 ; {pid} ; set {sp}")
+        hat.wait_ms(100)
+        levels = world.drive_levels(p, 500)
+    finally:
+        drive(hat, p, "select ; pwm ; set 0 ; plimit 0.1")
+        world.action(f"@hold {p} 0")
+    seen = {d for _t, d in levels[:-1]}
+    assert seen == {duty}, f"PID at set-point {sp} far from the PV: drive levels {sorted(seen, key=str)}"

@@ -86,6 +86,8 @@ def test_motor_fault_is_latched_until_cleared(hat: Hat, world: World, motor_port
         rows = [DUMP_ROW.fullmatch(t) for t in texts[i + 2:i + 6]]
         matched = [r for r in rows if r is not None]
         assert len(matched) == 4 and [int(r.group(1)) for r in matched] == [0, 1, 2, 3], texts[i + 1:i + 6]
+        assert not any(re.fullmatch(r" +[0-9]+ ?(?: [0-9A-F]{2}){3}", t) for t in texts[i + 6:i + 7]), \
+            f"four ports, four rows: {texts[i + 1:i + 7]}"
         assert matched[p].group(2) == " 01 00 00", f"port {p}'s flags as latched: {matched[p].group(0)!r}"
     reply = hat.exchange("clear_faults")
     assert reply.errors == 0

@@ -92,3 +92,35 @@ def test_set_var_takes_the_setpoint_from_a_sensor(hat: Hat, world: World, motor_
     finally:
         world.action(f"@data {p} 3 auto")
     assert reply.errors == 0 and lines and lines[-1].sp == "1.50000", [ln.sp for ln in lines][:5]
+
+
+# FIRMWARE-BEHAVIOUR#fb-startup: the start-up lines, in this order, every one exactly.
+START_UP = ["", "Type help <RETURN> for help", "Initialising ports", "Resetting drivers: 0123",
+            "Reading driver dumps: before port_initdriver(): 0123",
+            "Reading driver dumps: after port_initdriver(): 0123", "Done initialising ports"]
+
+
+@pytest.mark.req("FW-STARTUP", "LINK-TEXT")
+def test_start_up_lines(hat: Hat, world: World) -> None:
+    world.require("reset", "resetting the HAT (its reset line)")
+    active = [e.port for e in world.layout() if e.kind == "active"]
+    mark = hat.mark()
+    world.action("@reset")
+    hat.expect(lambda e: e.text == START_UP[-1] and e in hat.since(mark), 8000)
+    texts = [e.text for e in hat.since(mark)]
+    # The devices connect again after the start-up; the next cases expect them up.
+    def waiting() -> list:
+        up = {e.text[1] for e in hat.since(mark) if e.text[2:].startswith(": established")}
+        return [p for p in active if str(p) not in up]
+
+    while waiting():
+        ports = {str(p) for p in waiting()}
+        hat.expect(lambda e, ports=ports: e.text[2:].startswith(": established") and e.text[1] in ports, 8000)
+    hat.powered_ports = ()
+    start = max((i for i, t in enumerate(texts) if t == START_UP[1]), default=-1) - 1
+    assert start >= 0, f"no {START_UP[1]!r} line after the reset: {texts[:10]!r}"
+    assert texts[start:start + len(START_UP)] == START_UP, \
+        f"start-up lines: {texts[start:start + len(START_UP)]!r}"
+    # No prompt at start-up (echo is 0, FIRMWARE-BEHAVIOUR#fb-prompt).
+    prompts = [e.text for e in hat.since(mark) if e.kind == "prompt"]
+    assert not prompts, f"a prompt came with the start-up lines: {prompts!r}"

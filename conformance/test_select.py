@@ -185,3 +185,12 @@ def test_write_accepts_hex_bytes(hat: Hat, motor_port: int, line: str, verdict: 
 @pytest.mark.parametrize("line", ["write1 0x12", "write1", "write2", "write1 c5 zz"])
 def test_write_rejects_what_is_not_hex(hat: Hat, motor_port: int, line: str) -> None:
     assert hat.exchange(f"port {motor_port} ; {line}").raw == b"\r\nError\r\n"
+
+
+@pytest.mark.req("CMD-COMBI", "FW-ERROR")
+@pytest.mark.parametrize("line", ["combi 0 1 0 2", "combi 0 1", "combi"])
+def test_combi_with_a_mode_but_no_dataset_is_an_error(hat: Hat, motor_port: int, line: str) -> None:
+    # FIRMWARE-BEHAVIOUR#fb-errors: `combi` with an odd number of integers (or none) prints `Error`.
+    reply = hat.exchange(f"port {motor_port} ; {line}")
+    hat.exchange(f"port {motor_port} ; combi 0")
+    assert reply.raw == b"\r\nError\r\n", f"`{line}`: {reply.raw!r}"

@@ -176,7 +176,12 @@ class SilHat:
             if self.died is not None:
                 raise RuntimeError(f"start-up failed: {self.died.summary}")
             if self.now - start >= limit_ms:
-                raise RuntimeError(f"start-up not finished after {limit_ms} ms")
+                # The firmware runs but never printed the lines a settled HAT prints: not a dead
+                # target. Whoever talks to it next judges what it does print (a changed
+                # `established` line is a failing case, not a firmware that did not boot).
+                self.note(f"start-up not recognised after {limit_ms} ms: no 'Done initialising ports' "
+                          f"and the layout's connect lines")
+                break
             self.advance(10)
         self.outside.restart_grace(self.now)
         return self.now - start

@@ -22,3 +22,34 @@ def test_a_small_campaign_kills_the_planted_regression(tmp_path):
     mine = next(m for m in summary["mutants"] if m["kind"] == "planted")
     assert mine["status"] == "killed" and any("vin" in c for c in mine["cases"]), mine
     assert "mutation score" in done.stdout and (out / "mutation.html").exists()
+
+
+def test_hat_output_compares_lines_however_the_reads_cut_them(tmp_path):
+    from buildhat_conformance.sil.mutate import _case_lines
+
+    def transcript(name, events):
+        path = tmp_path / name
+        path.write_text("".join(json.dumps(e) + "\n" for e in events))
+        return str(path)
+
+    def run(*cases):
+        return _case_lines([(f"case{i}", "pass", [], transcript(f"{id(cases)}-{i}.jsonl", events))
+                            for i, events in enumerate(cases)])
+
+    whole = run([{"t": 1, "dir": "hat", "line": "    RAW: 00 SI: 01"},
+                 {"t": 2, "dir": "hat", "line": "echo 0 ; version sync-6c7b-142"},
+                 {"t": 3, "dir": "hat", "line": "P3M3: +49"}],
+                [{"t": 1, "dir": "hat", "line": ""}])
+    cut = run([{"t": 1, "dir": "hat", "partial": "    RAW: 00 "},
+               {"t": 1, "dir": "host", "bytes": "list\r"},
+               {"t": 9, "dir": "hat", "line": "SI: 01"},
+               {"t": 9, "dir": "hat", "line": "echo 0 ; version sync-7320-142"},
+               {"t": 9, "dir": "hat", "partial": "P3M3: +"}],
+              [{"t": 1, "dir": "hat", "line": "49"}, {"t": 1, "dir": "hat", "line": ""}])
+    other = run([{"t": 1, "dir": "hat", "line": "    RAW: 00 SI: 02"},
+                 {"t": 2, "dir": "hat", "line": "echo 0 ; version sync-6c7b-142"},
+                 {"t": 3, "dir": "hat", "line": "P3M3: +49"}],
+                [{"t": 1, "dir": "hat", "line": ""}])
+    assert whole == cut
+    assert whole["case0"] == ["    RAW: 00 SI: 01", "echo 0 ; version sync-*", "P3M3: +49"]
+    assert whole["case0"] != other["case0"] and whole["case1"] == other["case1"]
