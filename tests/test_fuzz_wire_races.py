@@ -1,0 +1,49 @@
+"""The fuzzer's oracles on a wire where input takes time to arrive (a real HAT at 115200 baud, the
+firmware in the loop in HAT time): the HAT may answer between two lines of one input.
+
+FIRMWARE-FACTS §6.2 (R5+): a `selonce` reports as soon as the first matching data message arrives.
+If that happens before the next line of the same input has crossed the wire, the report lands
+between the two lines' answers, and must be judged by the selection after the first line."""
+from __future__ import annotations
+
+from buildhat_conformance.fuzz.model import HatModel
+from buildhat_conformance.fuzz.statecheck import observe
+from buildhat_conformance.fuzz.stepplan import plan_step
+from buildhat_conformance.fuzz.stream import allowed_kinds, match_stream
+from buildhat_conformance.protocol.profiles import get_profile
+
+PRELUDE = (b"echo 0\r", b"debug 0\r", b"port 0\r", b"select\r")
+
+
+def _model() -> HatModel:
+    model = HatModel(get_profile("R7"), {0: ("active", 48), 1: None, 2: None, 3: None})
+    for line in PRELUDE:
+        model.feed(line)
+    return model
+
+
+def _fence_answer(model: HatModel) -> bytes:
+    return b"Firmware version: " + model.profile.version_string.encode() + b"\r\n"
+
+
+def test_a_once_report_between_two_lines_of_one_input_is_its_selections():
+    model = _model()
+    # One input of two lines: selonce mode 1, then select mode 0 (and coast).
+    plan = plan_step(model, [b"selonc  +1\rselect 0; co\r"])
+    # What the firmware in the loop printed (echo off): the first line's CRLF, the once report,
+    # the second line's CRLF, reports of mode 0, then the fence's answer.
+    got = (b"\r\nP0M1:  0\r\n\r\nP0M0:  0\r\nP0M0:  0\r\n\r\n"
+           + _fence_answer(model))
+    res = match_stream(plan.expected, got, allowed_kinds(model.profile, 0))
+    assert not res.problems, res.problems
+    observe(model, res, plan.states, lambda _name: None)
+    assert not res.problems, [p.message for p in res.problems]
+
+
+def test_a_report_of_a_mode_no_line_selected_is_still_a_finding():
+    model = _model()
+    plan = plan_step(model, [b"selonc  +1\rselect 0; co\r"])
+    got = b"\r\nP0M2:  0\r\n\r\n\r\n" + _fence_answer(model)
+    res = match_stream(plan.expected, got, allowed_kinds(model.profile, 0))
+    observe(model, res, plan.states, lambda _name: None)
+    assert [p.oracle for p in res.problems] == ["state"], res.problems
