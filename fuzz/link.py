@@ -60,7 +60,10 @@ class Link:
     def timed(self) -> bool:
         """Input takes time to arrive (a real-time or baud-paced target): the HAT may print
         between two bytes of one line."""
-        return not self._virtual or bool(getattr(self.target, "baud", None))
+        # (the firmware in the loop declares ``wire_input``: its command port is a 115200-baud
+        # wire in HAT time, so a line arrives byte by byte while the HAT prints)
+        return (not self._virtual or bool(getattr(self.target, "baud", None))
+                or "wire_input" in getattr(self.target, "capabilities", ()))
 
     @property
     def now(self) -> float:
