@@ -47,3 +47,13 @@ def test_a_report_of_a_mode_no_line_selected_is_still_a_finding():
     res = match_stream(plan.expected, got, allowed_kinds(model.profile, 0))
     observe(model, res, plan.states, lambda _name: None)
     assert [p.oracle for p in res.problems] == ["state"], res.problems
+
+
+def test_a_line_still_arriving_at_the_end_of_a_wait_is_carried_over_whole():
+    """A report that has only begun to cross the wire when a wait ends (no CRLF in the wait's
+    output at all) belongs wholly to what comes next; none of its bytes is judged in the wait."""
+    from buildhat_conformance.fuzz.link import _incomplete_tail
+    assert _incomplete_tail(b"P0V: 0.00000\r", 0) == len(b"P0V: 0.00000\r")
+    assert _incomplete_tail(b"P0>P0V: 0.0", 0) == len(b"P0V: 0.0")
+    assert _incomplete_tail(b"P0>", 0) == 0
+    assert _incomplete_tail(b"P0M0: 1\r\nP0M", 0) == 3
