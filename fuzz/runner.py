@@ -17,7 +17,7 @@ from .link import FENCE, Link, LinkTimeout
 from .lossymatch import match_lossy
 from .model import HatModel
 from .oracles import raise_finding
-from .statecheck import check_drive, expect_reports, observe
+from .statecheck import check_drive, expect_reports, follow_links, observe
 from .stepplan import plan_step
 from .stream import Problem, allowed_kinds, match_stream, without_torn
 from .txring import UNHELD_DEBUG, WIRE_BYTES_PER_MS, backlog, drain_ms, headroom
@@ -246,6 +246,7 @@ class Runner:
             if plan.debug & 1 and side.link.timed:
                 # The raw serial trace (debug bit 1, §7.4) has no line structure; where input
                 # takes time to arrive it runs until the guard's `debug 0` is read. Liveness only.
+                follow_links(side.model, got, plan.states)
                 side.model.ports[:] = plan.states[-1]
                 self.stats.liveness_only += 1
                 lost = True   # (its bytes and where they cut in are timing: not compared either)

@@ -57,3 +57,21 @@ def test_a_line_still_arriving_at_the_end_of_a_wait_is_carried_over_whole():
     assert _incomplete_tail(b"P0>P0V: 0.0", 0) == len(b"P0V: 0.0")
     assert _incomplete_tail(b"P0>", 0) == 0
     assert _incomplete_tail(b"P0M0: 1\r\nP0M", 0) == 3
+
+
+def test_a_disconnect_inside_a_raw_trace_step_still_moves_the_model_on():
+    """A step judged on liveness only (debug bit 1's raw trace) can hold a device's timeout; the
+    port reset that follows wipes its settings (coast included, §4.2), so the model must follow it
+    or the drive oracle judges the empty port by the wiped settings (a sil finding)."""
+    from buildhat_conformance.fuzz.portmodel import expected_duty
+    from buildhat_conformance.fuzz.statecheck import follow_links
+    model = HatModel(get_profile("R7"), {0: None, 1: ("active", 64), 2: None, 3: None})
+    for line in (b"echo 1\r", b"port 1\r", b"coast\r"):
+        model.feed(line)
+    assert expected_duty(model.profile, model.ports[1], model.plimit) == "coast"
+    plan = plan_step(model, [b"debug 1\r"], guard=1)
+    got = (b"P1>debug 1\r\nC1t00p3FpC1t00P1>P1: timeout during data phase: disconnecting\r\n"
+           b"P1: disconnected\r\nP1>debug 0\r\n")
+    follow_links(model, got, plan.states)
+    model.ports[:] = plan.states[-1]
+    assert model.ports[1].device_modes == 0          # the drive oracle leaves an empty port alone
