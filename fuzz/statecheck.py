@@ -12,7 +12,6 @@ import re
 from typing import Callable, Dict, List, Optional, Sequence
 
 from ..harness.events import classify
-
 from .model import HatModel
 from .portmodel import PortModel, expected_duty
 from .stream import MatchResult, Problem
