@@ -120,3 +120,14 @@ def test_the_runner_stops_comparing_a_parted_matrix_and_says_so():
     assert runner.found == [] and runner.stats.matrix_apart == 1 and runner._apart == {1}  # type: ignore[attr-defined]
     runner._differential([b"list\r"], [MATRIX_LISTED + b"vin\r\n", MATRIX_GONE])
     assert runner.found == ["differential"]  # type: ignore[attr-defined]
+
+
+def test_a_report_torn_into_an_echo_is_not_compared():
+    """On a wire the report lands between two echoed bytes, at each side's own instant; the
+    comparison makes the echo whole (also when the model cannot follow the step: a sil finding)."""
+    whole = b"P0>\x0f\xd2abc\xc3def\r\nError\r\nP0>version\r\n"
+    torn = b"P0>\x0f\xd2abcP0V: 0.00000\r\n\xc3def\r\nError\r\nP0>version\r\n"
+    assert compare_answers(torn, whole) is None
+    assert compare_answers(torn, whole.replace(b"def", b"deg")) is not None
+    # a listing line is no report: it is still compared
+    assert compare_answers(b"xP0: no device detected\r\nP0>", b"x\r\nP0>") is not None
