@@ -60,7 +60,10 @@ class Link:
     def timed(self) -> bool:
         """Input takes time to arrive (a real-time or baud-paced target): the HAT may print
         between two bytes of one line."""
-        return not self._virtual or bool(getattr(self.target, "baud", None))
+        # (the firmware in the loop declares ``wire_input``: its command port is a 115200-baud
+        # wire in HAT time, so a line arrives byte by byte while the HAT prints)
+        return (not self._virtual or bool(getattr(self.target, "baud", None))
+                or "wire_input" in getattr(self.target, "capabilities", ()))
 
     @property
     def now(self) -> float:
@@ -204,7 +207,8 @@ _PROMPT = re.compile(rb"P[0-3]>")
 def _incomplete_tail(data: bytes, end: int) -> int:
     """Length of the unterminated bytes after the last CRLF (and after ``end``), unless they
     are a whole prompt: a line still arriving (H10, paced links)."""
-    start = max(end, data.rfind(b"\r\n") + 2)
+    last = data.rfind(b"\r\n")
+    start = max(end, last + 2 if last >= 0 else 0)     # (no CRLF at all: all of it is the line)
     tail = data[start:]
     if not tail or _PROMPT.fullmatch(tail):
         return 0

@@ -10,14 +10,14 @@ from typing import Callable, Dict, List, Optional, Sequence, Set, Tuple
 from ..harness.events import line_kind
 from ..harness.targets.base import Target, TargetError
 from ..protocol.profiles import Profile
-from .differential import first_difference
+from .differential import first_difference, parted_matrix
 from .expect import LineFate
 from .explain import differential_message, liveness_message, stream_message
 from .link import FENCE, Link, LinkTimeout
 from .lossymatch import match_lossy
 from .model import HatModel
 from .oracles import raise_finding
-from .statecheck import check_drive, expect_reports, observe
+from .statecheck import check_drive, expect_reports, follow_links, observe
 from .stepplan import plan_step
 from .stream import Problem, allowed_kinds, match_stream, without_torn
 from .txring import UNHELD_DEBUG, WIRE_BYTES_PER_MS, backlog, drain_ms, headroom
@@ -47,6 +47,7 @@ class Stats:
     liveness_only: int = 0        # steps judged on liveness alone (a raw serial trace on a timed link)
     answered: int = 0             # steps whose fence the (first) target answered: input it took
     ring_lossy: int = 0           # steps that lost output to a full TX ring, as the facts allow
+    matrix_apart: int = 0         # runs whose sides parted on a light matrix (differential.parted_matrix)
     on_progress: Optional[Callable[[Stats], None]] = None
     on_note: Optional[Callable[[str], None]] = None     # what the campaign is doing besides fuzzing
 
@@ -123,6 +124,7 @@ class Runner:
         self.settled = False      # the targets come from a run that ended cleanly (see start)
         self.tx_ring = tx_ring
         self._queued: List[int] = []   # per side: what streams may have queued in the TX ring
+        self._apart: Set[int] = set()  # ports whose light matrix one side lost (not compared)
         for label, opener, profile in openers:
             try:
                 target = opener()
@@ -244,6 +246,7 @@ class Runner:
             if plan.debug & 1 and side.link.timed:
                 # The raw serial trace (debug bit 1, §7.4) has no line structure; where input
                 # takes time to arrive it runs until the guard's `debug 0` is read. Liveness only.
+                follow_links(side.model, got, plan.states)
                 side.model.ports[:] = plan.states[-1]
                 self.stats.liveness_only += 1
                 lost = True   # (its bytes and where they cut in are timing: not compared either)
@@ -334,7 +337,13 @@ class Runner:
         # The fence's own answer names each release: compare up to it.
         a_cut = a[:a.rfind(a_side.fence_line)] if a_side.fence_line in a else a
         b_cut = b[:b.rfind(b_side.fence_line)] if b_side.fence_line in b else b
-        diff = first_difference(a_cut, b_cut)
+        diff = first_difference(a_cut, b_cut, frozenset(self._apart))
+        while diff is not None and parted_matrix(diff[1], diff[2]) is not None:
+            # A light matrix gone on one side only: a timing boundary (differential.parted_matrix);
+            # its port's `list` block is not compared for the rest of the run.
+            self._apart.add(int(parted_matrix(diff[1], diff[2]) or 0))
+            self.stats.matrix_apart += 1
+            diff = first_difference(a_cut, b_cut, frozenset(self._apart))
         if diff is not None:
             step = b"".join(datas) + FENCE
             message, more = differential_message((a_side.label, b_side.label), step, *diff)

@@ -8,13 +8,15 @@ checks with ``count`` (the campaign's ``Stats.count``); the runner judges them.
 """
 from __future__ import annotations
 
+import re
 from typing import Callable, Dict, List, Optional, Sequence
 
+from ..harness.events import classify
 from .model import HatModel
 from .portmodel import PortModel, expected_duty
 from .stream import MatchResult, Problem
 
-__all__ = ["observe", "expect_reports", "check_drive"]
+__all__ = ["observe", "follow_links", "expect_reports", "check_drive"]
 
 _LINK_KINDS = {"connecting", "established", "disconnected", "timeout", "checksum_error", "too_many_errors",
                "framing_error"}
@@ -65,6 +67,23 @@ def observe(model: HatModel, res: MatchResult, states: List[List[PortModel]],
         for s in states:
             if s[port].selection == sources[0].selection:
                 model.report_seen(s[port])
+
+
+_LEADING_PROMPTS = re.compile(rb"^(?:P[0-3]>)+")
+
+
+def follow_links(model: HatModel, data: bytes, states: List[List[PortModel]]) -> None:
+    """Link changes in output that no oracle matched (a step judged on liveness only, its raw
+    serial trace around them): the model still follows them, as :func:`observe` does, or it
+    keeps judging a port by settings a disconnect's port reset has wiped (§4.2)."""
+    for raw in data.split(b"\r\n"):
+        ev = classify(_LEADING_PROMPTS.sub(b"", raw))
+        if ev.kind not in _LINK_KINDS or ev.port is None or not 0 <= ev.port <= 3:
+            continue
+        ident = ev.fields.get("id")
+        type_id = ident if ev.kind == "established" and isinstance(ident, int) else None
+        for p in [model.ports[ev.port]] + [s[ev.port] for s in states]:
+            p.link_changed(type_id)
 
 
 def expect_reports(model: HatModel, ms: int, before: List[PortModel], res: MatchResult,

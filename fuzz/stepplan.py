@@ -44,7 +44,7 @@ class StepPlan:
 
     datas: List[bytes]            # the inputs as sent (with DEBUG_OFF where the guard added it)
     expected: List[Expect]        # the answer to all of them, up to and with the fence's
-    states: List[List[PortModel]]  # the ports before the step and after each input
+    states: List[List[PortModel]]  # the ports before the step and after each line of each input
     debug: int
     fates: List[LineFate]         # every line the step ends, the fence's included
 
@@ -67,6 +67,13 @@ class StepPlan:
         return _size(self.expected, LISTING_MAX)
 
 
+def _lines(data: bytes) -> List[bytes]:
+    """``data`` cut after each CR (the model reads it the same in pieces or whole)."""
+    pieces = [piece + b"\r" for piece in data.split(b"\r")]
+    pieces[-1] = pieces[-1][:-1]
+    return [piece for piece in pieces if piece] or [data]
+
+
 def plan_step(model: HatModel, datas: Sequence[bytes], guard: int = 0) -> StepPlan:
     """Feed ``datas`` and the fence to ``model`` (it moves on). With ``guard`` (debug bits; True
     is bit 1), :data:`DEBUG_OFF` is appended to each input that leaves one of them set (and fed)."""
@@ -76,7 +83,14 @@ def plan_step(model: HatModel, datas: Sequence[bytes], guard: int = 0) -> StepPl
     fates: List[LineFate] = []
     sent: List[bytes] = []
     for data in datas:
-        items, more_fates = model.feed(data)
+        # One state per line, not per input: on a wire a report may come between two lines of
+        # one input (a `selonce` answered before the next line has arrived, fb-selonce-immediate).
+        items: List[Expect] = []
+        more_fates: List[LineFate] = []
+        for line in _lines(data):
+            got, got_fates = model.feed(line)
+            items, more_fates = joined(items, got), more_fates + got_fates
+            states.append([p.copy() for p in model.ports])
         if model.debug & guard:
             data += DEBUG_OFF
             more, off_fates = model.feed(DEBUG_OFF)
@@ -88,7 +102,6 @@ def plan_step(model: HatModel, datas: Sequence[bytes], guard: int = 0) -> StepPl
             expected += items
         fates += more_fates
         sent.append(data)
-        states.append([p.copy() for p in model.ports])
     fence_items, fence_fates = model.feed(FENCE)
     # Every bit any line of the step set, however briefly (a guard's `debug 0` included).
     return StepPlan(sent, joined(expected, fence_items), states, model.debug_seen, fates + fence_fates)

@@ -137,6 +137,10 @@ def print_summary(result: CampaignResult, stats: Stats, productions, files: Dict
     if stats.ring_lossy:
         print(f"  {stats.ring_lossy} step(s) lost output to a full TX ring while output streamed "
               "(allowed: docs/FIRMWARE-BEHAVIOUR.md#fb-tx-ring); judged on what a full ring leaves")
+    if stats.matrix_apart:
+        print(f"  {stats.matrix_apart} time(s) one side's light matrix stopped talking and the other's "
+              "not (its 1 s without motor power ends at other instants on each side's clock): its "
+              "`list` block not compared from then on")
     if stats.left_out and out_limit is not None:
         print(f"  {stats.left_out} input(s) not sent: the answer of each alone is over {out_limit} bytes, "
               f"more than the TX ring keeps on this wire")

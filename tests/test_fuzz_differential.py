@@ -2,11 +2,13 @@
 from __future__ import annotations
 
 import argparse
+from types import SimpleNamespace
 
 from buildhat_conformance.fuzz import cli
-from buildhat_conformance.fuzz.differential import compare_answers
+from buildhat_conformance.fuzz.differential import compare_answers, first_difference, parted_matrix
 from buildhat_conformance.fuzz.reduce import steps_of
 from buildhat_conformance.fuzz.replay import replay_script
+from buildhat_conformance.fuzz.runner import Runner, Stats
 from buildhat_conformance.harness.script import load_script
 from buildhat_conformance.harness.targets.inprocess import InProcessTarget
 from buildhat_conformance.protocol.profiles import get_profile
@@ -78,3 +80,54 @@ def test_a_report_right_after_a_prompt_is_not_compared():
     assert compare_answers(b"\r\nP3>P3V: 0.00000\r\nversion\r\n", other) is None
     assert compare_answers(b"\r\nP3>version\r\n", other) is None
     assert compare_answers(b"\r\nP3>vin\r\n", other) is not None
+
+
+MATRIX_LISTED = (b"P0: no device detected\r\nP1: connected to active ID 40\r\ntype 40\r\n"
+                 b"  M0 LEV O SI = PCT\r\nP2: no device detected\r\nP3: no device detected\r\n")
+MATRIX_GONE = (b"P0: no device detected\r\nP1: no device detected\r\n"
+               b"P2: no device detected\r\nP3: no device detected\r\n")
+
+
+def test_a_light_matrix_gone_on_one_side_only_is_a_timing_boundary():
+    """The matrix stops talking after its grace without motor power (emulator/devices/matrix.py);
+    each side's clock ends that grace at its own instant, so one side may list it and the other not.
+    That port's `list` block is then left out; every other difference still counts."""
+    diff = first_difference(MATRIX_LISTED, MATRIX_GONE)
+    assert diff is not None and parted_matrix(diff[1], diff[2]) == 1
+    assert first_difference(MATRIX_LISTED, MATRIX_GONE, frozenset({1})) is None
+    # another port's difference is still one
+    other = MATRIX_GONE.replace(b"P3: no device detected", b"P3: connected to active ID 30")
+    assert first_difference(MATRIX_LISTED, other, frozenset({1})) is not None
+    # a motor (ID 30) gone on one side is no timing boundary
+    motor = MATRIX_LISTED.replace(b"ID 40\r\ntype 40", b"ID 30\r\ntype 30")
+    diff = first_difference(motor, MATRIX_GONE)
+    assert diff is not None and parted_matrix(diff[1], diff[2]) is None
+
+
+def _runner_comparing(a: bytes, b: bytes) -> Runner:
+    runner = Runner.__new__(Runner)
+    side = SimpleNamespace(fence_line=b"Firmware version: x", label="side")
+    runner.sides, runner.stats, runner._apart = [side, side], Stats(), set()   # type: ignore[list-item]
+    found: list = []
+    runner.fail = lambda oracle, message, details: found.append(oracle)    # type: ignore[method-assign]
+    runner._differential([b"list\r"], [a, b])
+    runner.found = found      # type: ignore[attr-defined]
+    return runner
+
+
+def test_the_runner_stops_comparing_a_parted_matrix_and_says_so():
+    runner = _runner_comparing(MATRIX_LISTED, MATRIX_GONE)
+    assert runner.found == [] and runner.stats.matrix_apart == 1 and runner._apart == {1}  # type: ignore[attr-defined]
+    runner._differential([b"list\r"], [MATRIX_LISTED + b"vin\r\n", MATRIX_GONE])
+    assert runner.found == ["differential"]  # type: ignore[attr-defined]
+
+
+def test_a_report_torn_into_an_echo_is_not_compared():
+    """On a wire the report lands between two echoed bytes, at each side's own instant; the
+    comparison makes the echo whole (also when the model cannot follow the step: a sil finding)."""
+    whole = b"P0>\x0f\xd2abc\xc3def\r\nError\r\nP0>version\r\n"
+    torn = b"P0>\x0f\xd2abcP0V: 0.00000\r\n\xc3def\r\nError\r\nP0>version\r\n"
+    assert compare_answers(torn, whole) is None
+    assert compare_answers(torn, whole.replace(b"def", b"deg")) is not None
+    # a listing line is no report: it is still compared
+    assert compare_answers(b"xP0: no device detected\r\nP0>", b"x\r\nP0>") is not None

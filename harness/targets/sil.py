@@ -70,7 +70,9 @@ class SilTarget(InProcessTarget):
         self.build = build          # the sil.build.Build when the URL named a tree
         self.disposable = True      # every open starts a new firmware process
         self.control = SilControl(self)
-        self.capabilities = frozenset({"control", "virtual_time", "drive_events"})
+        # wire_input: host bytes cross a 115200-baud wire in HAT time (one per 87 us), so the HAT
+        # may print between two bytes of one line (fuzz/link.py's ``timed``).
+        self.capabilities = frozenset({"control", "virtual_time", "drive_events", "wire_input"})
 
     # The firmware does not say what each line ran (the emulator's white-box ``line_records``):
     # tools that look for them treat this target as the black box it is.
