@@ -5,15 +5,16 @@ never the fence's echo: the real firmware's code did this in the abbreviation pr
 (`p 2` seen as ``p 2\\r\\nP2>version``, a false failure)."""
 from __future__ import annotations
 
-from typing import Any
+import os
+import sys
 
 from buildhat_conformance.conformance.link import Hat
 from buildhat_conformance.conformance.reply import without_fence_line
-from buildhat_conformance.conformance.tee import VirtualTeeTarget
 from buildhat_conformance.harness.session import Session
 from buildhat_conformance.harness.targets import make_target
 
-PID_LINE = b"P0: pv=96.0000 sp=0.00000: e=96.0000 ie=0.00000 de=0.00000 cv=-0.00000\r\n"
+sys.path.insert(0, os.path.dirname(__file__))
+from stream_injection import PID_LINE, StreamLineAfter  # noqa: E402
 
 
 def test_the_fence_line_is_cut_around_a_stream_line() -> None:
@@ -31,28 +32,8 @@ def test_the_fence_line_is_cut_around_a_stream_line() -> None:
     assert without_fence_line(PID_LINE) == PID_LINE
 
 
-class PidLineAfterVersionEcho(VirtualTeeTarget):
-    """The HAT with a PID stream whose line lands right after an echoed ``version``."""
-
-    injected = 0
-
-    def __init__(self, inner: Any) -> None:
-        super().__init__(inner)
-        self._tail = b""
-
-    def read(self, timeout: float) -> bytes:
-        out = bytearray()
-        for b in super().read(timeout):
-            out.append(b)
-            self._tail = (self._tail + bytes([b]))[-8:]
-            if self._tail.endswith(b">version"):
-                out += PID_LINE
-                self.injected += 1
-        return bytes(out)
-
-
 def test_a_stream_line_after_the_fence_echo_is_not_taken_for_the_reply() -> None:
-    target = PidLineAfterVersionEcho(make_target("inprocess:R7"))
+    target = StreamLineAfter(make_target("inprocess:R7"), b'>version')
     s = Session(target)
     s.open()
     hat = Hat(s, target, "inprocess:R7")

@@ -7,15 +7,17 @@ echo is recognised around that line, so the counted fence stays in step: no targ
 ("garbled") for a healthy HAT."""
 from __future__ import annotations
 
-from typing import Any
+import os
+import sys
 
 from buildhat_conformance.conformance.link import Hat
-from buildhat_conformance.conformance.tee import VirtualTeeTarget
 from buildhat_conformance.harness.line_splitter import LineSplitter
 from buildhat_conformance.harness.session import Session
 from buildhat_conformance.harness.targets import make_target
 
-PID_LINE = b"P0: pv=96.0000 sp=0.00000: e=96.0000 ie=0.00000 de=0.00000 cv=-0.00000\r\n"
+sys.path.insert(0, os.path.dirname(__file__))
+from stream_injection import PID_LINE, StreamLineAfter  # noqa: E402
+
 REPORT = b"P0M3: +98\r\n"
 
 
@@ -49,28 +51,8 @@ def test_a_line_that_only_looks_like_a_torn_echo_is_left_alone() -> None:
     assert all(n is None for _k, _t, n in got)
 
 
-class PidLineInsideAnEcho(VirtualTeeTarget):
-    """The HAT with a PID stream whose line lands three bytes into the echo of a line."""
-
-    injected = 0
-
-    def __init__(self, inner: Any) -> None:
-        super().__init__(inner)
-        self._tail = b""
-
-    def read(self, timeout: float) -> bytes:
-        out = bytearray()
-        for b in super().read(timeout):
-            out.append(b)
-            self._tail = (self._tail + bytes([b]))[-8:]
-            if self._tail.endswith(b"P0>ech"):
-                out += PID_LINE
-                self.injected += 1
-        return bytes(out)
-
-
 def test_the_counted_fence_finds_its_answer_after_a_torn_echo() -> None:
-    target = PidLineInsideAnEcho(make_target("inprocess:R7"))
+    target = StreamLineAfter(make_target("inprocess:R7"), b'P0>ech')
     s = Session(target)
     s.open()
     hat = Hat(s, target, "inprocess:R7")
