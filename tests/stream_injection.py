@@ -3,9 +3,13 @@ emulator behind a tee that puts a PID line right after given bytes of its output
 real HAT shows at random, made exact). Shared by the fence and torn-echo tests."""
 from __future__ import annotations
 
-from typing import Any
+from contextlib import contextmanager
+from typing import Any, Iterator, Tuple
 
+from buildhat_conformance.conformance.link import Hat
 from buildhat_conformance.conformance.tee import VirtualTeeTarget
+from buildhat_conformance.harness.session import Session
+from buildhat_conformance.harness.targets import make_target
 
 PID_LINE = b"P0: pv=96.0000 sp=0.00000: e=96.0000 ie=0.00000 de=0.00000 cv=-0.00000\r\n"
 
@@ -28,3 +32,18 @@ class StreamLineAfter(VirtualTeeTarget):
                 out += PID_LINE
                 self.injected += 1
         return bytes(out)
+
+
+@contextmanager
+def echoing_hat(marker: bytes) -> Iterator[Tuple[Hat, StreamLineAfter]]:
+    """The in-process R7 HAT behind :class:`StreamLineAfter`, in step and with echo on."""
+    target = StreamLineAfter(make_target("inprocess:R7"), marker)
+    session = Session(target)
+    session.open()
+    try:
+        hat = Hat(session, target, "inprocess:R7")
+        hat.resync()
+        hat.exchange("echo 1")
+        yield hat, target
+    finally:
+        session.close()

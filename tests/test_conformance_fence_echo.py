@@ -8,13 +8,10 @@ from __future__ import annotations
 import os
 import sys
 
-from buildhat_conformance.conformance.link import Hat
 from buildhat_conformance.conformance.reply import without_fence_line
-from buildhat_conformance.harness.session import Session
-from buildhat_conformance.harness.targets import make_target
 
 sys.path.insert(0, os.path.dirname(__file__))
-from stream_injection import PID_LINE, StreamLineAfter  # noqa: E402
+from stream_injection import PID_LINE, echoing_hat  # noqa: E402
 
 
 def test_the_fence_line_is_cut_around_a_stream_line() -> None:
@@ -33,18 +30,10 @@ def test_the_fence_line_is_cut_around_a_stream_line() -> None:
 
 
 def test_a_stream_line_after_the_fence_echo_is_not_taken_for_the_reply() -> None:
-    target = StreamLineAfter(make_target("inprocess:R7"), b'>version')
-    s = Session(target)
-    s.open()
-    hat = Hat(s, target, "inprocess:R7")
-    try:
-        hat.resync()
-        hat.exchange("echo 1")
+    with echoing_hat(b'>version') as (hat, target):
         reply = hat.exchange("port 2")
         assert target.injected >= 2, "no PID line was put after the fence's echo"
         assert PID_LINE in reply.wire, reply.wire
         assert reply.raw == b"port 2\r\nP2>", reply.raw
         assert reply.errors == 0
         hat.exchange("echo 0 ; port 0")
-    finally:
-        s.close()

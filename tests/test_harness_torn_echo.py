@@ -10,13 +10,10 @@ from __future__ import annotations
 import os
 import sys
 
-from buildhat_conformance.conformance.link import Hat
 from buildhat_conformance.harness.line_splitter import LineSplitter
-from buildhat_conformance.harness.session import Session
-from buildhat_conformance.harness.targets import make_target
 
 sys.path.insert(0, os.path.dirname(__file__))
-from stream_injection import PID_LINE, StreamLineAfter  # noqa: E402
+from stream_injection import PID_LINE, echoing_hat  # noqa: E402
 
 REPORT = b"P0M3: +98\r\n"
 
@@ -52,17 +49,9 @@ def test_a_line_that_only_looks_like_a_torn_echo_is_left_alone() -> None:
 
 
 def test_the_counted_fence_finds_its_answer_after_a_torn_echo() -> None:
-    target = StreamLineAfter(make_target("inprocess:R7"), b'P0>ech')
-    s = Session(target)
-    s.open()
-    hat = Hat(s, target, "inprocess:R7")
-    try:
-        hat.resync()
-        hat.exchange("echo 1")
+    with echoing_hat(b'P0>ech') as (hat, target):
         reply = hat.exchange("echo 0 ; port 0")      # raised TargetFault (garbled) before
         assert target.injected == 1, "no PID line was put inside the echo"
         assert reply.raw == b"echo 0 ; port 0\r\n", reply.raw
         assert PID_LINE in reply.wire
         assert hat.exchange("vin").raw.endswith(b" V\r\n")
-    finally:
-        s.close()
