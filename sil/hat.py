@@ -27,6 +27,7 @@ from .world import SilWorld
 __all__ = ["SilHat", "FirmwareDied", "BOOT_LIMIT_MS"]
 
 BOOT_LIMIT_MS = 20000
+SEEN_LIMIT = 256 * 1024     # output since power-on kept for settled(): the start-up is a few KB
 _CONNECTED = re.compile(rb"P([0-3]): (connected to passive ID|established serial communication)")
 Event = Dict[str, Any]
 
@@ -34,7 +35,7 @@ Event = Dict[str, Any]
 class SilHat:
     def __init__(self, program: str, devices: Optional[Mapping[int, Any]] = None, seed: int = 0,
                  features: Optional[Mapping[str, Any]] = None, env: Optional[dict] = None,
-                 signature: Optional[bytes] = None):
+                 signature: Optional[bytes] = None, record_events: bool = True):
         layout: Dict[int, Any] = dict(DEFAULT_LAYOUT)
         for port, spec in (devices or {}).items():
             if not 0 <= int(port) <= 3:
@@ -44,6 +45,9 @@ class SilHat:
         self.signature = signature        # what the bootloader leaves in RAM for `signature`
         self.devices = layout
         self.events: List[Event] = []
+        # Every event is kept in ``events`` unless record_events is False (a long real-time
+        # serve, where only the on_event callbacks see them and memory must stay flat).
+        self.record_events = record_events
         self._callbacks: List[Callable[[Event], None]] = []
         self._out = bytearray()
         self._seen = bytearray()          # output since power-on, for boot()'s connect lines
@@ -105,7 +109,8 @@ class SilHat:
     def _take(self, frame) -> None:
         if frame.kind == "h":
             self._out += frame.payload
-            self._seen += frame.payload
+            if len(self._seen) < SEEN_LIMIT:      # the start-up's lines, for settled(); no more
+                self._seen += frame.payload
         else:
             self.outside.from_firmware(frame._replace(t=frame.t + self._base_ns))
 
@@ -116,7 +121,8 @@ class SilHat:
     def _sink(self, kind: str, t: int, fields: Dict[str, Any]) -> None:
         event: Event = {"t": int(t), "dir": kind}
         event.update(fields)
-        self.events.append(event)
+        if self.record_events:
+            self.events.append(event)
         for cb in list(self._callbacks):
             cb(event)
 

@@ -53,7 +53,9 @@ def _hat(args: argparse.Namespace, parser: argparse.ArgumentParser):  # -> SilHa
         devices = device_options(args.device, parser)
         target = SilTarget(program, f"sil:{program}", devices=dict(devices), seed=args.seed, boot=False,
                            firmware=args.firmware)
-        return target._new()
+        hat = target._new()
+        hat.record_events = False    # served for as long as the host likes: memory stays flat
+        return hat
     except TargetError as exc:
         parser.error(str(exc))
 
