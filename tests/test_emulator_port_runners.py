@@ -42,6 +42,9 @@ def test_pty_with_pyserial_version_and_control(tmp_path):
             out = read_until(ser, VERSION_R7)
             assert out.endswith(b"\r\n" + VERSION_R7)       # raw mode: CRLF exactly, no translation
             assert emu.control("@adc 2000") == "ok"
+            # The firmware samples the ADC once per 1 ms tick (docs/FIRMWARE-BEHAVIOUR.md#fb-timing):
+            # a `vin` handled in the same millisecond as the action may still show the old value.
+            time.sleep(0.05)
             ser.write(b"vin\r")
             assert read_until(ser, b" V\r\n").endswith(b"\r\n9.18 V\r\n")   # §4.4 with ADC 2000
             assert emu.control("@nonsense").startswith("error ")
