@@ -16,8 +16,8 @@ import sys
 import pytest
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
-SCRIPT = ROOT / "transcripts" / "abbreviation.script"
-TRANSCRIPT = ROOT / "transcripts" / "abbreviation.jsonl"
+SCRIPT = ROOT / "transcripts" / "data" / "abbreviation.script"
+TRANSCRIPT = ROOT / "transcripts" / "data" / "abbreviation.jsonl"
 
 
 def _cli(args, cwd):

@@ -164,7 +164,7 @@ def test_differential_campaign_between_two_paced_real_time_emulators_runs_its_wh
 def test_a_finding_on_a_link_target_is_shrunk_by_replaying_smaller_scripts(tmp_path):
     """The planted `wrong` fault as a `cmd:` byte proxy (a process, kept open from run to run)."""
     from buildhat_conformance.fuzz.reduce import steps_of
-    from buildhat_conformance.harness.script import load_script
+    from buildhat_conformance.transcripts.script import load_script
 
     res = _fuzz("--target", _proxy_url("wrong"), "--budget", "10x", "--seed", "4", "--steps", "4",
                 "--batch", "4", "--families", "valid", "--confirm", "1", "--shrink-time", "120",

@@ -24,9 +24,9 @@ from buildhat_conformance.fuzz.runner import Runner
 from buildhat_conformance.fuzz.stepplan import plan_step
 from buildhat_conformance.fuzz.stream import allowed_kinds
 from buildhat_conformance.fuzz.txring import backlog, headroom
-from buildhat_conformance.harness.script import parse_script
 from buildhat_conformance.harness.targets.inprocess import InProcessTarget
 from buildhat_conformance.protocol.profiles import get_profile
+from buildhat_conformance.transcripts.script import parse_script
 
 HERE = pathlib.Path(__file__).parent
 MOTORS = {p: ("active", 0x30) for p in range(4)}

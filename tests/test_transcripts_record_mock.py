@@ -11,8 +11,8 @@ import sys
 
 import pytest
 
-from buildhat_conformance.harness.mock import exchanges_of
 from buildhat_conformance.harness.transcript import read_transcript
+from buildhat_conformance.transcripts.mock import exchanges_of
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
 from hostlib.venvs import HostLibUnavailable, buildhat_python  # noqa: E402

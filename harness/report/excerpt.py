@@ -42,7 +42,7 @@ def _printable(text: str) -> str:
 def _compress(events: List[dict], keep: int = 2) -> List[Union[str, dict]]:
     """Runs of more than ``keep`` + 1 asynchronous lines (data streams, debug 16, in any mix)
     become their first ``keep`` lines and a count per class, so the commands stay in view."""
-    from ..compare import ASYNC_CLASSES, default_classifier
+    from ...transcripts.compare import ASYNC_CLASSES, default_classifier
 
     classify = default_classifier()
     out: List[Union[str, dict]] = []   # events, and one summary line per compressed run

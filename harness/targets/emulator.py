@@ -27,8 +27,8 @@ import pexpect
 import serial
 
 from ...protocol.devices import DEFAULT_LAYOUT, format_device_spec, parse_device_spec
+from ...transcripts.script import WORLD_ACTIONS
 from ..parent_death import die_with_parent
-from ..script import WORLD_ACTIONS
 from .base import Control, TargetError
 from .pyserial_base import PyserialTarget, SerialPort
 

@@ -24,9 +24,9 @@ from collections import deque
 from dataclasses import dataclass, field
 from typing import Callable, Deque, List, Optional, Tuple
 
-from .cli_options import SPEED_HELP, UsageError
-from .pty import open_raw_pty
-from .transcript import CRLF, Transcript, field_bytes
+from ..harness.cli_options import SPEED_HELP, UsageError
+from ..harness.pty import open_raw_pty
+from ..harness.transcript import CRLF, Transcript, field_bytes
 
 __all__ = ["Exchange", "MockHat", "exchanges_of", "serve_pty", "serve_tcp", "add_arguments", "main"]
 

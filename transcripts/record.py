@@ -2,7 +2,7 @@
 
 ``record SCRIPT --target URL -o FILE`` runs a scenario script on any target (sends, waits and,
 where the target has the control, world actions) through the one script runner
-(harness/script_runner.py, as ``script`` and ``replay`` do): in-process targets in virtual time,
+(transcripts/script_runner.py, as ``script`` and ``replay`` do): in-process targets in virtual time,
 the rest in real time. A script whose world actions or start-up layout the target cannot
 perform is refused with what is missing; it is never run halfway.
 
@@ -27,13 +27,13 @@ import threading
 import time
 from typing import List, Optional, Sequence, Tuple
 
-from .cli_options import BOOT_TIMEOUT_S, EXIT_TARGET, UsageError, add_target_option, check_writable
-from .pty import open_raw_pty
+from ..harness.cli_options import BOOT_TIMEOUT_S, EXIT_TARGET, UsageError, add_target_option, check_writable
+from ..harness.pty import open_raw_pty
+from ..harness.targets.base import NeedsCapability, TargetError
+from ..harness.transcript import Transcript, TranscriptWriter, read_transcript
 from .replay import write_transcript
 from .script import Script, ScriptError, load_script
 from .script_runner import run_script
-from .targets.base import NeedsCapability, TargetError
-from .transcript import Transcript, TranscriptWriter, read_transcript
 
 __all__ = ["record_script", "record_proxy", "ready_lines", "add_arguments", "main", "PASS_UNKNOWN_ARGS",
            "refused_arguments", "UNKNOWN_ARGS_HINT"]
@@ -56,7 +56,7 @@ def _now_iso() -> str:
 
 
 def _tool_version() -> str:
-    from .version import __version__
+    from ..harness.version import __version__
 
     return __version__
 
@@ -78,7 +78,7 @@ def ready_lines(layout: dict) -> List[str]:
 
 def record_script(script: Script, target, out: str,  # type: ignore[no-untyped-def]
                   boot_timeout: float = BOOT_TIMEOUT_S) -> Tuple[Transcript, List[str]]:
-    """Run ``script`` on ``target`` through the one script runner (harness/script_runner.py)
+    """Run ``script`` on ``target`` through the one script runner (transcripts/script_runner.py)
     and write the transcript to ``out`` as it runs; returns it and remarks. Raises
     NeedsCapability (saying what is missing) before anything is sent, TargetError when the
     target could not be opened or stopped mid-run (the transcript keeps what came until then).
@@ -227,7 +227,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def main(args: argparse.Namespace) -> int:
-    from .preflight import checked_target
+    from ..harness.preflight import checked_target
 
     extra = list(getattr(args, "extra", []))
     check_writable(args.output, "-o")

@@ -8,10 +8,10 @@ times; a target without the matching control capability cannot replay such a tra
 faithfully, and replay says what is missing instead of pretending (``--without-world`` replays
 the host bytes alone, and says so).
 
-The replay runs through the one script runner (harness/script_runner.py), as ``script`` and
+The replay runs through the one script runner (transcripts/script_runner.py), as ``script`` and
 ``record`` do: each recorded host line at its recorded time, in virtual time on ``inprocess``
 (deterministic), in real time on every other target.
-The comparison (harness/compare.py) starts after the recording's first host line at t >= 0:
+The comparison (transcripts/compare.py) starts after the recording's first host line at t >= 0:
 the start-up before it depends on when the target was switched on, not on the protocol.
 """
 from __future__ import annotations
@@ -24,12 +24,12 @@ import sys
 from dataclasses import dataclass, field
 from typing import Dict, List, Optional, Tuple
 
-from .cli_options import BOOT_TIMEOUT_S, UsageError, add_target_option, check_writable
+from ..harness.cli_options import BOOT_TIMEOUT_S, UsageError, add_target_option, check_writable
+from ..harness.errors import TargetError
+from ..harness.transcript import Transcript, field_bytes, read_transcript
 from .compare import Comparison, RuleSet, Unit, compare_units, output_units
-from .errors import TargetError
 from .script import Action, Script, escape_raw, load_script, parse_script, parse_world_action
 from .script_runner import run_script
-from .transcript import Transcript, field_bytes, read_transcript
 
 __all__ = ["Step", "Plan", "plan_replay", "plan_script", "missing_capabilities", "replay",
            "compare_transcripts", "units_after_first_host", "write_transcript", "add_arguments", "main"]
@@ -131,7 +131,7 @@ def missing_capabilities(plan: Plan, target) -> List[str]:  # type: ignore[no-un
 
 
 def plan_script(plan: Plan, name: str = "") -> Script:
-    """The plan as a scenario for the one script runner (harness/script_runner.py): each
+    """The plan as a scenario for the one script runner (transcripts/script_runner.py): each
     step at its recorded time (the waits are the gaps), the recording's start-up layout."""
     script = Script(name=name, source="<replay>")
     if plan.layout:
@@ -187,7 +187,7 @@ def replay(transcript: Transcript, target, plan: Optional[Plan] = None,  # type:
 
 
 def _tool_version() -> str:
-    from .version import __version__
+    from ..harness.version import __version__
 
     return __version__
 
@@ -240,7 +240,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def main(args: argparse.Namespace) -> int:
-    from .preflight import checked_target
+    from ..harness.preflight import checked_target
     from .script import ScriptError
     from .transcript_check import load_transcript
 

@@ -12,9 +12,9 @@ import os
 import re
 import sys
 
-from .cli_options import EXIT_OK, EXIT_TARGET, EXIT_USAGE, add_target_option, check_writable
-from .errors import NeedsCapability, TargetError
-from .preflight import checked_target, one_line
+from ..harness.cli_options import EXIT_OK, EXIT_TARGET, EXIT_USAGE, add_target_option, check_writable
+from ..harness.errors import NeedsCapability, TargetError
+from ..harness.preflight import checked_target, one_line
 from .script import ScriptError, load_script
 from .script_runner import run_script
 

@@ -11,8 +11,8 @@ import json
 import os
 from typing import Union
 
-from .cli_options import UsageError
-from .transcript import Transcript, read_transcript
+from ..harness.cli_options import UsageError
+from ..harness.transcript import Transcript, read_transcript
 
 __all__ = ["load_transcript", "check_event"]
 

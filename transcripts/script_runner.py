@@ -1,6 +1,6 @@
 """The one script runner: ``script``, ``record`` and ``replay`` all run scenarios through it.
 
-A scenario (a parsed script, harness/script.py, or a replay plan turned into one) runs on any
+A scenario (a parsed script, transcripts/script.py, or a replay plan turned into one) runs on any
 target through a :class:`Session`: in virtual time on a virtual-time target (``inprocess``),
 in real time (x time_scale) on the rest. Every action happens at its scripted time, the sum of
 the ``@wait``s before it, measured from t = 0 on the session's clock (so waits do not add up the
@@ -20,14 +20,14 @@ import time
 from dataclasses import dataclass, field
 from typing import IO, Dict, List, Optional, Union
 
+from ..harness.errors import NeedsCapability, TargetError
+from ..harness.events import Event
+from ..harness.session import Session
+from ..harness.targets.base import Target
+from ..harness.transcript import TranscriptWriter
+from ..harness.version import __version__
 from ..protocol.devices import DEFAULT_LAYOUT, format_device_spec
-from .errors import NeedsCapability, TargetError
-from .events import Event
 from .script import Script
-from .session import Session
-from .targets.base import Target
-from .transcript import TranscriptWriter
-from .version import __version__
 
 __all__ = ["ScriptResult", "run_script", "check_capabilities", "target_layout", "format_layout",
            "layout_meta", "TAIL_MS"]

@@ -22,8 +22,8 @@ import re
 from dataclasses import dataclass, field
 from typing import Callable, Dict, Iterable, List, Optional, Sequence, Tuple
 
-from .line_splitter import expected_echo
-from .transcript import CRLF, field_bytes
+from ..harness.line_splitter import expected_echo
+from ..harness.transcript import CRLF, field_bytes
 
 __all__ = ["Rule", "RuleSet", "Unit", "Difference", "Comparison", "parse_rule", "parse_rule_option",
            "output_units", "compare_units", "CLASS_ALIASES", "ASYNC_CLASSES", "default_classifier"]
@@ -244,7 +244,7 @@ def default_classifier() -> Callable[[str], str]:
     """The session's line classifier (harness/events.py), as ``text -> class``. A line that
     begins with prompts (they join the echo that follows) is classified by what follows
     them; prompts alone are ``prompt``."""
-    from .events import classify as _classify  # late: compare's rules do not need the session
+    from ..harness.events import classify as _classify  # late: compare's rules do not need the session
 
     def classify(text: str) -> str:
         rest = _PROMPTS.sub("", text)
