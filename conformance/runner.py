@@ -152,8 +152,8 @@ def preflight(args: argparse.Namespace) -> None:
     judged = check_release(args.firmware, "--firmware") if args.firmware else None
     if args.junit:
         check_writable(args.junit, "--junit")
-    else:   # a new run folder under reports/runs/ (harness/report/runs.py)
-        from ..harness.report import runs
+    else:   # a new run folder under reports/runs/ (conformance/report/runs.py)
+        from .report import runs
 
         check_writable(os.path.join(runs.DEFAULT_ROOT, runs.RUNS), "the run folder", folder=True)
     if args.transcripts:
@@ -222,7 +222,7 @@ def _remove_if_empty(folders: List[str]) -> None:
 
 def build_html_report(junit: str) -> None:
     """Write ``index.html`` beside the JUnit file; the suite's closing line has named it."""
-    from ..harness.report import build_report
+    from .report import build_report
 
     try:
         build_report([junit], os.path.join(os.path.dirname(junit), "index.html"))
@@ -312,7 +312,7 @@ def main(args: argparse.Namespace) -> int:
 
 
 def _run(args: argparse.Namespace) -> int:
-    from ..harness.report import runs
+    from .report import runs
 
     preflight(args)   # before the run folder and the load: a mistake is one line, reports/ untouched
     made = _missing_folders(os.path.join(runs.DEFAULT_ROOT, runs.RUNS)) if not args.junit else []

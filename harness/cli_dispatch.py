@@ -35,7 +35,7 @@ SUBCOMMANDS = {
     "record": ("buildhat_conformance.transcripts.record", "record a scenario's transcript on a target"),
     "replay": ("buildhat_conformance.transcripts.replay", "replay a transcript against a target and diff"),
     "mock": ("buildhat_conformance.transcripts.mock", "serve a transcript as a fake HAT"),
-    "report": ("buildhat_conformance.harness.report.cli", "build the HTML report from JUnit files"),
+    "report": ("buildhat_conformance.conformance.report.cli", "build the HTML report from JUnit files"),
     "load": ("buildhat_conformance.harness.firmware.cli", "load firmware through the HAT's bootloader"),
     "bench": ("buildhat_conformance.bench.cli", "benchmarks: timing, throughput, fidelity"),
     "sil": ("buildhat_conformance.sil.cli", "the real firmware on this host: build a tree (sil build)"),

@@ -8,11 +8,11 @@ import json
 import re
 import xml.etree.ElementTree as ET
 
-from buildhat_conformance.harness.report import build_report
-from buildhat_conformance.harness.report.junit import read_junit
-from buildhat_conformance.harness.report.svg import histogram, nice_ticks
-from buildhat_conformance.harness.report.timing import collect_timing
-from buildhat_conformance.harness.report.triage import exchange_of, group_failures, headline
+from buildhat_conformance.conformance.report import build_report
+from buildhat_conformance.conformance.report.junit import read_junit
+from buildhat_conformance.conformance.report.svg import histogram, nice_ticks
+from buildhat_conformance.conformance.report.timing import collect_timing
+from buildhat_conformance.conformance.report.triage import exchange_of, group_failures, headline
 
 FENCE_ANSWER = "Firmware version: 1737564117 2025-01-22T16:41:57+00:00"
 HAT_REPR = "hat = <buildhat_conformance.conformance.link.Hat object at 0x7f45c3dcdb90>"

@@ -15,7 +15,7 @@ import re
 from dataclasses import dataclass, field
 from typing import Dict, List, Optional, Sequence, Tuple
 
-from ..transcript import field_bytes, iter_events
+from ...harness.transcript import field_bytes, iter_events
 from .junit import Case, Run
 
 __all__ = ["MODULE_PATH", "NOTHING", "scrub", "Exchange", "headline", "exchange_of", "FailureGroup",

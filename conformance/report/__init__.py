@@ -51,8 +51,8 @@ def _plots(runs, max_plots: int) -> list:  # type: ignore[no-untyped-def]
 def _triage(all_runs: List[Run], failures: List[Tuple[Run, Case]]) -> Triage:
     """The first screen's data: failure groups, changes since each run's previous run of the
     same target (when it lives in a run folder), deviation explanations, requirement statements."""
-    from ...conformance.deviations import deviations
     from ...protocol.requirements import requirements
+    from ..deviations import deviations
     from .html import Triage
     from .junit import read_junit
     from .runs import previous_junit
@@ -85,7 +85,7 @@ def _timing_plots(runs: List[Run]) -> List[Plot]:
 
 def build_report(junit_paths: Sequence[str], out_path: str, max_plots: int = MAX_PLOTS) -> str:
     """Write the HTML report for one or more JUnit files; returns ``out_path``."""
-    from ..version import __version__
+    from ...harness.version import __version__
     from .coverage import coverage
     from .excerpt import excerpt_lines
     from .html import render_html

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from typing import List, Optional, Union
 
-from ..transcript import field_bytes, iter_events
+from ...harness.transcript import field_bytes, iter_events
 
 __all__ = ["excerpt_lines", "format_event"]
 

@@ -58,7 +58,7 @@ class Timing:
 
 def collect_timing(transcripts: Iterable[tuple]) -> Timing:
     """``transcripts``: (path, label) pairs; unreadable files are left out."""
-    from ..transcript import iter_events
+    from ...harness.transcript import iter_events
 
     timing = Timing()
     for path, label in transcripts:

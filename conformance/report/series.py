@@ -12,7 +12,7 @@ import re
 from dataclasses import dataclass, field
 from typing import Dict, Iterable, List, Optional
 
-from ..transcript import field_bytes
+from ...harness.transcript import field_bytes
 
 __all__ = ["PidSeries", "WaveRun", "pid_series", "wave_runs", "ideal_setpoint", "PID_LINE"]
 

@@ -6,7 +6,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import List
 
-from ..transcript import iter_events
+from ...harness.transcript import iter_events
 from .series import PidSeries, WaveRun, ideal_setpoint, pid_series, wave_runs
 from .svg import Panel, Series, chart, histogram
 from .timing import Timing
