@@ -39,7 +39,7 @@ from ..harness.parent_death import die_with_parent
 from .lab_run import hold_for_run
 from .run_passthrough import PYTEST_HELP, UNKNOWN_ARGS_HINT, refused_arguments
 
-# The dispatcher (harness/cli_dispatch.py) hands on what follows `--`, and what refused_arguments
+# The dispatcher (buildhat_conformance/cli.py) hands on what follows `--`, and what refused_arguments
 # lets through, to pytest as `args.extra`.
 PASS_UNKNOWN_ARGS = True
 __all__ = ["add_arguments", "main", "pytest_argv", "suite_dir", "refused_arguments", "UNKNOWN_ARGS_HINT",

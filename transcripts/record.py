@@ -39,7 +39,7 @@ __all__ = ["record_script", "record_proxy", "ready_lines", "add_arguments", "mai
            "refused_arguments", "UNKNOWN_ARGS_HINT"]
 
 # `record --proxy ... -- COMMAND ARGS`: the command's own options must reach it untouched (the
-# dispatcher hands on what follows `--`, harness/cli_dispatch.py).
+# dispatcher hands on what follows `--`, buildhat_conformance/cli.py).
 PASS_UNKNOWN_ARGS = True
 UNKNOWN_ARGS_HINT = "a host program's command goes after -- (with --proxy)"
 

@@ -5,6 +5,9 @@ Lists the serial ports pyserial sees (with the Raspberry Pi 5 remark where
 Nothing is opened, so listing never disturbs a HAT. With a labgrid coordinator (``--coordinator``
 or ``LG_COORDINATOR``) it also lists the lab's places: free, or held by whom (harness/lab/).
 """
+# The folders install under this package's name (setup.py maps harness/ to
+# buildhat_conformance.harness ...); pyright reads the checkout, where they sit beside this folder.
+# pyright: reportMissingImports=false
 from __future__ import annotations
 
 import argparse
@@ -14,11 +17,11 @@ from typing import List
 
 from serial.tools import list_ports
 
-from ..protocol.profiles import DEFAULT_FIRMWARE, load_profiles
-from .cli_options import DEFAULT_SPEED
-from .targets import TargetError, url_forms
-from .targets.emulator import emulator_command
-from .targets.serial import pi5_debug_uart_remark
+from .harness.cli_options import DEFAULT_SPEED
+from .harness.targets import TargetError, url_forms
+from .harness.targets.emulator import emulator_command
+from .harness.targets.serial import pi5_debug_uart_remark
+from .protocol.profiles import DEFAULT_FIRMWARE, load_profiles
 
 # Raspberry Pi aliases that list_ports may not report (they are symlinks).
 _PI_LINKS = ("/dev/serial0", "/dev/serial1")
@@ -33,7 +36,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def lab_lines(coordinator: str) -> List[str]:
     """One line per place of the lab: name, free or who holds it, tags. TargetError when the
     coordinator cannot be asked (labgrid missing, nothing listening)."""
-    from .lab.client import client_for
+    from .harness.lab.client import client_for
 
     client = client_for(coordinator)
     lines = [f"Lab places (labgrid coordinator {client.address}; this user is {client.me}):"]
