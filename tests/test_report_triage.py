@@ -124,8 +124,8 @@ def test_failures_group_by_first_differing_line_and_the_report_says_so(tmp_path)
     cases.append({"name": "test_bias_removed", "failure": (HAT_REPR, f"{HAT_REPR}\nbias answered Error"),
                   "props": [("verdict", "known deviation"), ("deviations", "BIAS-REMOVED")]})
     for name in ("test_next", "test_after_next"):
-        cases.append({"name": name, "failure": ("buildhat_conformance.conformance.plugin.NotRun: not run: "
-                                                "cannot open target cmd:hat", ""),
+        cases.append({"name": name, "failure": ("buildhat_conformance.conformance.plugin.run.NotRun: "
+                                                "not run: cannot open target cmd:hat", ""),
                       "props": [("verdict", "not-run")]})
     run = read_junit(junit(tmp_path / "j.xml", cases))
     fails = [(run, c) for c in run.cases if c.verdict == "fail"]

@@ -15,7 +15,7 @@ LABEL = {"pass": "pass", "fail": "fail", "target_fault": "target fault", "not_ru
 SHORT = {"pass": "pass", "fail": "FAIL", "target_fault": "T fault", "not_run": "not run", "skip": "skip",
          "known_deviation": "known dev.", "informational": "info", "hole": "no test", "untested": "not run"}
 
-#: The terminal's progress letters (conformance/progress.py's legend).
+#: The terminal's progress letters (conformance/plugin/progress.py's legend).
 LETTER = {"pass": ".", "fail": "F", "target_fault": "T", "not_run": "N", "skip": "s",
           "known_deviation": "K", "informational": "I"}
 

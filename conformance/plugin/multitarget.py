@@ -17,7 +17,7 @@ JUnit file (``<junit>.targets/<name>.xml``); at the end the controller merges th
 ``--conformance-junit`` file: one ``<testsuite>``, every case's classname prefixed with its
 target's name and a ``target_name`` property beside the plugin's ``target`` URL.
 
-Loaded by ``conformance/conftest.py`` (``pytest_plugins``); without several targets it does
+Loaded by ``conformance/cases/conftest.py`` (``pytest_plugins``); without several targets it does
 nothing.
 """
 from __future__ import annotations
@@ -109,7 +109,7 @@ def pytest_cmdline_main(config: Any) -> None:
     if len(targets) < 2 or hasattr(config, "workerinput"):
         return
     if not config.pluginmanager.hasplugin("xdist"):
-        from ..harness.extras import install_hint
+        from ...harness.extras import install_hint
 
         raise pytest.UsageError(f"several targets need pytest-xdist: {install_hint('parallel')}")
     if config.option.numprocesses in (None, 0):
@@ -136,7 +136,7 @@ def pytest_configure(config: Any) -> None:
     if index is None or index >= len(targets):
         raise pytest.UsageError(f"worker {config.workerinput.get('workerid')!r} has no target "
                                 f"({len(targets)} targets)")
-    from .plugin import Run, _run_key
+    from .run import Run, _run_key
 
     name, url = targets[index]
     junit = config.getoption("conformance_junit")

@@ -8,8 +8,8 @@ from __future__ import annotations
 
 import pytest
 
-from .link import Hat
-from .probes import pid_lines, reports_after, start_quiet_pid
+from ..link import Hat
+from ..probes import pid_lines, reports_after, start_quiet_pid
 from .test_link import vin_line
 
 

@@ -11,10 +11,10 @@ from typing import Optional
 
 import pytest
 
-from .link import Hat
-from .needs import World
-from .probes import data_lines, pid_lines, reports_after, start_quiet_pid
-from .verdict import Verdict
+from ..link import Hat
+from ..needs import World
+from ..probes import data_lines, pid_lines, reports_after, start_quiet_pid
+from ..verdict import Verdict
 
 
 def speed(hat: Hat, port: int, settle_ms: float = 700) -> float:

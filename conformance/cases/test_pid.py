@@ -12,14 +12,14 @@ from typing import Dict, List, TypedDict
 
 import pytest
 
-from .link import Hat
-from .needs import World
-from .oracles.float32 import f32
-from .oracles.floatfmt import fw_float
-from .oracles.numbers import parse_float
-from .oracles.pid import PidLine, PidModel, Unwrapper, close_to_printed
-from .probes import pid_lines, reports_after, start_quiet_pid
-from .verdict import Verdict
+from ..link import Hat
+from ..needs import World
+from ..oracles.float32 import f32
+from ..oracles.floatfmt import fw_float
+from ..oracles.numbers import parse_float
+from ..oracles.pid import PidLine, PidModel, Unwrapper, close_to_printed
+from ..probes import pid_lines, reports_after, start_quiet_pid
+from ..verdict import Verdict
 
 FIELDS = ("e", "ie", "de", "cv")
 

@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import pytest
 
-from ..protocol.devices import active_type_ids, catalogue
-from .link import Hat
-from .needs import World
-from .oracles.listing import parse_list, render_active, render_port
-from .verdict import UnknownBuild
+from ...protocol.devices import active_type_ids, catalogue
+from ..link import Hat
+from ..needs import World
+from ..oracles.listing import parse_list, render_active, render_port
+from ..verdict import UnknownBuild
 
 APPENDIX_C = [0x25, 0x26, 0x2E, 0x2F, 0x30, 0x31, 0x3D, 0x3E, 0x3F, 0x40, 0x41]
 

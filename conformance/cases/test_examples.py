@@ -10,10 +10,10 @@ from typing import List
 
 import pytest
 
-from .link import Hat
-from .needs import World
-from .probes import data_lines, pid_lines
-from .verdict import Verdict
+from ..link import Hat
+from ..needs import World
+from ..probes import data_lines, pid_lines
+from ..verdict import Verdict
 
 INT = r"(?: 0|[+-][1-9][0-9]*)"
 

@@ -7,11 +7,11 @@ import struct
 
 import pytest
 
-from .link import Hat
-from .needs import World
-from .oracles.floatfmt import fw_float
-from .probes import TickClock, data_lines
-from .verdict import Verdict
+from ..link import Hat
+from ..needs import World
+from ..oracles.floatfmt import fw_float
+from ..probes import TickClock, data_lines
+from ..verdict import Verdict
 
 # FACTS §6.1: integers are `+N`, `-N`, or a space then `0`; floats come from the float printer.
 INT = r"(?:\+[1-9][0-9]*|-[1-9][0-9]*| 0)"

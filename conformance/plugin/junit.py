@@ -20,7 +20,7 @@ import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
 from typing import Any, List, Optional, Sequence, Tuple
 
-from .target_fault import first_line
+from ..target_fault import first_line
 
 __all__ = ["Case", "JUnitFile", "REWRITE_EVERY_S", "failure_line"]
 

@@ -11,7 +11,7 @@ import re
 
 import pytest
 
-from .link import Hat
+from ..link import Hat
 
 VIN = re.compile(rb"\r\n[0-9]+\.[0-9]{2} V\r\n")
 

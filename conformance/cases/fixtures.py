@@ -6,11 +6,11 @@ from typing import Any, Dict
 
 import pytest
 
-from .link import Hat
-from .needs import World
-from .plugin import Run, _verdict_key
-from .probes import MOTOR
-from .verdict import Verdict
+from ..link import Hat
+from ..needs import World
+from ..plugin.run import Run, _verdict_key
+from ..probes import MOTOR
+from ..verdict import Verdict
 
 
 @pytest.fixture

@@ -10,7 +10,7 @@ Target faults (conformance/target_fault.py) get the verdict ``target-fault``: a 
 ``<error>`` whose message is one line saying what the target did. After N of them in a row the
 run stops talking to the target and every remaining case is reported ``not-run`` (a JUnit
 ``<skipped>``) with the reason, so a hung HAT costs N cases, not the rest of the run. Before
-that, a target that can reset the HAT is reset once (conformance/recovery.py: ``--image`` and
+that, a target that can reset the HAT is reset once (conformance/plugin/recovery.py: ``--image`` and
 ``--signature`` load the release again after it), and the run goes on if the HAT comes back.
 """
 from __future__ import annotations
@@ -25,17 +25,17 @@ from typing import Any, Dict, List, Optional, Tuple
 
 import pytest
 
-from ..harness.targets.base import TargetError
+from ...harness.targets.base import TargetError
+from ..link import Hat
+from ..link_clauses import MARKER as CLAUSE_MARKER
+from ..target_fault import TargetFault, fault_line, first_line, is_target_fault
+from ..tee import TeeTarget, tee
+from ..verdict import FAIL, INFO, KNOWN, NOT_RUN, PASS, SKIP, TARGET_FAULT, UnknownBuild, Verdict
 from .junit import Case, JUnitFile, failure_line
-from .link import Hat
-from .link_clauses import MARKER as CLAUSE_MARKER
-from .options import DEFAULT_MAX_TARGET_FAULTS, pytest_addoption  # noqa: F401 - the hook, found by name
+from .options import settle_output_paths
 from .recovery import RecoveryFailed, ResetRecovery
 from .run_outcome import banner, nothing_done, release_mismatch
 from .summary import firmware_of, write_summary
-from .target_fault import TargetFault, fault_line, first_line, is_target_fault
-from .tee import TeeTarget, tee
-from .verdict import FAIL, INFO, KNOWN, NOT_RUN, PASS, SKIP, TARGET_FAULT, UnknownBuild, Verdict
 
 DEFAULT_CASE_TIMEOUT = 120.0
 # The exit statuses every command shares (README): 0 conforms, 1 conformance failures, 2 usage
@@ -48,6 +48,7 @@ _call_failed_key = pytest.StashKey[bool]()
 
 
 def pytest_configure(config: Any) -> None:
+    settle_output_paths(config)
     config.addinivalue_line("markers", "req(*ids): requirement IDs (REQUIREMENTS.md or FW-...) a test checks")
     config.addinivalue_line("markers", "slow: takes more than a few seconds")
     config.addinivalue_line("markers", f"{CLAUSE_MARKER}(name): a clause the harness relies on, checked "
@@ -59,7 +60,7 @@ def pytest_configure(config: Any) -> None:
 
 
 def target_url(config: Any) -> str:
-    from ..harness.cli_options import expand_target
+    from ...harness.cli_options import expand_target
 
     speed = config.getoption("speed")
     return expand_target(config.getoption("target"), float(speed) if speed else None)
@@ -115,10 +116,10 @@ class Run:
             return self.hat
         if self.open_error:
             raise TargetFault("unreachable", self.open_error)
-        from ..harness.session import Session
-        from ..harness.targets import make_target
-        from ..harness.transcript import TranscriptWriter
-        from ..protocol.profiles import get_profile
+        from ...harness.session import Session
+        from ...harness.targets import make_target
+        from ...harness.transcript import TranscriptWriter
+        from ...protocol.profiles import get_profile
 
         between = TranscriptWriter(os.path.join(self.transcripts, "_between-cases.jsonl"),
                                    {"target": self.url, "firmware": "unknown", "case": "between cases"})
@@ -333,9 +334,9 @@ class Run:
             self._close_quietly()
 
     def recover(self) -> None:
-        """The run's one reset of a HAT that stopped answering (conformance/recovery.py), its
+        """The run's one reset of a HAT that stopped answering (conformance/plugin/recovery.py), its
         bytes in their own transcript; the run goes on if the HAT comes back, else it stops."""
-        from ..harness.transcript import TranscriptWriter
+        from ...harness.transcript import TranscriptWriter
 
         due, self.reset_due = self.reset_due, None
         assert self.hat is not None and self.tee is not None and due is not None
@@ -420,7 +421,7 @@ def hat(_run: Run) -> Hat:
 @pytest.fixture(autouse=True)
 def _conformance_case(request: Any, _run: Run) -> Any:
     """Per case: its own transcript, the resynchronising fence, and its JUnit properties."""
-    from ..harness.transcript import TranscriptWriter
+    from ...harness.transcript import TranscriptWriter
 
     item = request.node
     ids = requirement_ids(item)

@@ -9,8 +9,8 @@ import re
 
 import pytest
 
-from .link import Hat
-from .verdict import Verdict
+from ..link import Hat
+from ..verdict import Verdict
 
 
 def vin_line(hat: Hat) -> bytes:

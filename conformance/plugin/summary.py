@@ -5,8 +5,8 @@ from __future__ import annotations
 from collections import defaultdict
 from typing import Any, Dict
 
-from ..protocol.requirements import requirements
-from .verdict import VERDICTS
+from ...protocol.requirements import requirements
+from ..verdict import VERDICTS
 
 __all__ = ["write_summary", "area_of", "firmware_of", "FW_AREA"]
 

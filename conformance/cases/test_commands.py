@@ -6,10 +6,10 @@ import re
 
 import pytest
 
-from .link import Hat
-from .needs import World
-from .oracles.vin import adc_to_mv, vin_text
-from .verdict import Verdict
+from ..link import Hat
+from ..needs import World
+from ..oracles.vin import adc_to_mv, vin_text
+from ..verdict import Verdict
 
 
 @pytest.mark.req("CMD-HELP")

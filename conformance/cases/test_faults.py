@@ -13,9 +13,9 @@ from typing import List
 
 import pytest
 
-from .link import Hat
-from .needs import World
-from .probes import TickClock
+from ..link import Hat
+from ..needs import World
+from ..probes import TickClock
 
 DUMP_HEADER = " Port 4D 4E 4F"
 # Three spaces, the port, one space, then three times (space + 2 hex digits) (FACTS §5).

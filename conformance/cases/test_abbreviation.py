@@ -13,11 +13,11 @@ from typing import List
 
 import pytest
 
-from ..protocol.profiles import get_profile, load_profiles
-from .command_probes import probe
-from .link import Hat
-from .oracles.commands import ambiguous_prefixes, resolve, shortest_resolving_prefix, unique_prefix
-from .verdict import Verdict
+from ...protocol.profiles import get_profile, load_profiles
+from ..command_probes import probe
+from ..link import Hat
+from ..oracles.commands import ambiguous_prefixes, resolve, shortest_resolving_prefix, unique_prefix
+from ..verdict import Verdict
 
 ALL_COMMANDS: List[str] = sorted({c for p in load_profiles().values() for c in p.commands})
 DOCUMENT_COMMANDS = get_profile("R1").commands     # FACTS §0: the document's set is R1-R4's

@@ -5,11 +5,11 @@ import re
 
 import pytest
 
-from ..protocol.devices import catalogue
-from .link import Hat
-from .needs import World
-from .oracles.listing import render_active
-from .verdict import Verdict
+from ...protocol.devices import catalogue
+from ..link import Hat
+from ..needs import World
+from ..oracles.listing import render_active
+from ..verdict import Verdict
 
 SENSOR = 0x3E       # the ultrasonic sensor: an active device the default layout does not have
 # Lines from other ports that may come in between the connect messages.

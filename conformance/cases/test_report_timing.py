@@ -12,9 +12,9 @@ from typing import Tuple
 
 import pytest
 
-from .link import Hat
-from .needs import World
-from .probes import MOTOR, TickClock
+from ..link import Hat
+from ..needs import World
+from ..probes import MOTOR, TickClock
 
 WINDOW_MS = 1000
 

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import pytest
 
-from .link import Hat
-from .needs import World
-from .probes import TickClock, data_lines, pid_lines, reports_after, start_quiet_pid
+from ..link import Hat
+from ..needs import World
+from ..probes import TickClock, data_lines, pid_lines, reports_after, start_quiet_pid
 from .test_drive import drive, speed
 
 

@@ -11,8 +11,8 @@ from typing import List
 
 import pytest
 
-from .link import Hat
-from .needs import World
+from ..link import Hat
+from ..needs import World
 
 
 def _hex(payload: bytes) -> str:

@@ -1,7 +1,7 @@
 """Imports the suite's test modules by their package name.
 
 pytest names a test module after its file path; in an editable checkout that is
-``conformance.test_list`` rather than ``buildhat_conformance.conformance.test_list``, and the
+``conformance.cases.test_list`` rather than ``buildhat_conformance.conformance.cases.test_list``, and the
 suite's relative imports (``from ..protocol import ...``) only work under the package name.
 """
 from __future__ import annotations
@@ -13,14 +13,16 @@ from typing import Any, Optional
 
 import pytest
 
-SUITE_DIR = Path(__file__).resolve().parent
+from .. import cases
+
+SUITE_DIR = Path(cases.__file__).resolve().parent
 
 
 class SuiteModule(pytest.Module):
     """A test module of the suite, imported as ``<package>.<stem>``."""
 
     def _getobj(self) -> ModuleType:
-        return importlib.import_module(f"{__package__}.{self.path.stem}")
+        return importlib.import_module(f"{cases.__name__}.{self.path.stem}")
 
 
 @pytest.hookimpl(tryfirst=True)

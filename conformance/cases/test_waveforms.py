@@ -13,12 +13,12 @@ from typing import List, Optional, Tuple
 
 import pytest
 
-from .link import Hat, Reply
-from .oracles.numbers import parse_float
-from .oracles.pid import close_to_printed
-from .oracles.waveform import Generator, ticks_until_done
-from .probes import pid_lines, start_quiet_pid
-from .verdict import Verdict
+from ..link import Hat, Reply
+from ..oracles.numbers import parse_float
+from ..oracles.pid import close_to_printed
+from ..oracles.waveform import Generator, ticks_until_done
+from ..probes import pid_lines, start_quiet_pid
+from ..verdict import Verdict
 
 OLD_SP = "7"              # a set-point no waveform below produces: marks where the new one starts
 

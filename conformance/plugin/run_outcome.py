@@ -9,8 +9,8 @@ from __future__ import annotations
 from collections import Counter
 from typing import Iterable, Mapping, Optional, Tuple
 
-from ..protocol.profiles import Profile, resolve_version
-from .verdict import FAIL, NOT_RUN, SKIP, TARGET_FAULT
+from ...protocol.profiles import Profile, resolve_version
+from ..verdict import FAIL, NOT_RUN, SKIP, TARGET_FAULT
 
 #: node id -> (verdict class, requirement IDs), as conformance.plugin.Run keeps them
 Results = Mapping[str, Tuple[str, object]]
