@@ -17,9 +17,9 @@ from typing import List
 
 from serial.tools import list_ports
 
+from .emulator.process_target import emulator_command
 from .harness.cli_options import DEFAULT_SPEED
 from .harness.targets import TargetError, url_forms
-from .harness.targets.emulator import emulator_command
 from .harness.targets.serial import pi5_debug_uart_remark
 from .protocol.profiles import DEFAULT_FIRMWARE, load_profiles
 
@@ -88,7 +88,7 @@ def emulator_lines() -> List[str]:
     return lines
 
 
-# Options of the URLs (harness/targets/emulator.py, inprocess.py, serial.py from_url).
+# Options of the URLs (emulator/process_target.py, inprocess.py, serial.py from_url).
 URL_OPTIONS = [
     ("emulator: speed=N", "N times real time (default 10 for a bare 'emulator'; speed=1: real time)"),
     ("emulator: device=P=SPEC", "start-up layout, e.g. device=1=0x30 or device=2=passive+8 (repeatable)"),

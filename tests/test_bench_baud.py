@@ -105,8 +105,8 @@ def test_realtime_runner_hands_over_only_what_the_wire_carried() -> None:
 def test_fuzz_link_completes_a_prompt_split_by_the_wire() -> None:
     # With echo on the prompt follows the fence answer; on a paced wire it arrives a moment
     # later, and a line still crossing at the fence belongs to the next answer.
+    from buildhat_conformance.emulator.inprocess_target import InProcessTarget
     from buildhat_conformance.fuzz.link import FENCE, Link
-    from buildhat_conformance.harness.targets.inprocess import InProcessTarget
 
     target = InProcessTarget(firmware="R7", devices=EMPTY, baud=115200)
     target.open()

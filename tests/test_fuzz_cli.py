@@ -105,8 +105,8 @@ def test_a_finding_is_confirmed_shell_quoted_and_saved_to_the_database_with_a_se
     import argparse
     import importlib.util
 
+    from buildhat_conformance.emulator.inprocess_target import InProcessTarget
     from buildhat_conformance.fuzz import cli
-    from buildhat_conformance.harness.targets.inprocess import InProcessTarget
 
     spec = importlib.util.spec_from_file_location("planted_faults", HERE / "planted" / "faults.py")
     faults = importlib.util.module_from_spec(spec)

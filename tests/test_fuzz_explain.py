@@ -7,10 +7,10 @@ import argparse
 import importlib.util
 import pathlib
 
+from buildhat_conformance.emulator.inprocess_target import InProcessTarget
 from buildhat_conformance.fuzz import cli
 from buildhat_conformance.fuzz.oracles import Finding
 from buildhat_conformance.fuzz.runner import Runner
-from buildhat_conformance.harness.targets.inprocess import InProcessTarget
 from buildhat_conformance.protocol.profiles import get_profile
 
 HERE = pathlib.Path(__file__).parent

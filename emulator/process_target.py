@@ -26,11 +26,11 @@ from urllib.parse import parse_qs, urlsplit
 import pexpect
 import serial
 
-from ...protocol.devices import DEFAULT_LAYOUT, format_device_spec, parse_device_spec
-from ...transcripts.script import WORLD_ACTIONS
-from ..parent_death import die_with_parent
-from .base import Control, TargetError
-from .pyserial_base import PyserialTarget, SerialPort
+from ..harness.parent_death import die_with_parent
+from ..harness.targets.base import Control, TargetError
+from ..harness.targets.pyserial_base import PyserialTarget, SerialPort
+from ..protocol.devices import DEFAULT_LAYOUT, format_device_spec, parse_device_spec
+from ..transcripts.script import WORLD_ACTIONS
 
 __all__ = ["EmulatorTarget", "EmulatorControl", "from_url", "emulator_command", "format_device_spec"]
 

@@ -19,9 +19,9 @@ import os
 from typing import Any, Dict, List, Optional, Tuple
 from urllib.parse import parse_qs, unquote
 
-from ...sil.process import FirmwareDied
-from .base import TargetCrashed, TargetError
-from .inprocess import HatModel, InProcessControl, InProcessTarget, _parse_devices
+from ..emulator.inprocess_target import HatModel, InProcessControl, InProcessTarget, _parse_devices
+from ..harness.targets.base import TargetCrashed, TargetError
+from .process import FirmwareDied
 
 __all__ = ["SilTarget", "SilControl", "from_url", "program_for"]
 
@@ -45,7 +45,7 @@ class SilControl(InProcessControl):
 def program_for(where: str, sanitize: List[str], coverage: bool) -> Tuple[str, Any]:
     """The host program for a tree (built, or taken from the cache) or a given program; and the
     build (None for a given program)."""
-    from ...sil.build import BuildError, build_tree
+    from .build import BuildError, build_tree
     path = os.path.expanduser(where)
     if os.path.isfile(path):
         if not os.access(path, os.X_OK):
@@ -88,9 +88,9 @@ class SilTarget(InProcessTarget):
               baud: Optional[int] = None) -> HatModel:
         from pathlib import Path
 
-        from ...protocol.profiles import get_profile
-        from ...sil.build import program_version
-        from ...sil.hat import SilHat
+        from ..protocol.profiles import get_profile
+        from .build import program_version
+        from .hat import SilHat
         built = program_version(Path(self.program))       # the release the tree's version.h names
         try:
             profile = get_profile(firmware if firmware not in (None, "") else built)
@@ -142,7 +142,7 @@ class SilTarget(InProcessTarget):
         """The firmware's coverage so far (a ``coverage=1`` build, after close), else None."""
         if self.build is None or not self.build.coverage:
             return None
-        from ...sil.coverage import coverage_summary
+        from .coverage import coverage_summary
         try:
             return coverage_summary(self.build)
         except RuntimeError as exc:
@@ -181,14 +181,14 @@ def from_url(url: str, **options) -> Any:
     firmware = q["firmware"][-1] if "firmware" in q else None
     program, build = program_for(where, sanitize, coverage)
     if build is not None and build.coverage:
-        from ...sil.coverage import reset_counts
+        from .coverage import reset_counts
         reset_counts(build)          # the figure at the end is this run's, not the sum of all runs
     if "speed" in q:
         # Paced to the wall clock: the firmware in its own real-time runner on a pty (sil/serve.py),
         # reached like the emulator target (same process handling and control channel).
         import sys
 
-        from .emulator import EmulatorTarget
+        from ..emulator.process_target import EmulatorTarget
         try:
             speed = float(q["speed"][-1])
         except ValueError:

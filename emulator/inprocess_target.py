@@ -28,7 +28,7 @@ import types
 from typing import Any, Callable, Dict, List, Mapping, Optional, Protocol, Tuple, Union
 from urllib.parse import parse_qs
 
-from .base import Control, Target, TargetError
+from ..harness.targets.base import Control, Target, TargetError
 
 __all__ = ["InProcessTarget", "InProcessControl", "HatModel", "from_url"]
 
@@ -128,7 +128,7 @@ class InProcessTarget(Target):
     def _new(self) -> HatModel:
         if self.factory is not None:
             return self.factory(firmware=self.firmware, devices=self.devices, seed=self.seed, baud=self.baud)
-        from ...emulator import Emulator
+        from . import Emulator
         try:
             return Emulator(firmware=self.firmware, devices=self.devices, seed=self.seed, baud=self.baud,
                             version_string=self.version_string)
@@ -239,7 +239,7 @@ def _independent_copy(obj):  # type: ignore[no-untyped-def]
 
 
 def _parse_devices(values: List[str]) -> Dict[int, DeviceSpec]:
-    from ...protocol.devices import parse_device_spec
+    from ..protocol.devices import parse_device_spec
     out: Dict[int, DeviceSpec] = {}
     for v in values:
         port, sep, spec = v.partition("=")
