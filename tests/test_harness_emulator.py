@@ -63,7 +63,8 @@ def test_served_emulator_shows_the_motor_drive():
         assert drive[-1] == 102, drive
         s.command("coast")
         s.wait_ms(100)
-        assert [e for e in target.drive_events_since(target.now) if e.get("port") == 0][-1]["value"] == "coast"
+        drive = [e["value"] for e in target.drive_events_since(target.now) if e.get("port") == 0]
+        assert drive[-1] == "coast", drive
 
 
 def test_booted_and_bootloader_exclude_each_other():
