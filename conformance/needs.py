@@ -155,7 +155,10 @@ class World:
         start = int(inner.now)
         self.hat.wait_ms(hat_ms)
         end = int(inner.now)
-        changes = [(int(e["t"]), e.get("value")) for e in list(inner.drive_events)
+        # A served HAT (the emulator or the firmware on a pty) answers over its control channel.
+        since = getattr(inner, "drive_events_since", None)
+        events = since(start) if since is not None else list(inner.drive_events)
+        changes = [(int(e["t"]), e.get("value")) for e in events
                    if e.get("dir") == "pwm" and int(e.get("port", -1)) == port]
         before = [c for c in changes if c[0] <= start]
         level = [(start, before[-1][1] if before else 0)]

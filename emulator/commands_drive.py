@@ -28,6 +28,8 @@ def _ctl(hat: CommandContext) -> PortController:
 
 def cmd_clear_faults(hat: CommandContext, cur: Cursor) -> None:
     hat.faults.clear_faults()
+    for controller in hat.controllers:       # it writes every driver's flag register
+        controller.clear_faults()
 
 
 def cmd_pwm(hat: CommandContext, cur: Cursor) -> None:

@@ -13,6 +13,8 @@ per line, one reply per line:
 - ``@speed`` -> ``ok <speed>``; ``@speed N`` sets it (real-time runners only)
 - ``@lint`` -> ``ok <JSON summary of the host-traffic lint>``
 - ``@settled`` -> ``ok 1`` once the start-up is done and the layout's devices are up, else ``ok 0``
+- ``@drive_events SINCE`` -> ``ok <JSON list>``: the motor-drive changes (``pwm``/``led`` events, in HAT
+  ms) after HAT ms SINCE, each port's level at SINCE first (emulator/drive_log.py; recent ones only)
 - ``@gpio PIN LEVEL`` -> ``ok``: the HAT's RESET (GPIO 4) / BOOT0 (GPIO 22) lines as the host's GPIO drives
   them (emulator/reset_pins.py; the gpiozero pin factory of emulator/gpiozero_pins.py sends these)
 - ``@auth TOKEN`` -> ``ok``: required first on TCP (the per-run token printed at start as
@@ -25,12 +27,14 @@ between two emulator ticks and never race with them.
 from __future__ import annotations
 
 import ipaddress
+import json
 import os
 import secrets
 import socket
 import stat
 from typing import Any, Callable, Dict, List, Optional, Tuple
 
+from .drive_log import DriveLog
 from .reset_pins import ResetPins
 from .world import WorldError
 
@@ -67,6 +71,11 @@ class ControlHandler:
         self.clock = clock        # a RealTimeClock (for @speed), or None in virtual time
         self.lint = lint          # a HostLint, or None
         self.pins = ResetPins(emulator)
+        # What the in-process targets read from their own event list: a served HAT keeps it here.
+        self.drives = DriveLog()
+        on_event = getattr(emulator, "on_event", None)
+        if on_event is not None:
+            on_event(self.drives.record)
 
     def __call__(self, line: str) -> str:
         try:
@@ -94,6 +103,10 @@ class ControlHandler:
             return "ok " + " ".join(self.lint.summary_json().split("\n"))
         if head == "@settled":
             return f"ok {int(self.emulator.settled())}"
+        if head == "@drive_events":
+            if len(words) != 2 or not words[1].lstrip("-").isdigit():
+                raise ValueError("@drive_events takes the HAT ms since when (e.g. @drive_events 0)")
+            return "ok " + json.dumps(self.drives.since(int(words[1])), separators=(",", ":"))
         if head == "@gpio":
             return self.pins.request(words[1:])
         reply = self.emulator.world(line)

@@ -19,6 +19,7 @@ State (what the commands in ``emulator/commands_drive.py`` write):
 - ``pid``: :class:`Pid` gains and state
 - ``drive``: :class:`DrivePath` (bias, pwmthresh/minpwm, limit in Q16)
 - ``duty``: the last value written to the driver (+-255 or ``"coast"``); 0 at boot
+- ``output``: what the driver puts out; ``duty``, except after ``clear_faults`` (:meth:`clear_faults`)
 
 ``reset()`` is the firmware's ``port_initpwm`` (§4.2); the port state machine
 (``emulator/ports.py``) calls it every time the port passes state 0. It clears pwmmode, coast,
@@ -64,6 +65,9 @@ class PortController:
         self.pid = Pid(features["pid_deadzone"])
         self.drive = DrivePath(biased=hat.profile.has("bias"))
         self.duty: Duty = 0
+        self.output: Duty = 0
+        # clear_faults left the driver's direction flag forwards while the duty is negative
+        self.forward_flag = False
         self.last_step: Optional[PidStep] = None
         self._next_update: Optional[int] = None
         self.due = 0            # the Hat ticks the controller from this virtual ms on
@@ -92,7 +96,19 @@ class PortController:
         faults = getattr(self.hat, "faults", None)
         if faults is not None and faults.output_disabled(self.index):
             return COAST
-        return self.duty
+        return self.output
+
+    def clear_faults(self) -> None:
+        """``clear_faults`` writes the driver's flag register (outputs on, direction forwards,
+        FIRMWARE-BEHAVIOUR#fb-commands), and the firmware writes the direction again only when the
+        duty changes sign: a port driven backwards goes on forwards until then. A coasting one is
+        driven forwards at the coast amount (1) until the next coast write."""
+        if self.duty == COAST:
+            self.duty = 1              # what the driver holds now; the next update coasts it again
+            self._show(1)
+        elif isinstance(self.duty, int) and self.duty < 0:
+            self.forward_flag = True
+            self._show(-self.duty)
 
     # -- time ----------------------------------------------------------------------------
     @property
@@ -149,7 +165,16 @@ class PortController:
     def _write(self, duty: Duty) -> None:
         if duty != self.duty:
             self.duty = duty
-            self.hat.set_drive(self.index, duty)
+            if self.forward_flag and isinstance(duty, int) and duty < 0:
+                self._show(-duty)                 # the amount changes, the direction flag does not
+            else:
+                self.forward_flag = False
+                self._show(duty)
+
+    def _show(self, output: Duty) -> None:
+        if output != self.output:
+            self.output = output
+            self.hat.set_drive(self.index, output)
             self.hat.ports[self.index].wake()     # the device on the port sees a new drive
 
     def _port_connected(self, p: int) -> bool:

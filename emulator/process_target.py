@@ -10,6 +10,7 @@ when it fails (to start, or later) the error carries the emulator's own words.
 from __future__ import annotations
 
 import collections
+import json
 import os
 import select
 import shlex
@@ -20,7 +21,7 @@ import sys
 import tempfile
 import threading
 import time
-from typing import Deque, Dict, FrozenSet, List, Optional, Sequence, Union
+from typing import Any, Deque, Dict, FrozenSet, List, Optional, Sequence, Union
 from urllib.parse import parse_qs, urlsplit
 
 import pexpect
@@ -34,9 +35,9 @@ from ..transcripts.script import WORLD_ACTIONS
 
 __all__ = ["EmulatorTarget", "EmulatorControl", "from_url", "emulator_command", "format_device_spec"]
 
-# The world actions, plus the control requests of DEVELOPING.md (@reset, @time, @speed, ...).
-CONTROL_CAPABILITIES: FrozenSet[str] = frozenset(WORLD_ACTIONS) | {"reset", "bootloader", "layout", "time",
-                                                                   "lint", "speed", "firmware"}
+# The world actions, plus the control requests of DEVELOPING.md (@reset, @time, @speed, @drive_events, ...).
+CONTROL_CAPABILITIES: FrozenSet[str] = frozenset(WORLD_ACTIONS) | {
+    "reset", "bootloader", "layout", "time", "lint", "speed", "firmware", "drive_events"}
 _STARTUP_TIMEOUT = 20.0     # generous: two shared noisy cores, and a Python start-up
 _REPLY_TIMEOUT = 10.0
 
@@ -120,6 +121,18 @@ class EmulatorControl(Control):
         if words and words[0] == "@speed" and reply:
             self._speed = float(reply)
         return reply
+
+    def drive_events_since(self, t: int) -> List[Dict[str, Any]]:
+        """The motor-drive changes after HAT ms ``t``, each port's level at ``t`` first
+        (``pwm``/``led`` events, as the in-process targets' ``drive_events``)."""
+        reply = self.request(f"@drive_events {int(t)}")
+        try:
+            events = json.loads(reply)
+        except ValueError:
+            events = None
+        if not isinstance(events, list):
+            raise TargetError(f"the emulator sent an unreadable @drive_events reply: {reply[:80]!r}")
+        return events
 
     def refresh_speed(self) -> None:
         try:
@@ -342,6 +355,20 @@ class EmulatorTarget(PyserialTarget):
         if self._tmp:
             shutil.rmtree(self._tmp, ignore_errors=True)
             self._tmp = None
+
+    # -- what only the world sees (conformance/needs.py's drive_levels) ----------------------------
+    @property
+    def now(self) -> int:
+        """The HAT's clock in ms (``@time``)."""
+        return int(float(self._need_control().request("@time")))
+
+    def drive_events_since(self, t: int) -> List[Dict[str, Any]]:
+        return self._need_control().drive_events_since(t)
+
+    def _need_control(self) -> EmulatorControl:
+        if self.control is None:
+            raise TargetError("the emulator's control channel is not connected (open the target first)")
+        return self.control
 
     def diagnose(self, problem: str) -> str:
         err = self.stderr_text(5)

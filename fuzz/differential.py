@@ -46,12 +46,17 @@ def _prompts_apart(parts: List[bytes]) -> List[bytes]:
     return out
 
 
-_GLUED = re.compile(rb"(.+?)(P[0-3](?:M[0-9]+|C[0-9]+|V|: ).+)", re.S)
+# Where a line the HAT prints by itself can start: a port's report or event, or one of the lines without
+# a port (the main loop's stall line after a slow pass, fb-stall; a queue overrun; the power faults).
+_GLUED = re.compile(rb"(.+?)(P[0-3](?:M[0-9]+|C[0-9]+|V|: ).+|deltat=.+|MQ overrun!|"
+                    rb"(?:Port|Motor) power fault)", re.S)
 
 
 def _torn_apart(parts: List[bytes]) -> List[bytes]:
     """A line the HAT printed by itself while an echo was still arriving (``P0>abcP0V: 1.0``, then
-    ``def`` as the next piece) comes apart from it and the echo is made whole (``P0>abcdef``):
+    ``def`` as the next piece; or ``P0>abcdeltat=00000003`` after a slow pass, whose end comes
+    while the line's bytes are still crossing the wire) comes apart from it and the echo is made
+    whole (``P0>abcdef``):
     where input crosses a wire the report lands between two echoed bytes, on either side at its own
     instant. (Each side's stream oracle does the same when its model knows the echo; this is for
     the comparison, also on a step the model cannot follow.)"""

@@ -198,7 +198,8 @@ class HatModel:
         out.append(LISTING_ITEM)
 
     def _cmd_clear_faults(self, cur: Cursor, out: List[Expect]) -> None:
-        pass
+        for p in self.ports:
+            p.forward_flag = True
 
     def _cmd_port(self, cur: Cursor, out: List[Expect]) -> None:
         self.port = clamp(cur.need(cur.unsigned()), 0, 3)

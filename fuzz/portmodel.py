@@ -35,6 +35,9 @@ class PortModel:
     pwmparams: Tuple[int, int] = (0, 0)   # R6+ (pwmthresh, minpwm), Q16
     device_modes: int = 0         # modes of the established active device here (0: none or unknown)
     tampered: bool = False        # write1/write2/combi reached the device: its mode is not ours to know
+    # clear_faults flags every driver forwards and the firmware writes the direction only when the duty
+    # changes sign (§4.1): a negative duty may show as its opposite until a steady drive shows it is not.
+    forward_flag: bool = False
 
     def copy(self) -> PortModel:
         """An independent copy: every field is immutable except ``combi`` (a dict of ints).

@@ -241,16 +241,18 @@ class Runner:
             answers.append(got)
             compared.append(got)
             self._note_kinds(got)
-            if side.model.tainted:
-                continue   # the facts do not say what this line does: liveness only
             if plan.debug & 1 and side.link.timed:
                 # The raw serial trace (debug bit 1, §7.4) has no line structure; where input
                 # takes time to arrive it runs until the guard's `debug 0` is read. Liveness only.
-                follow_links(side.model, got, plan.states)
-                side.model.ports[:] = plan.states[-1]
+                if not side.model.tainted:
+                    follow_links(side.model, got, plan.states)
+                    side.model.ports[:] = plan.states[-1]
                 self.stats.liveness_only += 1
-                lost = True   # (its bytes and where they cut in are timing: not compared either)
-                continue      # (the trace ends before the guard's `debug 0`, so before the fence line)
+                lost = True   # (its bytes and where they cut in are timing: not compared either,
+                continue      # also on a side whose model cannot follow; the trace ends before the
+                              # guard's `debug 0`, so before the fence line)
+            if side.model.tainted:
+                continue   # the facts do not say what this line does: liveness only
             res = match_stream(plan.expected, got, self._allowed(side, plan.debug))
             if res.problems and keep is not None:
                 # Bytes a full TX ring dropped are no finding (FIRMWARE-FACTS §1); anything else is.

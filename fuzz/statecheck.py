@@ -119,7 +119,8 @@ def check_drive(events: Optional[Sequence[dict]], model: HatModel, ms: int, res:
                 count: Callable[[str], None]) -> None:
     """State oracle on the drive, for targets that show it (the in-process emulator's
     ``drive_events``): a port in direct-PWM mode with a known constant setpoint settles at the
-    duty §7.3 gives for it and the port's plimit (per release); a coasting port coasts."""
+    duty §7.3 gives for it and the port's plimit (per release); a coasting port coasts. After a
+    ``clear_faults`` a negative duty may show forwards (§4.1) until the drive shows its own sign."""
     if events is None or ms < 30:
         return
     changed = {ev.port for _i, ev in res.asynchronous if ev.kind in _LINK_KINDS}
@@ -134,8 +135,12 @@ def check_drive(events: Optional[Sequence[dict]], model: HatModel, ms: int, res:
         if want is None:
             continue
         count("state")
-        if last[port] != want:
-            limit = p.plimit if model.per_port_plimit else model.plimit
-            res.problems.append(Problem(
-                "state", f"port {port} drives {last[port]!r}; direct PWM at setpoint "
-                         f"{p.constant} with plimit {limit}/65536 should drive {want!r}"))
+        if p.forward_flag and isinstance(want, int) and want < 0 and last[port] == -want:
+            continue            # still flagged forwards since a clear_faults (§4.1)
+        if last[port] == want:
+            p.forward_flag = False      # the driver was written since: its direction is the duty's
+            continue
+        limit = p.plimit if model.per_port_plimit else model.plimit
+        res.problems.append(Problem(
+            "state", f"port {port} drives {last[port]!r}; direct PWM at setpoint "
+                     f"{p.constant} with plimit {limit}/65536 should drive {want!r}"))

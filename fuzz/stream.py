@@ -129,6 +129,11 @@ def _asynchronous(res: MatchResult, idx: int, ev: Event, line: bytes, allowed: f
                                                "prints in this state"))
 
 
+# How far back from where the echo and the output part the cut may be: the echo's next bytes can be
+# the first bytes of the line that cut it (`deltat=`, `P0M1: ` ...), a few at most.
+_OVERLAP_MAX = 8
+
+
 def _torn_echo(echo: bytes, actual: bytes, pos: int, idx: int, allowed: frozenset,
                res: MatchResult) -> Optional[int]:
     """The position after ``echo`` when asynchronous lines cut into it, else None.
@@ -141,21 +146,46 @@ def _torn_echo(echo: bytes, actual: bytes, pos: int, idx: int, allowed: frozense
         n = len(os.path.commonprefix([echo[done:], actual[pos:pos + len(echo) - done]]))
         if n == 0 and not torn:
             return None              # not cut: it does not even start here
-        done, pos = done + n, pos + n
-        if done == len(echo):
+        if done + n == len(echo):
+            done, pos = done + n, pos + n
             break
-        line = _line_at(actual, pos)
-        if line is None:
+        # The line may begin with the byte the echo was due to send next (`...d(` cut by `deltat=`):
+        # the common prefix then runs into the line, so the cut may be a few bytes further back.
+        for back in range(min(n, _OVERLAP_MAX) + 1):
+            line = _line_at(actual, pos + n - back)
+            ev = classify(line) if line is not None else None
+            if ev is not None and ev.kind in ASYNC_KINDS and (back < n or torn):
+                break
+        else:
             return None
-        ev = classify(line)
-        if ev.kind not in ASYNC_KINDS:
-            return None
+        assert line is not None and ev is not None
+        done, pos = done + n - back, pos + n - back
         torn.append((ev, line, pos))
         pos += len(line) + 2
     for ev, line, start in torn:
         _asynchronous(res, idx, ev, line, allowed)
         res.torn.append((start, start + len(line) + 2))
     return pos
+
+
+def _torn_tail(echo: bytes, actual: bytes, pos: int, idx: int, allowed: frozenset,
+               res: MatchResult) -> Optional[int]:
+    """The position after ``echo`` when an asynchronous line cut it just before its last bytes and
+    began with those very bytes (`...xP0` cut before `P0` by `P0M1: 5`), else None: the whole echo
+    seemed to match, but the line goes on where the echo's CRLF was due."""
+    for back in range(1, min(len(echo), _OVERLAP_MAX) + 1):
+        start = pos + len(echo) - back
+        end = actual.find(b"\r\n", start)
+        tail = echo[len(echo) - back:]
+        if end < 0 or not actual.startswith(tail, end + 2):
+            continue
+        line = actual[start:end]
+        ev = classify(line)
+        if ev.kind in ASYNC_KINDS:
+            _asynchronous(res, idx, ev, line, allowed)
+            res.torn.append((start, end + 2))
+            return end + 2 + len(tail)
+    return None
 
 
 def match_stream(expected: List[Expect], actual: bytes, allowed: frozenset) -> MatchResult:
@@ -168,6 +198,8 @@ def match_stream(expected: List[Expect], actual: bytes, allowed: frozenset) -> M
             if item is not None:
                 if item.kind == "exact":      # inline: most items are (H10 profile)
                     nxt = pos + len(item.data) if actual.startswith(item.data, pos) else None
+                    if nxt is not None and item.what == "echo" and actual[nxt:nxt + 2] not in (b"\r\n", b""):
+                        nxt = _torn_tail(item.data, actual, pos, idx, allowed, res) or nxt
                 else:
                     nxt = _match_item(item, actual, pos)
                 if nxt is not None:

@@ -29,15 +29,11 @@ VIRTUAL = "inprocess:latest"
 RECHECK = "emulator:latest?speed=2"
 
 
-# What only the in-process world shows: the motor drive (`drive_events`). The emulator over a pty
-# has no way to show it, so a case that needs it skips there, saying so, and runs in virtual time.
-ONLY_IN_PROCESS = ("'drive_events'",)
-
-
+# Nothing is exempt: what only a world shows (the motor drive, `drive_events`) comes over the
+# emulator's control channel too (`@drive_events`), so those cases run on both sides.
 def _differences(wall: Dict[str, CaseResult], virtual: Dict[str, CaseResult]) -> Dict[str, Tuple[str, str]]:
     return {name: (wall[name].verdict, virtual[name].verdict)
-            for name in wall if name in virtual and wall[name].verdict != virtual[name].verdict
-            and not (wall[name].verdict == "skip" and any(c in wall[name].message for c in ONLY_IN_PROCESS))}
+            for name in wall if name in virtual and wall[name].verdict != virtual[name].verdict}
 
 
 def _first_line(result: CaseResult) -> str:

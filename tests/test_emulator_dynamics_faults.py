@@ -130,3 +130,25 @@ def test_bad_fault_arguments_are_clear_errors():
         faults.motor_fault(True, 7)
     with pytest.raises(ValueError, match="3 bytes"):
         faults.motor_fault(True, 1, (1, 2))
+
+
+def test_clear_faults_leaves_a_reversed_port_driving_forwards_until_the_sign_changes():
+    """FIRMWARE-BEHAVIOUR#fb-commands: clear_faults writes every driver's flag register (0x70, then
+    0x7F: forwards), and the direction is written again only when the duty changes sign; a coasting
+    port gets the coast amount (1) forwards until the next coast write (the firmware in the loop
+    shows the same: sil/README.md)."""
+    emu = booted("R7", {0: "0x30", 1: "none", 2: "none", 3: "none"})
+
+    def drive_after(line: bytes, ms: int = 100) -> list:
+        start = len(emu.events)
+        emu.write(line)
+        emu.advance(ms)
+        return [e["value"] for e in emu.events[start:] if e["dir"] == "pwm" and e["port"] == 0]
+
+    assert drive_after(b"port 0 ; pwm ; plimit 1 ; set -0.1\r") == [-26]
+    assert drive_after(b"port 1 ; clear_faults\r") == [26]      # every port, not only the current one
+    assert drive_after(b"port 0 ; set -0.2\r") == [51]           # same sign: only the amount changes
+    assert drive_after(b"set 0\r") + drive_after(b"set -0.2\r") == [0, -51]
+    assert drive_after(b"set 0.1\r") + drive_after(b"clear_faults\r") == [25]    # forwards stays
+    assert drive_after(b"coast\r") + drive_after(b"clear_faults\r", 20) == ["coast", 1, "coast"]
+    assert drive_after(b"set -0.1\r") == [-26]                   # out of coast the direction is written

@@ -129,5 +129,15 @@ def test_a_report_torn_into_an_echo_is_not_compared():
     torn = b"P0>\x0f\xd2abcP0V: 0.00000\r\n\xc3def\r\nError\r\nP0>version\r\n"
     assert compare_answers(torn, whole) is None
     assert compare_answers(torn, whole.replace(b"def", b"deg")) is not None
+    # the stall line of a slow pass, printed while the next line's bytes still arrive (sil: `P0>` and the
+    # echo of what came during the pass, `deltat=00000003`, the rest of the echo), and the unpaced
+    # emulator's, right after the prompt (both seen with `list` of three active devices then a long line)
+    stalled = b"P1>signature ;pw ;pid  3 21474.\xf2deltat=00000003\r\n\xdc\x08 \x08 1\r\nError\r\nP1>"
+    at_once = b"P1>deltat=00000003\r\nsignature ;pw ;pid  3 21474.\xf2\xdc\x08 \x08 1\r\nError\r\nP1>"
+    assert compare_answers(stalled, at_once) is None
+    assert compare_answers(stalled, at_once.replace(b" 1\r\n", b" 2\r\n")) is not None
+    for alone in (b"Port power fault", b"Motor power fault", b"MQ overrun!"):
+        glued = b"P0>ab" + alone + b"\r\ncd\r\nError\r\nP0>"
+        assert compare_answers(glued, b"P0>abcd\r\nError\r\nP0>") is None
     # a listing line is no report: it is still compared
     assert compare_answers(b"xP0: no device detected\r\nP0>", b"x\r\nP0>") is not None

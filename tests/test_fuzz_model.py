@@ -152,3 +152,27 @@ def test_expected_duty_follows_the_drive_path():
     assert expected_duty(m.profile, m.ports[0], m.plimit) is None
     m, _out, _f = run("R5", b"bias .2\rset 0.5\r")
     assert expected_duty(m.profile, m.ports[0], m.plimit) is None
+
+
+def test_drive_oracle_allows_a_reverse_duty_flagged_forwards_by_clear_faults():
+    """FIRMWARE-BEHAVIOUR#fb-commands: clear_faults writes every driver's flag register (forwards) and
+    the direction is written again only at the next change of sign (the sil finding: +26 after
+    `coast`, `set -3011.`, `clear_faults`, where the model said -26)."""
+    from buildhat_conformance.fuzz.statecheck import check_drive
+    from buildhat_conformance.fuzz.stream import MatchResult
+
+    def judge(m: HatModel, value: object) -> list:
+        res = MatchResult()
+        check_drive([{"t": 1, "dir": "pwm", "port": 0, "value": value}], m, 100, res, lambda _o: None)
+        return res.problems
+
+    m, _out, _f = run("R7", b"set -0.1\r")
+    m.ports[0].device_modes = 5                      # a motor is established there
+    assert judge(m, 25) and not judge(m, -26)        # without clear_faults the sign is the duty's
+    m.feed(b"clear_faults\r")
+    assert not judge(m, 26) and not judge(m, -26)    # forwards, or written again since
+    assert judge(m, 25)
+    assert not judge(m, -26) and judge(m, 26)        # seen reversed: the direction was written again
+    m.feed(b"set 0.1\r")
+    m.feed(b"clear_faults\r")
+    assert not judge(m, 25) and judge(m, -25)        # a forward duty stays what it is

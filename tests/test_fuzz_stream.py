@@ -30,6 +30,21 @@ def test_a_report_cut_into_the_echo_is_skipped_as_asynchronous():
     assert not match_stream(items, twice, allowed_kinds(R7, 0)).problems
 
 
+def test_a_line_that_begins_with_the_echos_next_byte_is_found_where_it_cuts():
+    """The sil finding (seed 11): the echo of `...d(` was cut after `...` by `deltat=00000003`, whose
+    `d` the echo's next byte matched; the cut is where the whole line starts."""
+    items = _expected(b"xd(\r")
+    torn = b"x" + b"deltat=00000003\r\n" + b"d(\r\nError\r\nP0>"
+    res = match_stream(items, torn, allowed_kinds(R7, 0))
+    assert not res.problems, res.problems
+    assert [ev.kind for _i, ev in res.asynchronous] == ["deltat"]
+    items = _expected(b"xP0\r")                                  # `x` echoed, then `P0M1: 5`, then `P0`
+    res = match_stream(items, b"x" + b"P0M1: 5\r\n" + b"P0\r\nError\r\nP0>", allowed_kinds(R7, 0))
+    assert not res.problems and [ev.kind for _i, ev in res.asynchronous] == ["mode_data"]
+    res = match_stream(items, b"x" + b"P0M1: 5\r\n" + b"P1\r\nError\r\nP0>", allowed_kinds(R7, 0))
+    assert res.problems                     # the rest of the echo still has to match
+
+
 def test_what_cuts_into_the_echo_must_be_an_asynchronous_line():
     items = _expected(b"port 2\r")
     res = match_stream(items, b"por" + b"Error\r\n" + b"t 2\r\nP2>", allowed_kinds(R7, 0))

@@ -49,6 +49,24 @@ def test_booted_emulator_starts_with_its_devices_up():
             assert line in lines
 
 
+def test_served_emulator_shows_the_motor_drive():
+    """The drive a port puts out comes over the control channel (``@drive_events``), as the
+    in-process targets' ``drive_events``: with plimit 1, direct PWM at 0.4 drives 0.4 x 255 = 102
+    (docs/FIRMWARE-BEHAVIOUR.md#fb-pwm-path), and a coasting port coasts."""
+    target = make_target("emulator:R7?booted=1&speed=5")
+    with Session(target) as s:
+        assert target.has("drive_events")
+        start = target.now
+        s.command("port 0 ; pwm ; plimit 1 ; set 0.4")
+        s.wait_ms(100)
+        drive = [e["value"] for e in target.drive_events_since(start) if e.get("port") == 0]
+        assert drive[-1] == 102, drive
+        s.command("coast")
+        s.wait_ms(100)
+        drive = [e["value"] for e in target.drive_events_since(target.now) if e.get("port") == 0]
+        assert drive[-1] == "coast", drive
+
+
 def test_booted_and_bootloader_exclude_each_other():
     with pytest.raises(TargetError, match="booted"):
         make_target("emulator:?booted=1&bootloader=1")
