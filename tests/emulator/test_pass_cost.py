@@ -11,11 +11,10 @@ from __future__ import annotations
 import re
 
 import pytest
+from emulator_tap import Tap
 
 from buildhat_conformance.emulator.api import Emulator
 from buildhat_conformance.protocol.profiles import profile_numbers
-
-from .emulator_tap import Tap
 
 DELTAT = re.compile(r"deltat=[0-9A-F]{8}")
 THREE = {0: "0x30", 1: "0x3E", 2: "0x3D", 3: "none"}     # motor, distance, colour

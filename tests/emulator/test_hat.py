@@ -7,10 +7,9 @@ from __future__ import annotations
 import re
 
 import pytest
+from emulator_tap import Tap, motor_on_p3
 
 from buildhat_conformance.emulator.api import Emulator
-
-from .emulator_tap import Tap, motor_on_p3
 
 EMPTY = {0: "none", 1: "none", 2: "none", 3: "none"}
 

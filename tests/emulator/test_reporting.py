@@ -8,14 +8,13 @@ from __future__ import annotations
 import re
 
 import pytest
+from emulator_tap import Tap, motor_on_p3
 
 from buildhat_conformance.emulator.api import Emulator
 from buildhat_conformance.emulator.commands_device import cmd_write1
 from buildhat_conformance.emulator.parser import Cursor
 from buildhat_conformance.emulator.reporting import decode_values
 from buildhat_conformance.protocol.profiles import get_profile
-
-from .emulator_tap import Tap, motor_on_p3
 
 EMPTY = {0: "none", 1: "none", 2: "none", 3: "none"}
 OLD = ["R1", "R2", "R3", "R4"]

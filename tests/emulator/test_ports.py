@@ -7,12 +7,11 @@ from __future__ import annotations
 import re
 
 import pytest
+from emulator_tap import Tap
 
 from buildhat_conformance.emulator.api import Emulator
 from buildhat_conformance.emulator.devices.matrix import POWER_GRACE_MS
 from buildhat_conformance.protocol.profiles import get_profile
-
-from .emulator_tap import Tap
 
 EMPTY = {0: "none", 1: "none", 2: "none", 3: "none"}
 # The device side of the set-up is the emulator model (the facts give only the HAT side): the
