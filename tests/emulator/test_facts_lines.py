@@ -161,7 +161,7 @@ def _check(h: Hat, out: bytes, name: str, profile: str, help_texts) -> None:
 
 @pytest.fixture(scope="module")
 def behaviour_text() -> str:
-    # The project's account of the facts (docs/FIRMWARE-BEHAVIOUR.md); tests/test_behaviour_doc.py
+    # The project's account of the facts (docs/FIRMWARE-BEHAVIOUR.md); tests/protocol/test_behaviour.py
     # checks its help texts and prefix table against the original facts where ../shared exists.
     return behaviour_doc.text()
 
