@@ -1,0 +1,133 @@
+"""Differential mode: the same input to two targets; a difference (beyond analogue tolerance) is a finding."""
+from __future__ import annotations
+
+import argparse
+from types import SimpleNamespace
+
+from buildhat_conformance.fuzz import cli
+from buildhat_conformance.fuzz.differential import compare_answers, first_difference, parted_matrix
+from buildhat_conformance.fuzz.reduce import steps_of
+from buildhat_conformance.fuzz.replay import replay_script
+from buildhat_conformance.fuzz.runner import Runner, Stats
+from buildhat_conformance.harness.script import load_script
+from buildhat_conformance.harness.targets.inprocess import InProcessTarget
+from buildhat_conformance.protocol.profiles import get_profile
+
+EMPTY = {0: None, 1: None, 2: None, 3: None}
+
+
+def test_compare_answers_tolerates_analogue_values_only():
+    assert compare_answers(b"\r\n7.20 V\r\n", b"\r\n7.25 V\r\n") is None
+    assert compare_answers(b"\r\n7.20 V\r\n", b"\r\n8.00 V\r\n") is not None
+    assert compare_answers(b"\r\nError\r\n", b"\r\n") is not None
+    # asynchronous lines depend on timing and are left to each side's own oracles
+    assert compare_answers(b"\r\nP0M1: +5\r\nError\r\n", b"\r\nError\r\n") is None
+    assert compare_answers(b"\r\nP0>", b"\r\nP1>") is not None
+
+
+def _args(tmp_path, *extra):
+    parser = argparse.ArgumentParser()
+    cli.add_arguments(parser)
+    args = parser.parse_args(["--target", "inprocess", "--out", str(tmp_path), "--no-database", "--quiet",
+                              "--waits", "", *extra])
+    args.devices = EMPTY
+    return args
+
+
+def _opener(release):
+    return lambda: InProcessTarget(release, devices=EMPTY)
+
+
+def test_two_copies_of_one_release_agree(tmp_path):
+    args = _args(tmp_path, "--target", "inprocess:R7", "--against", "inprocess:R7", "--budget", "4x",
+                 "--seed", "5", "--steps", "8")
+    result, _files = cli.run(args, primary=_opener("R7"), secondary=_opener("R7"))
+    assert not result.findings, [f.message for f in result.findings]
+
+
+def test_two_releases_differ_and_the_difference_replays(tmp_path):
+    # R5 still has `bias` and a 10-number `pid`; R7 has pwmparams, pid_diff, a new help text ...
+    args = _args(tmp_path, "--target", "inprocess:R7", "--against", "inprocess:R5", "--budget", "40x",
+                 "--seed", "5", "--steps", "8", "--families", "valid", "--shrink-time", "60")
+    result, files = cli.run(args, primary=_opener("R7"), secondary=_opener("R5"))
+    finding = result.finding("differential")
+    assert finding is not None, [f.message for f in result.findings]
+    script = load_script(files["differential"]["script"])
+    assert len(steps_of(script)) == 2, [a.text for a in script.actions]
+    again = replay_script(script, _opener("R7"), get_profile("R7"), fence_s=0.3,
+                          against=(_opener("R5"), get_profile("R5")))
+    assert again is not None and again.oracle == "differential"
+    assert (tmp_path / "differential.against.jsonl").exists()
+
+
+def test_a_device_dump_on_connecting_is_asynchronous_but_a_listing_is_not():
+    dump = (b"P1: connected to active ID 40\r\ntype 40\r\n  M0 COL O SI = PCT\r\n"
+            b"P1: established serial communication with active ID 40\r\n")
+    assert compare_answers(b"\r\n" + dump + b"P0>", b"\r\nP0>") is None
+    # a `list` answer (four headers) just before a connect is still compared
+    listed = b"P0: no device detected\r\nP1: connected to active ID 40\r\ntype 40\r\n"
+    assert compare_answers(listed + dump, listed) is None
+    assert compare_answers(listed + dump, dump) is not None
+    listing = b"P0: no device detected\r\nP1: connected to active ID 40\r\ntype 40\r\n"
+    shorter = b"P0: no device detected\r\nP1: connected to active ID 40\r\n"
+    assert compare_answers(listing, shorter) is not None
+
+
+def test_a_report_right_after_a_prompt_is_not_compared():
+    """A data report can land between a prompt and the next line's echo on either side (its time
+    is each target's own): `P3>P3V: ...` then `version` is `P3>version` with a report apart."""
+    other = b"\r\nP3>P1V: 0.00000\r\nversion\r\n"
+    assert compare_answers(b"\r\nP3>P3V: 0.00000\r\nversion\r\n", other) is None
+    assert compare_answers(b"\r\nP3>version\r\n", other) is None
+    assert compare_answers(b"\r\nP3>vin\r\n", other) is not None
+
+
+MATRIX_LISTED = (b"P0: no device detected\r\nP1: connected to active ID 40\r\ntype 40\r\n"
+                 b"  M0 LEV O SI = PCT\r\nP2: no device detected\r\nP3: no device detected\r\n")
+MATRIX_GONE = (b"P0: no device detected\r\nP1: no device detected\r\n"
+               b"P2: no device detected\r\nP3: no device detected\r\n")
+
+
+def test_a_light_matrix_gone_on_one_side_only_is_a_timing_boundary():
+    """The matrix stops talking after its grace without motor power (emulator/devices/matrix.py);
+    each side's clock ends that grace at its own instant, so one side may list it and the other not.
+    That port's `list` block is then left out; every other difference still counts."""
+    diff = first_difference(MATRIX_LISTED, MATRIX_GONE)
+    assert diff is not None and parted_matrix(diff[1], diff[2]) == 1
+    assert first_difference(MATRIX_LISTED, MATRIX_GONE, frozenset({1})) is None
+    # another port's difference is still one
+    other = MATRIX_GONE.replace(b"P3: no device detected", b"P3: connected to active ID 30")
+    assert first_difference(MATRIX_LISTED, other, frozenset({1})) is not None
+    # a motor (ID 30) gone on one side is no timing boundary
+    motor = MATRIX_LISTED.replace(b"ID 40\r\ntype 40", b"ID 30\r\ntype 30")
+    diff = first_difference(motor, MATRIX_GONE)
+    assert diff is not None and parted_matrix(diff[1], diff[2]) is None
+
+
+def _runner_comparing(a: bytes, b: bytes) -> Runner:
+    runner = Runner.__new__(Runner)
+    side = SimpleNamespace(fence_line=b"Firmware version: x", label="side")
+    runner.sides, runner.stats, runner._apart = [side, side], Stats(), set()   # type: ignore[list-item]
+    found: list = []
+    runner.fail = lambda oracle, message, details: found.append(oracle)    # type: ignore[method-assign]
+    runner._differential([b"list\r"], [a, b])
+    runner.found = found      # type: ignore[attr-defined]
+    return runner
+
+
+def test_the_runner_stops_comparing_a_parted_matrix_and_says_so():
+    runner = _runner_comparing(MATRIX_LISTED, MATRIX_GONE)
+    assert runner.found == [] and runner.stats.matrix_apart == 1 and runner._apart == {1}  # type: ignore[attr-defined]
+    runner._differential([b"list\r"], [MATRIX_LISTED + b"vin\r\n", MATRIX_GONE])
+    assert runner.found == ["differential"]  # type: ignore[attr-defined]
+
+
+def test_a_report_torn_into_an_echo_is_not_compared():
+    """On a wire the report lands between two echoed bytes, at each side's own instant; the
+    comparison makes the echo whole (also when the model cannot follow the step: a sil finding)."""
+    whole = b"P0>\x0f\xd2abc\xc3def\r\nError\r\nP0>version\r\n"
+    torn = b"P0>\x0f\xd2abcP0V: 0.00000\r\n\xc3def\r\nError\r\nP0>version\r\n"
+    assert compare_answers(torn, whole) is None
+    assert compare_answers(torn, whole.replace(b"def", b"deg")) is not None
+    # a listing line is no report: it is still compared
+    assert compare_answers(b"xP0: no device detected\r\nP0>", b"x\r\nP0>") is not None
