@@ -5,11 +5,9 @@ import subprocess
 import sys
 
 import pytest
+from sil_support import cli, copy_tree, firmware_tree  # noqa: E402
 
 from buildhat_conformance.sil.build import standin_dir
-
-sys.path.insert(0, os.path.dirname(__file__))
-from sil_support import cli, copy_tree, firmware_tree  # noqa: E402
 
 
 def _digest(tree):

@@ -1,12 +1,8 @@
 """`sil mutate` end to end through the user's command: a small seeded campaign on the real
 firmware's tree, with a planted regression the suite must kill by a failing case."""
 import json
-import os
-import sys
 
 import pytest
-
-sys.path.insert(0, os.path.dirname(__file__))
 from sil_support import cli, firmware_tree  # noqa: E402
 
 pytestmark = pytest.mark.timeout(900)

@@ -2,12 +2,8 @@
 the suite agrees with it in virtual time, a planted regression fails, a planted memory error is
 a ``crashed`` target fault naming its sanitizer, runs repeat byte for byte, coverage is reported."""
 import json
-import os
-import sys
 
 import pytest
-
-sys.path.insert(0, os.path.dirname(__file__))
 from sil_support import cli, copy_tree, firmware_tree, junit_verdicts, plant  # noqa: E402
 
 pytestmark = pytest.mark.timeout(900)
@@ -38,7 +34,7 @@ def test_abbreviation_cases_after_the_link_clauses_are_neither_faults_nor_failur
     # Deterministic (virtual time): this sequence once lost the stand-in's UART TX interrupt
     # (a `list` stopped after "P0: con" until the next host line: a false "garbled" target fault)
     # and then put a PID line between the fence's echo and its CRLF (the `port` probe's reply
-    # kept "version": a false failure). tests/test_sil_uart_model.py and
+    # kept "version": a false failure). tests/sil/test_hat.py and
     # tests/test_conformance_fence_echo.py hold each of them on its own.
     junit = tmp_path / "junit.xml"
     done = cli("run", "--target", f"sil:{firmware_tree()}", "-k",
