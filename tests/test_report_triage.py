@@ -208,6 +208,6 @@ def test_every_known_deviation_is_explained_for_the_report() -> None:
 
     for key, d in deviations().items():
         assert d.explain and d.explain.endswith(".") and len(d.explain) < 400, key
-        # explained by anchors of docs/FIRMWARE-BEHAVIOUR.md (tests/test_behaviour_doc.py: they exist)
+        # explained by anchors of docs/FIRMWARE-BEHAVIOUR.md (tests/protocol/test_behaviour.py: they exist)
         assert d.behaviour and all(re.fullmatch(r"fb-[a-z0-9-]+", a) for a in d.behaviour), key
         assert d.reference.startswith("docs/FIRMWARE-BEHAVIOUR.md#" + d.behaviour[0]), key

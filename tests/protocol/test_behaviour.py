@@ -11,12 +11,12 @@ from typing import Iterator, List, Tuple
 
 import behaviour_doc
 import pytest
+from repo_paths import REPO
 from shared_material import BEHAVIOUR_DOC, facts_text
 
 from buildhat_conformance.conformance.deviations import deviations
 from buildhat_conformance.protocol.behaviour import ANCHOR, DOC, anchors_in, cite, section_text
 
-REPO = pathlib.Path(__file__).resolve().parent.parent
 PACKAGE_TOPS = ("protocol", "harness", "emulator", "conformance", "fuzz", "bench", "buildhat_conformance")
 TEXT_SUFFIXES = (".py", ".md", ".json", ".jsonl", ".script", ".html", ".txt", ".toml", ".yml")
 # Verbatim copies of ../shared/formats (tests/test_packaging.py keeps them word for word), and the

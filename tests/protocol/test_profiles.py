@@ -1,12 +1,10 @@
-"""The profile and device data must say what the facts (as docs/FIRMWARE-BEHAVIOUR.md carries
-them) and devices.json say."""
-import json
+"""The release profiles (protocol/profiles.py, profiles.json) must say what the facts (as
+docs/FIRMWARE-BEHAVIOUR.md carries them) say."""
 
 import behaviour_doc
 import pytest
-from shared_material import need_shared
 
-from buildhat_conformance.protocol import devices, profiles
+from buildhat_conformance.protocol import profiles
 
 
 def test_seven_releases_in_order():
@@ -52,19 +50,3 @@ def test_unknown_version_uses_nearest_earlier():
     assert (p.name, exact) == ("R6", False)
     with pytest.raises(KeyError, match="known releases"):
         profiles.get_profile("1234")
-
-
-def test_device_catalogue_is_the_shared_copy():
-    original = need_shared("protocol", "devices.json", what="the original of protocol/devices.json")
-    shared = json.loads(original.read_text(encoding="utf-8"))
-    assert devices.catalogue() == shared
-
-
-def test_device_specs():
-    assert devices.parse_device_spec("0x30") == ("active", 0x30)
-    assert devices.parse_device_spec("passive  8") == ("passive", 8)
-    assert devices.parse_device_spec("none") is None
-    with pytest.raises(ValueError):
-        devices.parse_device_spec("passive 12")
-    with pytest.raises(KeyError):
-        devices.parse_device_spec("0x99")
