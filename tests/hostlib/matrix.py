@@ -66,7 +66,7 @@ class Outcome:
     name: str
     plan: Plan
     result: Optional[ScenarioResult] = None
-    skip: str = ""                     # why it could not run at all (PyPI unreachable)
+    skip: str = ""                     # why it could not run at all (PyPI unreachable): a failure
     setup_error: str = ""              # the emulator did not start
     emulator_exit: Optional[int] = None
     emulator_stderr: str = ""

@@ -6,8 +6,10 @@ used only when its stamp file says it finished installing exactly the pinned req
 was interrupted is thrown away and redone. A file lock serialises builders (several test processes, or
 other engineers' tests, may ask for the same version at once).
 
-If PyPI cannot be reached, :class:`HostLibUnavailable` is raised with pip's own words; the tests turn that
-into a skip that says so. Any other pip failure is a real error and propagates.
+If PyPI cannot be reached, :class:`HostLibUnavailable` is raised with pip's own words, and the test fails
+with them: every test that installs is marked ``network``, and a run without the network leaves those out on
+purpose (``-m "not network"`` or ``BUILDHAT_TESTS_OFFLINE=1``, tests/conftest.py), never by an install
+failure. Any other pip failure is a real error and propagates.
 
 Command line (for CI scripts): ``python tests/hostlib/venvs.py 0.9.0`` prints the interpreter path.
 """
