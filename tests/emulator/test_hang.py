@@ -8,6 +8,7 @@ import sys
 import pytest
 
 from buildhat_conformance.emulator import Emulator
+from buildhat_conformance.emulator.hang import HangTrigger
 from buildhat_conformance.harness.targets import TargetError, make_target
 
 BIN = pathlib.Path(sys.executable).parent
@@ -81,3 +82,16 @@ def test_a_hat_that_hangs_mid_answer_is_silent_not_garbled():
     assert fault.kind == SILENT and "then no answer to `version`" in fault.what
     junk = b"zzzz nonsense\r\n" * 3
     assert describe_silence(junk, LineSplitter().feed(junk, 0.0), 3.0).kind == GARBLED
+
+
+def test_the_trigger_finds_the_end_of_the_nth_line_across_writes():
+    trigger = HangTrigger(3)
+    assert trigger.split(b"vin\rport 0") is None            # one line so far
+    assert trigger.split(b"\rlist\rversion\r") == 6        # the third CR ends at index 5
+    assert trigger.split(b"vin\r") is None                  # once only
+
+
+def test_never_and_nonsense_counts():
+    assert HangTrigger(None).split(b"\r" * 100) is None
+    with pytest.raises(ValueError, match="at least 1"):
+        HangTrigger(0)

@@ -14,6 +14,7 @@ import pytest
 from emulator_tap import Tap
 
 from buildhat_conformance.emulator.api import Emulator
+from buildhat_conformance.emulator.pass_cost import stall_line
 from buildhat_conformance.protocol.profiles import profile_numbers
 
 DELTAT = re.compile(r"deltat=[0-9A-F]{8}")
@@ -93,3 +94,10 @@ def test_a_handshake_survives_stalled_passes():
     assert tx[0]["t"] - t_ack >= 10 and tx[1]["t"] - tx[0]["t"] >= 100
     assert t_baud - tx[1]["t"] >= 10 and t_est - t_baud >= 1
     assert [line for _, line in tap.lines if line.startswith("deltat=")]   # the passes did stall
+
+
+@pytest.mark.parametrize("ms,line", [(3, b"deltat=00000003"), (255, b"deltat=000000FF"),
+                                     (0xABCDEF12, b"deltat=ABCDEF12")])
+def test_the_stall_line_is_deltat_and_eight_upper_case_hex_digits(ms, line):
+    # §5: "`deltat=XXXXXXXX` (8 upper-case hex digits)"; the CRLF is the printer's.
+    assert stall_line(ms) == line
