@@ -54,7 +54,7 @@ def test_known_deviations_exactly_where_the_facts_say(tmp_path, release: str) ->
     table = CASES if release in ("R1", "R7") else CHANGING
     cases = sorted({c for k in table for c in table[k]} | set(INFORMATIONAL))
     # In virtual time: the same emulator release, whose verdicts equal a pty run's
-    # (tests/test_conformance_virtual_time.py); the pty path is covered there and below.
+    # (tests/end_to_end/test_conformance_virtual_time.py); the pty path is covered there and below.
     results = run_suite(str(tmp_path), f"inprocess:{release}", cases, timeout=280)
     assert results, "the child run produced no JUnit cases"
     failed = {n: r.message for n, r in results.items() if r.verdict == "fail"}

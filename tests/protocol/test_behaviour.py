@@ -19,7 +19,7 @@ from buildhat_conformance.protocol.behaviour import ANCHOR, DOC, anchors_in, cit
 
 PACKAGE_TOPS = ("protocol", "harness", "emulator", "conformance", "fuzz", "bench", "buildhat_conformance")
 TEXT_SUFFIXES = (".py", ".md", ".json", ".jsonl", ".script", ".html", ".txt", ".toml", ".yml")
-# Verbatim copies of ../shared/formats (tests/test_packaging.py keeps them word for word), and the
+# Verbatim copies of ../shared/formats (tests/project/test_packaging.py keeps them word for word), and the
 # developers' rules, which name the original facts the document is written from.
 NOT_USER_FACING = {REPO / "docs" / "DEVELOPING.md"} | set((REPO / "docs" / "formats").glob("*.md"))
 CITES_FACTS = re.compile(r"FIRMWARE-FACTS|\bFACTS\s*§|shared/protocol")

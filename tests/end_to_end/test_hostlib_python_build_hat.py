@@ -10,14 +10,10 @@ start together on the first test that needs one, so the part costs about its lon
 from __future__ import annotations
 
 import json
-import pathlib
 import re
-import sys
 from typing import Any, Dict, Tuple
 
 import pytest
-
-sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
 from hostlib import matrix as hl  # noqa: E402
 from hostlib.firmware_values import vin_volts  # noqa: E402
 from hostlib.venvs import FIRMWARE_OF, SUPPORTED  # noqa: E402

@@ -7,15 +7,11 @@ The wrong host makes the mistakes of FIRMWARE-FACTS §1 (CRLF) and §11/§12 ite
 from __future__ import annotations
 
 import json
-import pathlib
-import sys
 import time
 from typing import List
 
 import pytest
 import serial
-
-sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
 from hostlib.emulator_proc import EmulatorProcess  # noqa: E402
 
 pytestmark = pytest.mark.timeout(120)

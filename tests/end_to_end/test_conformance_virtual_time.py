@@ -12,8 +12,7 @@ from concurrent.futures import ThreadPoolExecutor
 from typing import Dict, Tuple
 
 import pytest
-
-from .mutants.suite_run import CaseResult, run_suite
+from mutants.suite_run import CaseResult, run_suite
 
 pytestmark = pytest.mark.timeout(600)
 

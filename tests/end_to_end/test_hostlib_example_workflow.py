@@ -15,14 +15,13 @@ from typing import Dict, List
 
 import pytest
 import serial
+from hostlib.scenario import run_scenario  # noqa: E402
+from hostlib.venvs import buildhat_python  # noqa: E402
+from repo_paths import REPO  # noqa: E402
 
 from buildhat_conformance.emulator.cli import build_parser
 
-sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
-from hostlib.scenario import run_scenario  # noqa: E402
-from hostlib.venvs import buildhat_python  # noqa: E402
-
-WORKFLOW = pathlib.Path(__file__).resolve().parents[1] / "examples" / "github-actions-host-library.yml"
+WORKFLOW = REPO / "examples" / "github-actions-host-library.yml"
 pytestmark = pytest.mark.timeout(180)
 
 

@@ -10,10 +10,9 @@ import time
 import xml.etree.ElementTree as ET
 
 import pytest
+from mutants.suite_run import MUTANT, REPO, SUITE, reported_case_count
 
 from buildhat_conformance.harness.transcript import read_transcript
-
-from .mutants.suite_run import MUTANT, REPO, SUITE, reported_case_count
 
 pytestmark = pytest.mark.timeout(300)
 

@@ -11,12 +11,9 @@ import os
 import pathlib
 import signal
 import subprocess
-import sys
 import time
 
 import pytest
-
-sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
 from lab_fixture import BIN, Lab, missing  # noqa: E402
 
 SUBSET = "shortest_resolving_prefix"        # 28 short cases, about 13 s on a place

@@ -7,8 +7,7 @@ import subprocess
 import sys
 
 import pytest
-
-from .mutants.suite_run import REPO, SUITE, read_junit
+from mutants.suite_run import REPO, SUITE, read_junit
 
 pytestmark = pytest.mark.timeout(300)
 

@@ -21,8 +21,7 @@ from dataclasses import dataclass, field
 from typing import Dict, List
 
 import pytest
-
-from .mutants.suite_run import REPO, SUITE, CaseResult, read_junit, reported_case_count
+from mutants.suite_run import REPO, SUITE, CaseResult, read_junit, reported_case_count
 
 pytestmark = pytest.mark.timeout(240)
 

@@ -17,15 +17,13 @@ import sys
 from concurrent.futures import ThreadPoolExecutor
 from typing import Tuple
 
+import browser_check  # a script beside the tests, not a package
 import pytest
-
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-
-import browser_check  # noqa: E402  (a script beside the tests, not a package)
+import repo_paths
 
 pytestmark = pytest.mark.timeout(300)
 
-REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+REPO = str(repo_paths.REPO)
 PROXY = os.path.join(REPO, "tests", "planted", "proxy.py")
 # coast answered with Error (the planted bug), unplug/plug skipped (a cmd: target has no control
 # channel), bias a known deviation of the latest release.

@@ -4,12 +4,10 @@ from __future__ import annotations
 
 import pathlib
 import subprocess
-import sys
 import time
 
 import pytest
 
-sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
 from hostlib import venvs  # noqa: E402
 
 pytestmark = pytest.mark.timeout(300)

@@ -11,8 +11,7 @@ from __future__ import annotations
 from typing import List
 
 import pytest
-
-from .mutants.suite_run import run_suite
+from mutants.suite_run import run_suite
 
 # mutation -> (cases that must fail, cases that must not)
 MUTANTS = {

@@ -20,12 +20,11 @@ import sys
 import xml.etree.ElementTree as ET
 
 import pytest
-
-sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
+from repo_paths import TESTS  # noqa: E402
 from test_firmware_load import files, image_of  # noqa: E402
 
 BIN = pathlib.Path(sys.executable).parent
-FAKE_GPIOD = pathlib.Path(__file__).resolve().parent / "fake_gpiod"
+FAKE_GPIOD = TESTS / "fake_gpiod"
 SUBSET = "shortest_resolving_prefix"        # 28 short cases
 # 14 of them, for the runs at real time: the hang (after the 60th line) still comes in the fifth or
 # sixth, and seven or more follow it.

@@ -8,19 +8,16 @@ Node program on the emulator's real pty; it uses only Node's standard library.
 from __future__ import annotations
 
 import json
-import pathlib
 import shutil
 import subprocess
-import sys
 
 import pytest
+from hostlib.emulator_proc import EmulatorProcess  # noqa: E402
+from repo_paths import TESTS  # noqa: E402
 
 from buildhat_conformance.protocol.profiles import profile_numbers
 
-sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
-from hostlib.emulator_proc import EmulatorProcess  # noqa: E402
-
-CLIENT = pathlib.Path(__file__).resolve().parent / "nodehost" / "list_then_deltat.js"
+CLIENT = TESTS / "nodehost" / "list_then_deltat.js"
 NODE = shutil.which("node")
 THREE = {0: "0x30", 1: "0x3E", 2: "0x3D", 3: "none"}       # the capture's three devices
 

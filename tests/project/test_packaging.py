@@ -7,9 +7,9 @@ import re
 import sys
 
 import pytest
+from repo_paths import REPO
 from shared_material import need_shared
 
-REPO = pathlib.Path(__file__).resolve().parent.parent
 FORMATS = ("SCENARIO-SCRIPT.md", "TRANSCRIPT.md")
 # Everything a user reads or runs: the package's folders, the docs, the examples, the top-level files.
 USER_TOPS = ("protocol", "harness", "emulator", "conformance", "fuzz", "bench", "buildhat_conformance",

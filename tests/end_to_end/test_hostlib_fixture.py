@@ -13,15 +13,14 @@ import time
 
 import pytest
 import serial
-
-sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
 from hostlib.firmware_values import vin_volts  # noqa: E402
 from hostlib.lpf2data import data_line  # noqa: E402
 from hostlib.scenario import run_scenario  # noqa: E402
 from hostlib.venvs import buildhat_python  # noqa: E402
+from repo_paths import TESTS  # noqa: E402
 
 pytestmark = pytest.mark.timeout(180)
-CASES = pathlib.Path(__file__).resolve().parent / "hostlib" / "fixture_cases"
+CASES = TESTS / "hostlib" / "fixture_cases"
 
 
 def read_until(port: serial.Serial, marker: bytes, seconds: float) -> bytes:

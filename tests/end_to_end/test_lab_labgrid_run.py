@@ -9,17 +9,13 @@ reason, where labgrid or ser2net is missing.
 """
 from __future__ import annotations
 
-import pathlib
 import subprocess
-import sys
 import xml.etree.ElementTree as ET
 
 import pytest
-
-sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
+from end_to_end.test_run_reset_recovery import PI_SUBSET  # 14 cases; the hang comes in the 5th or 6th
 from lab_fixture import BIN, Lab, missing  # noqa: E402
 from test_firmware_load import files, image_of  # noqa: E402
-from test_run_reset_recovery import PI_SUBSET  # noqa: E402  # 14 cases; the hang comes in the 5th or 6th
 
 
 @pytest.fixture
