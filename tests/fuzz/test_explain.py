@@ -62,3 +62,12 @@ def test_a_differential_finding_names_the_step_and_what_each_target_printed():
         assert finding.details["against_line"] == b"Error\r\n"
     finally:
         runner.close()
+
+
+def test_a_step_is_cut_after_every_cr_as_the_hat_processes_it():
+    from buildhat_conformance.fuzz.explain import sent_lines, shown
+
+    assert sent_lines(b"vin\rport 0 ; list\r\rver") == [b"vin\r", b"port 0 ; list\r", b"\r", b"ver"]
+    assert sent_lines(b"") == []
+    assert shown(None) == "nothing"
+    assert shown(b"x" * 200, limit=10) == repr(b"x" * 10) + "... (200 bytes)"
