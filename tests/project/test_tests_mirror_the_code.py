@@ -4,6 +4,9 @@ with the end-to-end test that covers it:
 
     Covered end to end: `cli.py`, `pytest_fixture.py` by `tests/end_to_end/test_emulator_processes.py`.
 
+The benchmarks alone may instead say that only ``make bench`` runs a module (timing lives there, and some
+measures need a whole lab): ``Run by `make bench` only: `lab.py` (why).``
+
 Imports are read from the source (ast): module level, inside functions, and ``importlib.import_module``
 with a literal name. A package's ``__init__.py`` counts as imported when the package or anything in it is.
 """
@@ -21,6 +24,8 @@ PACKAGE = "buildhat_conformance"
 # The package root's own modules (the CLI) are mirrored in tests/cli/; every other folder by its name.
 TESTS_OF = {PACKAGE: "cli"}
 COVERAGE_LINE = re.compile(r"^Covered end to end[^:]*:\s*(?P<modules>.+?)\s+by\s+(?P<tests>`.+)$")
+BENCH_ONLY_LINE = re.compile(r"^Run by `make bench` only:\s*(?P<modules>.+)$")
+BENCH_ONLY_FOLDERS = {"bench"}        # measures with no test of their own are allowed there alone
 
 
 def package_folders(repo: pathlib.Path) -> List[str]:
@@ -74,10 +79,14 @@ def covered_by_readme(readme: pathlib.Path, repo: pathlib.Path) -> Dict[str, Lis
         return found
     for line in readme.read_text(encoding="utf-8").splitlines():
         m = COVERAGE_LINE.match(line.strip())
+        bench_only = BENCH_ONLY_LINE.match(line.strip())
         if m:
             tests = re.findall(r"`([^`]+)`", m.group("tests"))
             for module in re.findall(r"`([^`]+\.py)`", m.group("modules")):
                 found.setdefault(module, []).extend(tests)
+        elif bench_only and readme.parent.name in BENCH_ONLY_FOLDERS:
+            for module in re.findall(r"`([^`]+\.py)`", bench_only.group("modules")):
+                found.setdefault(module, [])
     return found
 
 
@@ -157,3 +166,15 @@ def test_a_coverage_line_covers_a_module_and_must_name_real_files(planted: pathl
         "widget/README.md: names tests/end_to_end/test_gone.py for lever.py, which does not exist",
         "widget/README.md: names pulley.py, which does not exist",
         "widget/README.md: names tests/end_to_end/test_gone.py for pulley.py, which does not exist"]
+
+
+def test_only_the_benchmarks_may_leave_a_module_to_make_bench(planted: pathlib.Path):
+    (planted / "widget" / "README.md").write_text("Run by `make bench` only: `lever.py` (a lab).\n",
+                                                  encoding="utf-8")
+    assert [p.split(":")[0] for p in uncovered(planted, package_folders(planted))] == ["widget/lever.py"]
+    (planted / "setup.py").write_text('FOLDERS = ["bench"]\n', encoding="utf-8")
+    (planted / "widget").rename(planted / "bench")
+    (planted / "tests" / "widget").rename(planted / "tests" / "bench")
+    for test in (planted / "tests" / "bench").rglob("test_*.py"):
+        test.write_text(test.read_text(encoding="utf-8").replace(".widget", ".bench"), encoding="utf-8")
+    assert uncovered(planted, package_folders(planted)) == []
