@@ -4,6 +4,7 @@ with the end-to-end test that covers it:
 
     Covered end to end: `cli.py`, `pytest_fixture.py` by `tests/end_to_end/test_emulator_processes.py`.
 
+A name may be a pattern (`cases/test_*.py`: the suite's own cases, run whole by an end-to-end test).
 The benchmarks alone may instead say that only ``make bench`` runs a module (timing lives there, and some
 measures need a whole lab): ``Run by `make bench` only: `lab.py` (why).``
 
@@ -13,6 +14,7 @@ with a literal name. A package's ``__init__.py`` counts as imported when the pac
 from __future__ import annotations
 
 import ast
+import fnmatch
 import pathlib
 import re
 from typing import Dict, Iterable, List, Set
@@ -102,7 +104,7 @@ def uncovered(repo: pathlib.Path, folders: Iterable[str]) -> List[str]:
         readme = repo / folder / "README.md"
         by_readme = covered_by_readme(readme, repo)
         for module, tests in by_readme.items():
-            if not (repo / folder / module).is_file():
+            if not any(p.is_file() for p in (repo / folder).glob(module)):
                 problems.append(f"{readme.relative_to(repo)}: names {module}, which does not exist")
             problems += [f"{readme.relative_to(repo)}: names {t} for {module}, which does not exist"
                          for t in tests if not (repo / t).is_file()]
@@ -111,7 +113,8 @@ def uncovered(repo: pathlib.Path, folders: Iterable[str]) -> List[str]:
             is_package = path.name == "__init__.py"
             if name in names or (is_package and any(n.startswith(name + ".") for n in names)):
                 continue
-            if str(path.relative_to(repo / folder)) in by_readme:
+            inside = path.relative_to(repo / folder).as_posix()
+            if any(fnmatch.fnmatchcase(inside, pattern) for pattern in by_readme):
                 continue
             problems.append(f"{path.relative_to(repo)}: no test in {tests_dir.relative_to(repo)}/ imports "
                             f"it and {folder}/README.md has no coverage line for it")
@@ -159,6 +162,8 @@ def test_a_coverage_line_covers_a_module_and_must_name_real_files(planted: pathl
     readme = planted / "widget" / "README.md"
     readme.write_text("Covered end to end: `lever.py` by `tests/end_to_end/test_widget.py`.\n",
                       encoding="utf-8")
+    assert uncovered(planted, package_folders(planted)) == []
+    readme.write_text("Covered end to end: `l*.py` by `tests/end_to_end/test_widget.py`.\n", encoding="utf-8")
     assert uncovered(planted, package_folders(planted)) == []
     readme.write_text("Covered end to end: `lever.py`, `pulley.py` by `tests/end_to_end/test_gone.py`.\n",
                       encoding="utf-8")
