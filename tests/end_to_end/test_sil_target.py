@@ -35,7 +35,7 @@ def test_abbreviation_cases_after_the_link_clauses_are_neither_faults_nor_failur
     # (a `list` stopped after "P0: con" until the next host line: a false "garbled" target fault)
     # and then put a PID line between the fence's echo and its CRLF (the `port` probe's reply
     # kept "version": a false failure). tests/sil/test_hat.py and
-    # tests/test_conformance_fence_echo.py hold each of them on its own.
+    # tests/conformance/test_reply.py hold each of them on its own.
     junit = tmp_path / "junit.xml"
     done = cli("run", "--target", f"sil:{firmware_tree()}", "-k",
                "test_clause_semicolon or shortest_resolving_prefix_runs_the_command", "--junit", str(junit),

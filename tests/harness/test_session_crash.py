@@ -10,14 +10,12 @@ import textwrap
 import time
 
 import pytest
+from harness_fakehat import HERE as FAKEHAT  # noqa: E402
 
 from buildhat_conformance.harness.errors import TargetError
 from buildhat_conformance.harness.session import Session
 from buildhat_conformance.harness.targets import make_target
 from buildhat_conformance.harness.transcript import hat_stream, read_transcript
-
-sys.path.insert(0, os.path.dirname(__file__))
-from harness_fakehat import HERE as FAKEHAT  # noqa: E402
 
 STREAM = 60
 

@@ -11,11 +11,10 @@ import tempfile
 from concurrent.futures import ThreadPoolExecutor
 
 import pytest
+from mutants.suite_run import run_suite
 
 from buildhat_conformance.conformance.verdict import INFO, KNOWN, Verdict
 from buildhat_conformance.protocol.profiles import get_profile, neighbours, undecided_features
-
-from .mutants.suite_run import run_suite
 
 pytestmark = pytest.mark.timeout(300)
 
@@ -60,7 +59,7 @@ def _run(target: str, keyword: str = CASES):
 
 
 def test_unknown_builds_are_never_failed_for_what_a_neighbour_does():
-    # (R1 itself gets these as known deviations: test_conformance_profiles.py checks that.)
+    # (R1 itself gets these as known deviations: tests/conformance/test_deviations.py checks that.)
     with ThreadPoolExecutor(max_workers=3) as pool:      # child pytests, mostly start-up time
         runs = [pool.submit(_run, f"inprocess:R2?version={BUILD}"),
                 pool.submit(_run, f"inprocess:R1?version={BUILD}"),

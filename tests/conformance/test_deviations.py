@@ -9,10 +9,9 @@ from __future__ import annotations
 from typing import Dict, List
 
 import pytest
+from mutants.suite_run import run_suite
 
 from buildhat_conformance.conformance.deviations import deviations, expected_keys
-
-from .mutants.suite_run import run_suite
 
 # Which cases can report which deviation (test names as in conformance/).
 CASES: Dict[str, List[str]] = {

@@ -5,13 +5,9 @@ never the fence's echo: the real firmware's code did this in the abbreviation pr
 (`p 2` seen as ``p 2\\r\\nP2>version``, a false failure)."""
 from __future__ import annotations
 
-import os
-import sys
+from stream_injection import PID_LINE, echoing_hat  # noqa: E402
 
 from buildhat_conformance.conformance.reply import without_fence_line
-
-sys.path.insert(0, os.path.dirname(__file__))
-from stream_injection import PID_LINE, echoing_hat  # noqa: E402
 
 
 def test_the_fence_line_is_cut_around_a_stream_line() -> None:

@@ -2,20 +2,16 @@
 ``loop://``, and ``socket://`` against a local listener thread."""
 from __future__ import annotations
 
-import os
 import socket
-import sys
 import threading
 
 import pytest
+from harness_fakehat import FakeHat, PtyResponder  # noqa: E402
 
 from buildhat_conformance.harness.errors import ExpectTimeout, SessionError, TargetError
 from buildhat_conformance.harness.session import Session
 from buildhat_conformance.harness.targets import Target, make_target, open_target
 from buildhat_conformance.harness.transcript import hat_stream, host_stream, read_transcript
-
-sys.path.insert(0, os.path.dirname(__file__))
-from harness_fakehat import FakeHat, PtyResponder  # noqa: E402
 
 
 @pytest.fixture

@@ -7,13 +7,9 @@ echo is recognised around that line, so the counted fence stays in step: no targ
 ("garbled") for a healthy HAT."""
 from __future__ import annotations
 
-import os
-import sys
+from stream_injection import PID_LINE, echoing_hat  # noqa: E402
 
 from buildhat_conformance.harness.line_splitter import LineSplitter
-
-sys.path.insert(0, os.path.dirname(__file__))
-from stream_injection import PID_LINE, echoing_hat  # noqa: E402
 
 REPORT = b"P0M3: +98\r\n"
 
