@@ -11,7 +11,7 @@ figures are blank and say why.
   from the run's JUnit file (per-case times).
 - *A hung HAT reset*: ``buildhat-conformance run`` on the emulator with its hung-firmware fault;
   the time from the first case that met the hang to the first case that passed again after the
-  run's one reset (conformance/recovery.py).
+  run's one reset (conformance/plugin/recovery.py).
 - *Memory under a flood*: ``buildhat-conformance script`` waiting while the HAT floods 3,000
   lines/s; the harness process's peak resident memory (VmHWM), and whether the transcript on
   disk holds every flooded line. The issue's figure is a 10-minute flood (< 150 MB); ``make

@@ -1,7 +1,7 @@
 """``run`` on labgrid places: hold them for the whole run, one worker each, give them back.
 
 ``--places SPEC`` (harness/lab/selection.py) becomes the run's targets: one place alone is the
-run's ``--target``; several are an inventory named by place (conformance/multitarget.py: one
+run's ``--target``; several are an inventory named by place (conformance/plugin/multitarget.py: one
 xdist worker each, one merged report whose every case names its place). ``labgrid:`` targets
 given by hand are held the same way. The run holds its places from before the preflight to
 after the report, so nothing else drives them in between, and releases them on every way out.

@@ -4,7 +4,7 @@ The harness talks to the HAT through the protocol it is testing: its fence asks 
 counts the CRLF each CR gives; its sync between cases turns echo on and off; its set-up puts
 several commands on one line with ``;``. A HAT that breaks one of those clauses would otherwise
 make every case look like a target fault (issue 24). So the first cases of a run
-(``conformance/test_link_clauses.py``, marked ``link_clause``) check each clause as a conformance
+(``conformance/cases/test_link_clauses.py``, marked ``link_clause``) check each clause as a conformance
 case, and until a clause has passed the harness does without it:
 
 - ``separator`` (SYN-SEMICOLON) untrusted: set-up lines go one command per line;

@@ -121,7 +121,7 @@ class Resync:
                                         f"{self.session.events[banner].text!r})")
 
     def after_reset(self, since: int) -> None:
-        """The run reset the HAT (conformance/recovery.py) at event index ``since``: the next
+        """The run reset the HAT (conformance/plugin/recovery.py) at event index ``since``: the next
         set-up waits for its start-up and restores the preconditions, as after a restart, without
         counting it as one the HAT did by itself."""
         self.rebooted = True

@@ -10,7 +10,7 @@ HTML report is built. pytest's own options go after ``--`` and are passed on unc
 
 The child and everything it starts end with this process: it has its own process group, a
 parent-death signal (harness/parent_death.py), and on Ctrl-C or SIGTERM it is told to stop,
-which closes the target and writes the JUnit file marked partial (conformance/interrupt.py);
+which closes the target and writes the JUnit file marked partial (conformance/plugin/interrupt.py);
 the HTML report is still built.
 """
 from __future__ import annotations
@@ -39,7 +39,7 @@ from ..harness.parent_death import die_with_parent
 from .lab_run import hold_for_run
 from .run_passthrough import PYTEST_HELP, UNKNOWN_ARGS_HINT, refused_arguments
 
-# The dispatcher (harness/cli_dispatch.py) hands on what follows `--`, and what refused_arguments
+# The dispatcher (buildhat_conformance/cli.py) hands on what follows `--`, and what refused_arguments
 # lets through, to pytest as `args.extra`.
 PASS_UNKNOWN_ARGS = True
 __all__ = ["add_arguments", "main", "pytest_argv", "suite_dir", "refused_arguments", "UNKNOWN_ARGS_HINT",
@@ -92,7 +92,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def suite_dir() -> str:
-    return os.path.dirname(os.path.abspath(__file__))
+    """The folder of the conformance cases (conformance/cases/)."""
+    return os.path.join(os.path.dirname(os.path.abspath(__file__)), "cases")
 
 
 def _targets(args: argparse.Namespace) -> List[str]:
@@ -104,7 +105,7 @@ def _targets(args: argparse.Namespace) -> List[str]:
 def pytest_argv(args: argparse.Namespace) -> List[str]:
     junit = os.path.abspath(args.junit)
     transcripts = args.transcripts or os.path.join(os.path.dirname(junit), "transcripts")
-    # H10: --target may be given several times (conformance/multitarget.py runs one worker each).
+    # H10: --target may be given several times (conformance/plugin/multitarget.py runs one worker each).
     targets = _targets(args)
     argv = [sys.executable, "-m", "pytest", suite_dir(), "-p", "no:cacheprovider", "--rootdir", suite_dir(),
             *[a for t in targets for a in ("--target", t)], "--conformance-junit", junit,
@@ -112,7 +113,7 @@ def pytest_argv(args: argparse.Namespace) -> List[str]:
             # The suite uses no Hypothesis; its pytest plugin imports the library in the terminal
             # summary, two seconds of every run (H10 profile).
             "-p", "no:hypothesispytest",
-            "-p", "buildhat_conformance.conformance.interrupt",
+            "-p", "buildhat_conformance.conformance.plugin.interrupt",
             # The host-library fixture plugin (emulator/pytest_fixture.py) is not the suite's.
             "-p", "no:buildhat_emulator",
             # pytest's closing gc.collect() passes over the whole session's heap (twice): a tenth
@@ -123,7 +124,7 @@ def pytest_argv(args: argparse.Namespace) -> List[str]:
     extra = list(getattr(args, "extra", []) or [])
     if len(targets) == 1 and not getattr(args, "inventory", None) and not any(
             a.split("=")[0] in _XDIST_OPTIONS or a.startswith("-n") for a in extra):
-        # One target: no xdist workers (conformance/multitarget.py), so not its plugins either.
+        # One target: no xdist workers (conformance/plugin/multitarget.py), so not its plugins either.
         argv += ["-p", "no:xdist", "-p", "no:xdist.looponfail"]
     argv += ["--conformance-html", os.path.join(os.path.dirname(junit), "index.html")]
     if getattr(args, "inventory", None):
@@ -152,14 +153,14 @@ def preflight(args: argparse.Namespace) -> None:
     judged = check_release(args.firmware, "--firmware") if args.firmware else None
     if args.junit:
         check_writable(args.junit, "--junit")
-    else:   # a new run folder under reports/runs/ (harness/report/runs.py)
-        from ..harness.report import runs
+    else:   # a new run folder under reports/runs/ (conformance/report/runs.py)
+        from .report import runs
 
         check_writable(os.path.join(runs.DEFAULT_ROOT, runs.RUNS), "the run folder", folder=True)
     if args.transcripts:
         check_writable(args.transcripts, "--transcripts", folder=True)
     from ..harness.targets.base import TargetError
-    from .run_outcome import release_mismatch
+    from .plugin.run_outcome import release_mismatch
 
     urls = _inventory_urls(args.inventory) if getattr(args, "inventory", None) else _targets(args)
     for url in urls:
@@ -182,7 +183,7 @@ def _inventory_urls(path: str) -> List[str]:
     import pytest
 
     from ..harness.cli_options import UsageError
-    from .multitarget import read_inventory
+    from .plugin.multitarget import read_inventory
 
     try:
         found = read_inventory(path)
@@ -222,7 +223,7 @@ def _remove_if_empty(folders: List[str]) -> None:
 
 def build_html_report(junit: str) -> None:
     """Write ``index.html`` beside the JUnit file; the suite's closing line has named it."""
-    from ..harness.report import build_report
+    from .report import build_report
 
     try:
         build_report([junit], os.path.join(os.path.dirname(junit), "index.html"))
@@ -312,7 +313,7 @@ def main(args: argparse.Namespace) -> int:
 
 
 def _run(args: argparse.Namespace) -> int:
-    from ..harness.report import runs
+    from .report import runs
 
     preflight(args)   # before the run folder and the load: a mistake is one line, reports/ untouched
     made = _missing_folders(os.path.join(runs.DEFAULT_ROOT, runs.RUNS)) if not args.junit else []

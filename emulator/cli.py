@@ -147,8 +147,8 @@ def _lint(args: argparse.Namespace):
 
 
 def _run_script(args: argparse.Namespace, devices: Dict[int, Optional[tuple]]) -> int:
-    from ..harness.script import ScriptError, load_script
     from ..harness.version import __version__
+    from ..transcripts.script import ScriptError, load_script
     from .runners.script_runner import ScriptRunError, run_script
 
     try:

@@ -24,7 +24,7 @@ from __future__ import annotations
 
 from typing import Any, Callable, Dict, Protocol, Sequence, Tuple
 
-from ..harness.script import Action, parse_world_action
+from ..transcripts.script import Action, parse_world_action
 
 __all__ = ["WorldError", "WORLD_HANDLERS", "perform", "perform_line"]
 

@@ -24,9 +24,9 @@ import time
 from dataclasses import dataclass, field
 from typing import Callable, Dict, List, Optional, Tuple
 
-from ..harness.script import Script
 from ..harness.targets.base import Target, TargetError
 from ..protocol.profiles import Profile
+from ..transcripts.script import Script
 from .findings import script_from_trace
 from .generate import FAMILIES, InputGenerator
 from .grammar import grammar_for

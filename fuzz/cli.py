@@ -21,10 +21,10 @@ import sys
 from typing import Callable, Dict, Optional, Tuple
 
 from ..harness.cli_options import RELEASE_HELP, add_hidden_alias
-from ..harness.script import ScriptError, load_script
 from ..harness.targets import make_target
 from ..harness.targets.base import Target, TargetError
 from ..protocol.devices import DEFAULT_LAYOUT
+from ..transcripts.script import ScriptError, load_script
 from .campaign import CampaignConfig, CampaignResult, new_seed, parse_budget, run_campaign
 from .explain import header_lines
 from .findings import write_finding, write_junit

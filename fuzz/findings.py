@@ -13,9 +13,9 @@ import re
 from typing import Dict, List, Optional, Sequence
 from xml.sax.saxutils import escape, quoteattr
 
-from ..harness.script import Action, Script, format_action, parse_script
 from ..harness.transcript import TranscriptWriter
 from ..protocol.devices import DEFAULT_LAYOUT
+from ..transcripts.script import Action, Script, format_action, parse_script
 from .link import Trace
 from .oracles import ORACLES, Finding
 

@@ -10,7 +10,7 @@ from __future__ import annotations
 import time
 from typing import Callable, List, Optional, Tuple
 
-from ..harness.script import Action, Script
+from ..transcripts.script import Action, Script
 from .link import FENCE
 from .oracles import Finding
 

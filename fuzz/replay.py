@@ -8,9 +8,9 @@ from __future__ import annotations
 
 from typing import Callable, List, Optional, Tuple, Union
 
-from ..harness.script import Script, load_script
 from ..harness.targets.base import Target
 from ..protocol.profiles import Profile
+from ..transcripts.script import Script, load_script
 from .link import FENCE
 from .oracles import Finding
 from .runner import Runner

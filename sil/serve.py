@@ -47,7 +47,7 @@ def build_parser(prog: str = "buildhat-conformance sil serve") -> argparse.Argum
 
 def _hat(args: argparse.Namespace, parser: argparse.ArgumentParser):  # -> SilHat
     from ..harness.targets.base import TargetError
-    from ..harness.targets.sil import SilTarget, program_for
+    from .target import SilTarget, program_for
     try:
         program, _build = program_for(args.program, [s for s in args.sanitize.split(",") if s], False)
         devices = device_options(args.device, parser)

@@ -10,7 +10,7 @@ import pytest
 from shared_material import need_shared
 
 TREE_NAME = "firmware-pico-1737564117"
-CLI = [sys.executable, "-m", "buildhat_conformance.harness.cli_dispatch"]
+CLI = [sys.executable, "-m", "buildhat_conformance.cli"]
 
 
 def firmware_tree() -> pathlib.Path:

@@ -16,8 +16,8 @@ import sys
 import pytest
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
-SCRIPT = ROOT / "transcripts" / "abbreviation.script"
-TRANSCRIPT = ROOT / "transcripts" / "abbreviation.jsonl"
+SCRIPT = ROOT / "transcripts" / "data" / "abbreviation.script"
+TRANSCRIPT = ROOT / "transcripts" / "data" / "abbreviation.jsonl"
 
 
 def _cli(args, cwd):
@@ -156,7 +156,7 @@ def test_firmware_judges_as_and_says_so(tmp_path):
 
 
 def test_help_is_plain_text_and_names_the_default_target(tmp_path, monkeypatch, capsys):
-    from buildhat_conformance.harness.cli_dispatch import SUBCOMMANDS
+    from buildhat_conformance.cli import SUBCOMMANDS
 
     # fuzz keeps inprocess as its default for now (h15-fuzz's choice; see the h16-cli report)
     for args in (["--help"], ["run", "--help"], ["script", "--help"]):
@@ -206,7 +206,7 @@ def _misspelt_cases():
 
 
 def test_every_command_is_in_the_misspelt_option_walk():
-    from buildhat_conformance.harness.cli_dispatch import SUBCOMMANDS
+    from buildhat_conformance.cli import SUBCOMMANDS
 
     assert set(MISSPELT) == set(SUBCOMMANDS) == set(CONFORMANCE_COMMANDS)
 
@@ -271,7 +271,7 @@ def _parser(prog):
     """The parser a program or command really uses."""
     import importlib
 
-    from buildhat_conformance.harness import cli_dispatch
+    from buildhat_conformance import cli as cli_dispatch
 
     if prog == "buildhat-emulator":
         from buildhat_conformance.emulator.cli import build_parser

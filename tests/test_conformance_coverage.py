@@ -16,7 +16,7 @@ from buildhat_conformance.protocol.profiles import load_profiles
 from buildhat_conformance.protocol.requirements import requirement_ids
 
 REPO = pathlib.Path(__file__).resolve().parent.parent
-SUITE = REPO / "conformance"
+SUITE = REPO / "conformance" / "cases"
 
 
 @pytest.fixture(scope="module")

@@ -1,12 +1,12 @@
-"""The suite's JUnit file (conformance/junit.py) stays a valid report while the run goes: a case
+"""The suite's JUnit file (conformance/plugin/junit.py) stays a valid report while the run goes: a case
 that did not pass is on disk at once, passing ones at most ``REWRITE_EVERY_S`` later, and
 everything once the session writes it at the end."""
 from __future__ import annotations
 
 import xml.etree.ElementTree as ET
 
-from buildhat_conformance.conformance import junit
-from buildhat_conformance.conformance.junit import Case, JUnitFile
+from buildhat_conformance.conformance.plugin import junit
+from buildhat_conformance.conformance.plugin.junit import Case, JUnitFile
 
 
 def _names(path) -> list:

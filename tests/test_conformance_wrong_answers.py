@@ -137,7 +137,7 @@ def test_a_clause_is_trusted_only_after_its_case_passed_and_never_after_it_faile
     assert not clauses.trusted("separator") and clauses.split("port 1 ; select") == ["port 1", "select"]
     clauses.held("separator")
     assert clauses.trusted("separator") and clauses.split("port 1 ; select") == ["port 1 ; select"]
-    clauses.broke("echo", "conformance/test_link_clauses.py::test_clause_echo")
+    clauses.broke("echo", "conformance/cases/test_link_clauses.py::test_clause_echo")
     clauses.held("echo")
     assert not clauses.trusted("echo")
     assert clauses.broken() == ["CMD-ECHO (`echo 1` echoes what is typed and prompts, `echo 0` stops it) "
@@ -145,7 +145,7 @@ def test_a_clause_is_trusted_only_after_its_case_passed_and_never_after_it_faile
 
 
 def test_the_banner_says_how_much_was_skipped_and_why() -> None:
-    from buildhat_conformance.conformance.run_outcome import banner, nothing_done
+    from buildhat_conformance.conformance.plugin.run_outcome import banner, nothing_done
 
     results = {f"c{i}": ("skip" if i < 3 else "pass", []) for i in range(10)}
     reasons = {f"c{i}": "needs a second motor: connect another" for i in range(3)}

@@ -13,11 +13,11 @@ import gpiod
 import pytest
 from gpiod.line import Direction, Value
 
+from buildhat_conformance.emulator.process_target import EmulatorControl
 from buildhat_conformance.harness.firmware import load_firmware
 from buildhat_conformance.harness.firmware.gpio_reset import BOOT0_LINE, RESET_LINE, GpioReset
 from buildhat_conformance.harness.firmware.image import FirmwareImage
 from buildhat_conformance.harness.targets import TargetError, make_target
-from buildhat_conformance.harness.targets.emulator import EmulatorControl
 from buildhat_conformance.protocol.profiles import get_profile
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))

@@ -3,8 +3,8 @@ import io
 
 import pytest
 
-from buildhat_conformance.harness.script import ScriptError, format_action, parse_script, unescape_raw
 from buildhat_conformance.harness.transcript import TranscriptWriter, read_transcript
+from buildhat_conformance.transcripts.script import ScriptError, format_action, parse_script, unescape_raw
 
 
 def test_transcript_round_trips_exact_bytes():

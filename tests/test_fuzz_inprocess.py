@@ -1,11 +1,11 @@
-"""The in-process target (harness/targets/inprocess.py): URL, virtual time, independent copies."""
+"""The in-process target (emulator/inprocess_target.py): URL, virtual time, independent copies."""
 from __future__ import annotations
 
 import pytest
 
+from buildhat_conformance.emulator.inprocess_target import InProcessTarget, from_url
 from buildhat_conformance.harness.targets import make_target
 from buildhat_conformance.harness.targets.base import TargetError
-from buildhat_conformance.harness.targets.inprocess import InProcessTarget, from_url
 
 EMPTY = {0: None, 1: None, 2: None, 3: None}
 

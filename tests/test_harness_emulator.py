@@ -8,12 +8,12 @@ import signal
 import pytest
 
 from buildhat_conformance.harness.errors import TargetError
-from buildhat_conformance.harness.script import parse_script
-from buildhat_conformance.harness.script_runner import run_script
 from buildhat_conformance.harness.session import Session
 from buildhat_conformance.harness.targets import make_target
 from buildhat_conformance.harness.transcript import read_transcript
 from buildhat_conformance.protocol.profiles import get_profile
+from buildhat_conformance.transcripts.script import parse_script
+from buildhat_conformance.transcripts.script_runner import run_script
 
 
 def test_emulator_open_detect_and_world_actions():

@@ -15,7 +15,7 @@ import time
 
 import pytest
 
-from buildhat_conformance.conformance.plugin import transcript_name
+from buildhat_conformance.conformance.plugin.run import transcript_name
 from buildhat_conformance.harness.history import MAX_EVENTS, ByteHistory, EventHistory
 from buildhat_conformance.harness.session import Session
 from buildhat_conformance.harness.targets import make_target

@@ -9,10 +9,10 @@ import pytest
 
 from buildhat_conformance.cli import main as cli
 from buildhat_conformance.harness.errors import NeedsCapability, TargetError
-from buildhat_conformance.harness.script import parse_script
-from buildhat_conformance.harness.script_runner import check_capabilities, run_script
 from buildhat_conformance.harness.targets import make_target
 from buildhat_conformance.harness.transcript import read_transcript
+from buildhat_conformance.transcripts.script import parse_script
+from buildhat_conformance.transcripts.script_runner import check_capabilities, run_script
 
 sys.path.insert(0, os.path.dirname(__file__))
 from harness_fakehat import HERE as FAKEHAT  # noqa: E402

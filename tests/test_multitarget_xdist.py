@@ -1,4 +1,4 @@
-"""Several targets at once (conformance/multitarget.py): one xdist worker per target, one
+"""Several targets at once (conformance/plugin/multitarget.py): one xdist worker per target, one
 merged JUnit report that names the target of every case."""
 from __future__ import annotations
 
@@ -9,7 +9,11 @@ import xml.etree.ElementTree as ET
 
 import pytest
 
-from buildhat_conformance.conformance.multitarget import _repeated_targets, merge_junit, read_inventory
+from buildhat_conformance.conformance.plugin.multitarget import (
+    _repeated_targets,
+    merge_junit,
+    read_inventory,
+)
 from buildhat_conformance.conformance.runner import suite_dir
 
 pytest.importorskip("xdist")

@@ -1,4 +1,4 @@
-"""The HTML report (harness/report/) from hand-written JUnit files and transcripts."""
+"""The HTML report (conformance/report/) from hand-written JUnit files and transcripts."""
 from __future__ import annotations
 
 import json
@@ -8,11 +8,11 @@ import xml.etree.ElementTree as ET
 import pytest
 
 from buildhat_conformance.cli import main as cli_main
-from buildhat_conformance.harness.report import build_report
-from buildhat_conformance.harness.report import html as report_html
-from buildhat_conformance.harness.report.coverage import coverage
-from buildhat_conformance.harness.report.junit import check_junit, read_junit
-from buildhat_conformance.harness.report.series import ideal_setpoint, pid_series, wave_runs
+from buildhat_conformance.conformance.report import build_report
+from buildhat_conformance.conformance.report import html as report_html
+from buildhat_conformance.conformance.report.coverage import coverage
+from buildhat_conformance.conformance.report.junit import check_junit, read_junit
+from buildhat_conformance.conformance.report.series import ideal_setpoint, pid_series, wave_runs
 from buildhat_conformance.protocol.requirements import requirement_ids
 
 # The debug 16 example of FIRMWARE-FACTS §7.4 (Kp=5, Ki=0.5, Kd=0.1, SP=1).
@@ -159,7 +159,7 @@ def _charts(text):
 
 
 def test_html_report_is_self_contained_and_complete(sample, monkeypatch):
-    import buildhat_conformance.harness.report as report
+    import buildhat_conformance.conformance.report as report
 
     monkeypatch.setattr(report, "MIN_SAMPLES", 1)   # the hand-made PID run has 5 samples
     out = sample / "out" / "index.html"
@@ -193,7 +193,7 @@ def test_html_report_is_self_contained_and_complete(sample, monkeypatch):
 
 
 def test_plots_carry_their_numbers_in_words(sample, monkeypatch):
-    import buildhat_conformance.harness.report as report
+    import buildhat_conformance.conformance.report as report
 
     monkeypatch.setattr(report, "MIN_SAMPLES", 1)
     out = sample / "plain.html"
@@ -233,7 +233,7 @@ def test_wave_runs_measure_against_the_ideal(sample):
 
 
 def test_ideal_shapes_follow_the_document():
-    from buildhat_conformance.harness.report.series import WaveRun
+    from buildhat_conformance.conformance.report.series import WaveRun
 
     tri = WaveRun(0, "triangle", -1, 1, 1.0, 0.0, 0)
     assert [ideal_setpoint(tri, t) for t in (0, 250, 500, 750)] == [-1, 0, 1, 0]

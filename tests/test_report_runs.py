@@ -1,4 +1,4 @@
-"""Run folders (harness/report/runs.py) through the real ``buildhat-conformance run``: each run
+"""Run folders (conformance/report/runs.py) through the real ``buildhat-conformance run``: each run
 writes its own folder, ``reports/latest`` and the well-known copies follow only runs where
 cases ran, and old runs can be listed and pruned."""
 from __future__ import annotations
@@ -10,7 +10,7 @@ import sys
 
 import pytest
 
-from buildhat_conformance.harness.report import runs
+from buildhat_conformance.conformance.report import runs
 
 pytestmark = pytest.mark.timeout(300)
 

@@ -8,11 +8,11 @@ import json
 import re
 import xml.etree.ElementTree as ET
 
-from buildhat_conformance.harness.report import build_report
-from buildhat_conformance.harness.report.junit import read_junit
-from buildhat_conformance.harness.report.svg import histogram, nice_ticks
-from buildhat_conformance.harness.report.timing import collect_timing
-from buildhat_conformance.harness.report.triage import exchange_of, group_failures, headline
+from buildhat_conformance.conformance.report import build_report
+from buildhat_conformance.conformance.report.junit import read_junit
+from buildhat_conformance.conformance.report.svg import histogram, nice_ticks
+from buildhat_conformance.conformance.report.timing import collect_timing
+from buildhat_conformance.conformance.report.triage import exchange_of, group_failures, headline
 
 FENCE_ANSWER = "Firmware version: 1737564117 2025-01-22T16:41:57+00:00"
 HAT_REPR = "hat = <buildhat_conformance.conformance.link.Hat object at 0x7f45c3dcdb90>"
@@ -124,8 +124,8 @@ def test_failures_group_by_first_differing_line_and_the_report_says_so(tmp_path)
     cases.append({"name": "test_bias_removed", "failure": (HAT_REPR, f"{HAT_REPR}\nbias answered Error"),
                   "props": [("verdict", "known deviation"), ("deviations", "BIAS-REMOVED")]})
     for name in ("test_next", "test_after_next"):
-        cases.append({"name": name, "failure": ("buildhat_conformance.conformance.plugin.NotRun: not run: "
-                                                "cannot open target cmd:hat", ""),
+        cases.append({"name": name, "failure": ("buildhat_conformance.conformance.plugin.run.NotRun: "
+                                                "not run: cannot open target cmd:hat", ""),
                       "props": [("verdict", "not-run")]})
     run = read_junit(junit(tmp_path / "j.xml", cases))
     fails = [(run, c) for c in run.cases if c.verdict == "fail"]

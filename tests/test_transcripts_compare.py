@@ -1,11 +1,11 @@
-"""Comparison rules (harness/compare.py): each rule accepts what it should and rejects the rest."""
+"""Comparison rules (transcripts/compare.py): each rule accepts what it should and rejects the rest."""
 from __future__ import annotations
 
 import re
 
 import pytest
 
-from buildhat_conformance.harness.compare import (
+from buildhat_conformance.transcripts.compare import (
     RuleSet,
     Unit,
     compare_units,

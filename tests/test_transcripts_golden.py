@@ -14,12 +14,12 @@ import re
 
 import pytest
 
-from buildhat_conformance.harness.compare import RuleSet
-from buildhat_conformance.harness.replay import compare_transcripts, plan_replay, replay
 from buildhat_conformance.harness.targets import make_target
 from buildhat_conformance.harness.transcript import read_transcript
+from buildhat_conformance.transcripts.compare import RuleSet
+from buildhat_conformance.transcripts.replay import compare_transcripts, plan_replay, replay
 
-GOLDEN = pathlib.Path(__file__).resolve().parent.parent / "transcripts"
+GOLDEN = pathlib.Path(__file__).resolve().parent.parent / "transcripts" / "data"
 R7, R4 = "1737564117", "1670332907"
 R7_VERSION = "Firmware version: 1737564117 2025-01-22T16:41:57+00:00"
 R4_VERSION = "Firmware version: 1670332907 2022-12-06T13:21:47+00:00"
@@ -69,7 +69,7 @@ def test_every_golden_has_its_script_and_a_readme_entry():
         t = read_transcript(str(f))
         script = GOLDEN / t.meta["script"]
         assert script.is_file(), f"{f.name}: meta.script {t.meta['script']} is not beside it"
-        assert f.name in readme, f"{f.name} is not described in transcripts/README.md"
+        assert f.name in readme, f"{f.name} is not described in transcripts/data/README.md"
         assert t.events[-1]["dir"] == "end"
 
 

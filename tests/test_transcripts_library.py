@@ -13,11 +13,11 @@ import time
 import pytest
 
 from buildhat_conformance.cli import main as cli_main
-from buildhat_conformance.harness.mock import serve_pty
-from buildhat_conformance.harness.record import ready_lines, record_proxy
 from buildhat_conformance.harness.targets import make_target
 from buildhat_conformance.harness.transcript import read_transcript
 from buildhat_conformance.protocol.devices import DEFAULT_LAYOUT
+from buildhat_conformance.transcripts.mock import serve_pty
+from buildhat_conformance.transcripts.record import ready_lines, record_proxy
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
 from hostlib.venvs import buildhat_python  # noqa: E402

@@ -84,12 +84,12 @@ def test_replay_refuses_a_mismatched_script(tmp_path, capsys):
 
 def test_script_record_and_replay_are_one_runner(tmp_path, capsys):
     """`script`, `record` and `replay` run a scenario the same way (one runner,
-    harness/script_runner.py): on the in-process emulator their transcripts after t = 0 are the
+    transcripts/script_runner.py): on the in-process emulator their transcripts after t = 0 are the
     same bytes at the same times, and the lines the emulator's own script mode wrote in the
     golden transcript (reviewed against FIRMWARE-FACTS in test_transcripts_golden.py)."""
     import pathlib
 
-    golden = pathlib.Path(__file__).resolve().parent.parent / "transcripts"
+    golden = pathlib.Path(__file__).resolve().parent.parent / "transcripts" / "data"
     script = str(golden / "appendix-a-motor.script")
     target = "inprocess:1737564117"
     ran, recorded, replayed = (str(tmp_path / n) for n in ("script.jsonl", "record.jsonl", "replay.jsonl"))

@@ -14,8 +14,8 @@ import pytest
 from hostlib.venvs import buildhat_python
 from repo_paths import TESTS
 
-from buildhat_conformance.harness.mock import exchanges_of
 from buildhat_conformance.harness.transcript import read_transcript
+from buildhat_conformance.transcripts.mock import exchanges_of
 
 # What python-build-hat 0.9.0 sends when it connects (serinterface.py), back to back, no waits.
 SELECT_ALL = "port 0 ; select ; port 1 ; select ; port 2 ; select ; port 3 ; select ; echo 0"

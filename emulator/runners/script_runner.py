@@ -12,9 +12,9 @@ from __future__ import annotations
 import math
 from typing import IO, Any, Dict, List, Optional, Tuple
 
-from ...harness.script import Script
 from ...harness.transcript import TranscriptWriter
 from ...protocol.devices import format_device_spec
+from ...transcripts.script import Script
 from ..api import Emulator
 from ..world import WorldError
 

@@ -1,6 +1,6 @@
 """An open Session's byte stream as a :class:`Target`, so ``load`` can run inside a session.
 
-``run`` reloads the release after it reset a dead HAT (conformance/recovery.py) without closing
+``run`` reloads the release after it reset a dead HAT (conformance/plugin/recovery.py) without closing
 the session: the session's reader keeps reading (every byte still reaches the run's transcript)
 and ``load``'s :class:`~.wire.Wire` reads what the session received, from where it began.
 """

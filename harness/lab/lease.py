@@ -170,7 +170,7 @@ _TERM_INSTALLED: list = []
 def _release_on_sigterm() -> None:
     """SIGTERM's default ends the process without ``atexit``: turn it into KeyboardInterrupt, so
     the run unwinds and gives its places back. Left alone when a handler is set already (the
-    suite's own, conformance/interrupt.py) or off the main thread."""
+    suite's own, conformance/plugin/interrupt.py) or off the main thread."""
     if _TERM_INSTALLED or threading.current_thread() is not threading.main_thread():
         return
     if signal.getsignal(signal.SIGTERM) is signal.SIG_DFL:

@@ -2,22 +2,26 @@
 
 | URL | module |
 |---|---|
-| ``emulator``, ``emulator:<release|latest>[?speed=N&device=P=SPEC...]`` | ``emulator`` |
 | ``/dev/...`` or any existing path, ``serial:///dev/...?baud=115200`` | ``serial`` |
 | ``socket://``, ``rfc2217://``, ``loop://`` and other pyserial URLs | ``pyserial_url`` |
 | ``cmd:<command line>`` | ``cmd`` |
-| ``inprocess[:...]`` | ``inprocess`` |
-| ``sil:<tree or program>[?...]`` | ``sil`` (the real firmware in the loop) |
 | ``labgrid:PLACE[?coordinator=HOST:PORT...]`` | ``labgrid`` (the ``lab`` extra) |
+| ``emulator``, ``emulator:<release|latest>[?speed=N&device=P=SPEC...]`` | emulator/process_target.py |
+| ``inprocess[:...]`` | emulator/inprocess_target.py |
+| ``sil:<tree or program>[?...]`` | sil/target.py (the real firmware in the loop) |
 
 Each module provides ``from_url(url, **options) -> Target``; it is imported only when its
-URL is used. :func:`make_target` builds a target; :func:`open_target` also opens it.
+URL is used. The last three start what lives above this folder (an emulator, the firmware), so
+they are found through the package's entry points (group ``buildhat_conformance.targets``,
+pyproject.toml), never imported from here. :func:`make_target` builds a target;
+:func:`open_target` also opens it.
 """
 from __future__ import annotations
 
 import importlib
 import os
-from typing import Callable, Dict, List, Tuple
+from importlib import metadata
+from typing import Any, Callable, Dict, List, Optional, Tuple
 
 from .base import Control, NeedsCapability, Target, TargetError
 
@@ -28,9 +32,6 @@ _PKG = __name__
 
 # scheme -> module (in this package) providing from_url; "" marks a path.
 _SCHEMES: Dict[str, str] = {
-    "emulator": "emulator",
-    "inprocess": "inprocess",
-    "sil": "sil",
     "cmd": "cmd",
     "serial": "serial",
     "socket": "pyserial_url",
@@ -43,6 +44,9 @@ _SCHEMES: Dict[str, str] = {
     "labgrid": "labgrid",
 }
 _FACTORIES: Dict[str, Callable[..., Target]] = {}
+# scheme -> entry point of a target module above harness/ (emulator/, sil/); read once.
+_ENTRY_POINT_GROUP = "buildhat_conformance.targets"
+_ENTRY_POINTS: Optional[Dict[str, Any]] = None
 
 _FORMS: List[Tuple[str, str]] = [
     ("emulator[:<release|latest>][?speed=N&device=P=SPEC]", "the reference emulator on a pty"),
@@ -68,11 +72,22 @@ def url_forms() -> List[Tuple[str, str]]:
     return list(_FORMS)
 
 
+def _entry_points() -> Dict[str, Any]:
+    """The target modules the installed package names for this folder (pyproject.toml)."""
+    global _ENTRY_POINTS
+    if _ENTRY_POINTS is None:
+        found = metadata.entry_points()
+        group = found.select(group=_ENTRY_POINT_GROUP) if hasattr(found, "select") \
+            else found.get(_ENTRY_POINT_GROUP, [])    # Python 3.9: a dict of groups
+        _ENTRY_POINTS = {ep.name: ep for ep in group}
+    return _ENTRY_POINTS
+
+
 def _scheme(url: str) -> str:
     """The URL's scheme, or "" for a device path. Known schemes win over same-named paths
     (a checkout has an ``emulator/`` folder; ``emulator`` still means the emulator)."""
     head = url.split(":", 1)[0].split("?", 1)[0].lower()
-    if head in _SCHEMES or head in _FACTORIES:
+    if head in _SCHEMES or head in _FACTORIES or head in _entry_points():
         return head
     if url.startswith(("/", ".")) or os.path.exists(url):
         return ""
@@ -88,10 +103,15 @@ def make_target(url: str, **options) -> Target:
     if scheme == "":
         scheme = "serial"
     factory = _FACTORIES.get(scheme)
+    if factory is None and scheme in _entry_points():
+        try:
+            factory = _entry_points()[scheme].load()
+        except ModuleNotFoundError as exc:
+            raise TargetError(f"target kind {scheme!r} is not available in this build ({exc.name})") from exc
     if factory is None:
         module_name = _SCHEMES.get(scheme)
         if module_name is None:
-            close = [k for k in _SCHEMES if scheme.startswith(k)]
+            close = [k for k in [*_SCHEMES, *_entry_points()] if scheme.startswith(k)]
             hint = f" (did you mean {close[0]}:{url[len(close[0]):]}?)" if close else ""
             raise TargetError(f"unknown target {url!r}{hint}; " + _known())
         try:

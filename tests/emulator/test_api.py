@@ -5,7 +5,7 @@ import pytest
 
 from buildhat_conformance.emulator import Emulator
 from buildhat_conformance.emulator.world import WORLD_HANDLERS, WorldError
-from buildhat_conformance.harness.script import WORLD_ACTIONS
+from buildhat_conformance.transcripts.script import WORLD_ACTIONS
 
 EMPTY = {0: None, 1: None, 2: None, 3: None}
 HELP_R7 = 4201          # §4.3: the R6-R7 help text is 4201 bytes

@@ -106,8 +106,8 @@ def test_a_finding_is_confirmed_shell_quoted_and_saved_to_the_database_with_a_se
     import argparse
     import importlib.util
 
+    from buildhat_conformance.emulator.inprocess_target import InProcessTarget
     from buildhat_conformance.fuzz import cli
-    from buildhat_conformance.harness.targets.inprocess import InProcessTarget
 
     spec = importlib.util.spec_from_file_location("planted_faults", HERE / "planted" / "faults.py")
     faults = importlib.util.module_from_spec(spec)
@@ -165,7 +165,7 @@ def test_differential_campaign_between_two_paced_real_time_emulators_runs_its_wh
 def test_a_finding_on_a_link_target_is_shrunk_by_replaying_smaller_scripts(tmp_path):
     """The planted `wrong` fault as a `cmd:` byte proxy (a process, kept open from run to run)."""
     from buildhat_conformance.fuzz.reduce import steps_of
-    from buildhat_conformance.harness.script import load_script
+    from buildhat_conformance.transcripts.script import load_script
 
     res = _fuzz("--target", _proxy_url("wrong"), "--budget", "10x", "--seed", "4", "--steps", "4",
                 "--batch", "4", "--families", "valid", "--confirm", "1", "--shrink-time", "120",

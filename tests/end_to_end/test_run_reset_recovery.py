@@ -1,4 +1,4 @@
-"""Issue 13 item 2: `run` resets a dead HAT once and goes on (conformance/recovery.py).
+"""Issue 13 item 2: `run` resets a dead HAT once and goes on (conformance/plugin/recovery.py).
 
 The HAT under test hangs mid-run (the emulator's fault injection, emulator/hang.py: after the
 host's Nth line it neither reads nor prints until a reset). Each run is the user's own command,

@@ -13,12 +13,12 @@ import xml.etree.ElementTree as ET
 import pytest
 from repo_paths import TESTS
 
+from buildhat_conformance.emulator.inprocess_target import InProcessTarget
 from buildhat_conformance.fuzz import cli
 from buildhat_conformance.fuzz.reduce import steps_of
 from buildhat_conformance.fuzz.replay import replay_script
-from buildhat_conformance.harness.script import load_script
-from buildhat_conformance.harness.targets.inprocess import InProcessTarget
 from buildhat_conformance.protocol.profiles import get_profile
+from buildhat_conformance.transcripts.script import load_script
 
 HERE = TESTS
 # A motor on port 0 (reports, drive), nothing else: the cheapest layout that has every behaviour.

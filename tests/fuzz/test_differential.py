@@ -4,14 +4,14 @@ from __future__ import annotations
 import argparse
 from types import SimpleNamespace
 
+from buildhat_conformance.emulator.inprocess_target import InProcessTarget
 from buildhat_conformance.fuzz import cli
 from buildhat_conformance.fuzz.differential import compare_answers, first_difference, parted_matrix
 from buildhat_conformance.fuzz.reduce import steps_of
 from buildhat_conformance.fuzz.replay import replay_script
 from buildhat_conformance.fuzz.runner import Runner, Stats
-from buildhat_conformance.harness.script import load_script
-from buildhat_conformance.harness.targets.inprocess import InProcessTarget
 from buildhat_conformance.protocol.profiles import get_profile
+from buildhat_conformance.transcripts.script import load_script
 
 EMPTY = {0: None, 1: None, 2: None, 3: None}
 

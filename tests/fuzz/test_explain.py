@@ -9,10 +9,10 @@ import pathlib
 
 from repo_paths import TESTS
 
+from buildhat_conformance.emulator.inprocess_target import InProcessTarget
 from buildhat_conformance.fuzz import cli
 from buildhat_conformance.fuzz.oracles import Finding
 from buildhat_conformance.fuzz.runner import Runner
-from buildhat_conformance.harness.targets.inprocess import InProcessTarget
 from buildhat_conformance.protocol.profiles import get_profile
 
 HERE = TESTS

@@ -2,8 +2,8 @@
 pace splits from its fence answer still completes that answer."""
 from __future__ import annotations
 
+from buildhat_conformance.emulator.inprocess_target import InProcessTarget
 from buildhat_conformance.fuzz.link import FENCE, Link
-from buildhat_conformance.harness.targets.inprocess import InProcessTarget
 
 EMPTY = {0: None, 1: None, 2: None, 3: None}
 

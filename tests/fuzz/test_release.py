@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import pytest
 
+from buildhat_conformance.emulator.inprocess_target import InProcessTarget
 from buildhat_conformance.fuzz.release import ReleaseMismatch, detect_profile, judged_profile
-from buildhat_conformance.harness.targets.inprocess import InProcessTarget
 
 
 def _opener(firmware: str):

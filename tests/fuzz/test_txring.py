@@ -15,6 +15,7 @@ import pytest
 from repo_paths import TESTS
 
 from buildhat_conformance.emulator import Emulator
+from buildhat_conformance.emulator.inprocess_target import InProcessTarget
 from buildhat_conformance.fuzz.findings import script_text
 from buildhat_conformance.fuzz.lossymatch import match_lossy
 from buildhat_conformance.fuzz.model import HatModel
@@ -24,9 +25,8 @@ from buildhat_conformance.fuzz.runner import Runner
 from buildhat_conformance.fuzz.stepplan import plan_step
 from buildhat_conformance.fuzz.stream import allowed_kinds
 from buildhat_conformance.fuzz.txring import backlog, headroom
-from buildhat_conformance.harness.script import parse_script
-from buildhat_conformance.harness.targets.inprocess import InProcessTarget
 from buildhat_conformance.protocol.profiles import get_profile
+from buildhat_conformance.transcripts.script import parse_script
 
 HERE = TESTS
 MOTORS = {p: ("active", 0x30) for p in range(4)}

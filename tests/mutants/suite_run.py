@@ -13,7 +13,7 @@ from dataclasses import dataclass
 from typing import Dict, List, Optional, Sequence
 
 REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-SUITE = os.path.join(REPO, "conformance")
+SUITE = os.path.join(REPO, "conformance", "cases")
 HERE = os.path.dirname(os.path.abspath(__file__))
 MUTANT = os.path.join(HERE, "mutant_emulator.py")
 

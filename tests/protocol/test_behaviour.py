@@ -17,7 +17,8 @@ from shared_material import BEHAVIOUR_DOC, facts_text
 from buildhat_conformance.conformance.deviations import deviations
 from buildhat_conformance.protocol.behaviour import ANCHOR, DOC, anchors_in, cite, section_text
 
-PACKAGE_TOPS = ("protocol", "harness", "emulator", "conformance", "fuzz", "bench", "buildhat_conformance")
+PACKAGE_TOPS = ("protocol", "harness", "emulator", "conformance", "fuzz", "bench", "buildhat_conformance",
+                "transcripts")
 TEXT_SUFFIXES = (".py", ".md", ".json", ".jsonl", ".script", ".html", ".txt", ".toml", ".yml")
 # Verbatim copies of ../shared/formats (tests/project/test_packaging.py keeps them word for word), and the
 # developers' rules, which name the original facts the document is written from.
@@ -34,7 +35,7 @@ def _files(tops) -> Iterator[pathlib.Path]:
 
 def _everything() -> List[pathlib.Path]:
     """The package, the docs, the golden transcripts, the examples, the top-level files, the tests."""
-    return list(_files(PACKAGE_TOPS + ("docs", "transcripts", "examples", "tests"))) \
+    return list(_files(PACKAGE_TOPS + ("docs", "examples", "tests"))) \
         + [REPO / "README.md", REPO / "Makefile", REPO / "pyproject.toml"]
 
 
@@ -119,8 +120,8 @@ def test_nothing_a_user_reads_cites_the_facts_file():
         else:   # package data: deviations.json, profiles.json, REQUIREMENTS.md, READMEs, report assets
             bad += [f"{path.relative_to(REPO)}: {m.group(0)}"
                     for m in CITES_FACTS.finditer(path.read_text(encoding="utf-8"))]
-    for path in [REPO / "README.md", *(REPO / "docs").rglob("*.md"), *(REPO / "transcripts").glob("*"),
-                 *(REPO / "examples").rglob("*.md")]:
+    for path in [REPO / "README.md", *(REPO / "docs").rglob("*.md"),
+                 *(REPO / "transcripts" / "data").glob("*"), *(REPO / "examples").rglob("*.md")]:
         if path.is_file() and path not in NOT_USER_FACING:
             text = path.read_text(encoding="utf-8", errors="replace")
             bad += [f"{path.relative_to(REPO)}: {m.group(0)}" for m in CITES_FACTS.finditer(text)]

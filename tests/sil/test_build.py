@@ -68,7 +68,7 @@ def test_a_compile_error_names_the_file_and_the_compilers_first_error(cache, tmp
 def test_no_compiler_is_one_line_exit_2(cache, tmp_path):
     empty = tmp_path / "bin"          # a PATH with no compiler on it
     empty.mkdir()
-    done = subprocess.run([sys.executable, "-m", "buildhat_conformance.harness.cli_dispatch",
+    done = subprocess.run([sys.executable, "-m", "buildhat_conformance.cli",
                            "sil", "build", str(firmware_tree())], capture_output=True, text=True,
                           env={"PATH": str(empty), "BUILDHAT_SIL_CACHE": str(cache)})
     assert done.returncode == 2

@@ -1,0 +1,122 @@
+"""EVT-CONNECT / EVT-DISCONNECT: what plugging and unplugging prints (FIRMWARE-FACTS §5)."""
+from __future__ import annotations
+
+import re
+
+import pytest
+
+from ...protocol.devices import catalogue
+from ..link import Hat
+from ..needs import World
+from ..oracles.listing import render_active
+from ..verdict import Verdict
+
+SENSOR = 0x3E       # the ultrasonic sensor: an active device the default layout does not have
+# Lines from other ports that may come in between the connect messages.
+ASYNC = re.compile(r"P[0-3][MCV]|deltat=|P[0-3]: connected to passive")
+
+
+def _texts(events: list) -> list:
+    return [e.text for e in events]
+
+
+@pytest.mark.req("EVT-CONNECT", "CMD-LIST-ACTIVE")
+def test_active_device_connect_messages(hat: Hat, world: World, empty_port: int) -> None:
+    world.require("plug", "plugging a device in")
+    p = empty_port
+    mark = hat.mark()
+    world.plug_only(p, ("active", SENSOR))
+    done = f"P{p}: established serial communication with active ID 3E"
+    hat.expect(lambda e: e.text == done, 6000)
+    texts = [t for t in _texts(hat.since(mark)) if not ASYNC.match(t)]
+    start = texts.index(f"P{p}: connecting to active device")
+    block = render_active(p, catalogue()[f"0x{SENSOR:02X}"])
+    expected = ["set baud rate to 115200"] + block + [done]
+    assert texts[start + 1:start + 1 + len(expected)] == expected
+
+
+@pytest.mark.req("EVT-CONNECT")
+def test_passive_device_connect_message(hat: Hat, world: World, verdict: Verdict, empty_port: int) -> None:
+    world.require("plug", "plugging a device in")
+    p = empty_port
+    mark = hat.mark()
+    world.plug_only(p, ("passive", 1))
+    hat.expect(lambda e: e.text == f"P{p}: connected to passive ID 1", 3000)
+    hat.wait_ms(1500)
+    texts = _texts(hat.since(mark))
+    n = texts.count(f"P{p}: connected to passive ID 1")
+    assert n >= 1, "no 'connected' message"
+    verdict.document(n == 1, key="PASSIVE-CONNECT-REPEATS", firmware_ok=n >= 3,
+                     seen=f"{n} 'connected to passive ID 1' lines in 1.5 s")
+
+
+@pytest.mark.req("EVT-DISCONNECT")
+@pytest.mark.parametrize("spec", [("active", SENSOR), ("passive", 1)], ids=["active", "passive"])
+def test_unplug_says_disconnected(hat: Hat, world: World, verdict: Verdict, empty_port: int,
+                                  spec: tuple) -> None:
+    world.require("unplug", "unplugging a device")
+    p = empty_port
+    world.plug(p, spec)
+    mark = hat.mark()
+    hat.world(f"@unplug {p}")
+    if spec[0] == "active":
+        hat.wait_for(lambda e: e.text == f"P{p}: timeout during data phase: disconnecting", 1, 3000)
+    hat.wait_for(lambda e: e.text == f"P{p}: disconnected", 1, 1500)
+    hat.wait_ms(300)
+    texts = _texts(hat.since(mark))
+    said = f"P{p}: disconnected" in texts
+    if spec[0] == "active":
+        # FACTS §5: the data-phase watchdog (>500 ms) notices an active device is gone.
+        assert f"P{p}: timeout during data phase: disconnecting" in texts
+        r1_way = not said
+    else:
+        r1_way = not said and not any(t.startswith(f"P{p}:") for t in texts[-3:])
+    verdict.document(said, key="NO-DISCONNECTED-LINE", firmware_ok=r1_way,
+                     seen=f"lines after unplug: {texts[:8]!r}")
+    assert texts.count(f"P{p}: disconnected") <= 1
+
+
+@pytest.mark.req("EVT-DISCONNECT", "FW-SETUP-TIMEOUT")
+def test_device_gone_during_setup_times_out(hat: Hat, world: World, empty_port: int) -> None:
+    # FIRMWARE-BEHAVIOUR#fb-active: a device that stops talking during its set-up is dropped with
+    # `P<p>: timeout during setup phase: disconnecting` once 2000 ms passed with no message.
+    world.require("unplug", "unplugging a device")
+    p = empty_port
+    mark = hat.mark()
+    world.plug_only(p, ("active", SENSOR))
+    hat.expect(lambda e: e.text == f"P{p}: connecting to active device" and e in hat.since(mark), 3000)
+    world.plug_only(p, None)
+    line = f"P{p}: timeout during setup phase: disconnecting"
+    hat.wait_for(lambda e: e.text == line, 1, 4000)
+    texts = _texts(hat.since(mark))
+    assert line in texts, f"no {line!r} after the device went mid-set-up: {texts[-8:]!r}"
+    assert not any(t.startswith(f"P{p}: established") for t in texts), texts
+
+
+@pytest.mark.req("DEV-PORTS", "EVT-CONNECT")
+@pytest.mark.parametrize("port", [0, 1, 2, 3])
+def test_every_port_hosts_an_active_device(hat: Hat, world: World, port: int) -> None:
+    # Document: ports 0..3, each may hold an active device. Its data must reach the host on each.
+    # A port that has an active device already keeps it (the other cases' devices stay put).
+    if world.layout()[port].kind != "active":
+        world.plug(port, ("active", SENSOR))
+    reply = hat.exchange(f"port {port} ; selonce 0")
+    lines = [e.text for e in reply.events + hat.wait_for(
+        lambda e: e.text.startswith(f"P{port}M0:"), 1, 2000) if e.text.startswith(f"P{port}M0:")]
+    assert reply.errors == 0 and lines, f"no data from the sensor on port {port}: {reply.raw!r}"
+
+
+@pytest.mark.req("FW-STALL-LINE", "CMD-LIST")
+def test_stall_line_only_past_2_ms(hat: Hat, world: World) -> None:
+    # FIRMWARE-BEHAVIOUR#fb-stall: `deltat=XXXXXXXX` (8 upper-case hex digits) when one main-loop pass
+    # took more than 2 ms, e.g. a long `list`. It may not come at all; when it comes, it says > 2.
+    for port in range(4):
+        if world.layout()[port].kind != "active":
+            world.plug(port, ("active", SENSOR))
+    mark = hat.mark()
+    for _ in range(3):
+        hat.exchange("list", timeout_ms=3000)
+    hat.exchange("help")
+    stalls = [e.text for e in hat.since(mark) if e.text.startswith("deltat=")]
+    bad = [t for t in stalls if not re.fullmatch(r"deltat=[0-9A-F]{8}", t) or int(t[7:], 16) <= 2]
+    assert not bad, f"stall lines must show more than 2 ms in 8 upper-case hex digits: {bad}"
