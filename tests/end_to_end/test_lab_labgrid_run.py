@@ -14,8 +14,8 @@ import xml.etree.ElementTree as ET
 
 import pytest
 from end_to_end.test_run_reset_recovery import PI_SUBSET  # 14 cases; the hang comes in the 5th or 6th
+from firmware_images import files, image_of  # noqa: E402
 from lab_fixture import BIN, Lab, missing  # noqa: E402
-from test_firmware_load import files, image_of  # noqa: E402
 
 
 @pytest.fixture

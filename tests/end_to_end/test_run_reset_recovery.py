@@ -20,8 +20,8 @@ import sys
 import xml.etree.ElementTree as ET
 
 import pytest
+from firmware_images import files, image_of  # noqa: E402
 from repo_paths import TESTS  # noqa: E402
-from test_firmware_load import files, image_of  # noqa: E402
 
 BIN = pathlib.Path(sys.executable).parent
 FAKE_GPIOD = TESTS / "fake_gpiod"

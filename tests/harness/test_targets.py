@@ -12,16 +12,14 @@ import sys
 import tempfile
 
 import pytest
+from harness_fakehat import HERE as FAKEHAT  # noqa: E402
+from harness_fakehat import PtyResponder
 
 from buildhat_conformance.emulator.process_target import EmulatorTarget
 from buildhat_conformance.harness.errors import TargetError
 from buildhat_conformance.harness.session import Session
 from buildhat_conformance.harness.targets import make_target, open_target
 from buildhat_conformance.harness.targets.serial import SerialTarget, pi5_debug_uart_remark
-
-sys.path.insert(0, os.path.dirname(__file__))
-from harness_fakehat import HERE as FAKEHAT  # noqa: E402
-from harness_fakehat import PtyResponder
 
 PY = shlex.quote(sys.executable)
 

@@ -13,13 +13,14 @@ import pathlib
 import re
 
 import pytest
+from repo_paths import REPO
 
 from buildhat_conformance.harness.targets import make_target
 from buildhat_conformance.harness.transcript import read_transcript
 from buildhat_conformance.transcripts.compare import RuleSet
 from buildhat_conformance.transcripts.replay import compare_transcripts, plan_replay, replay
 
-GOLDEN = pathlib.Path(__file__).resolve().parent.parent / "transcripts" / "data"
+GOLDEN = REPO / "transcripts" / "data"
 R7, R4 = "1737564117", "1670332907"
 R7_VERSION = "Firmware version: 1737564117 2025-01-22T16:41:57+00:00"
 R4_VERSION = "Firmware version: 1670332907 2022-12-06T13:21:47+00:00"

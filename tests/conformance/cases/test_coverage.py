@@ -4,18 +4,17 @@ from __future__ import annotations
 
 import json
 import os
-import pathlib
 import re
 import subprocess
 import sys
 
 import pytest
+from repo_paths import REPO
 
 from buildhat_conformance.conformance.deviations import deviations
 from buildhat_conformance.protocol.profiles import load_profiles
 from buildhat_conformance.protocol.requirements import requirement_ids
 
-REPO = pathlib.Path(__file__).resolve().parent.parent
 SUITE = REPO / "conformance" / "cases"
 
 

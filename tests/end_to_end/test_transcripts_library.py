@@ -6,11 +6,11 @@ import json
 import os
 import pathlib
 import subprocess
-import sys
 import threading
 import time
 
 import pytest
+from hostlib.venvs import buildhat_python  # noqa: E402
 
 from buildhat_conformance.cli import main as cli_main
 from buildhat_conformance.harness.targets import make_target
@@ -18,9 +18,6 @@ from buildhat_conformance.harness.transcript import read_transcript
 from buildhat_conformance.protocol.devices import DEFAULT_LAYOUT
 from buildhat_conformance.transcripts.mock import serve_pty
 from buildhat_conformance.transcripts.record import ready_lines, record_proxy
-
-sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
-from hostlib.venvs import buildhat_python  # noqa: E402
 
 pytestmark = pytest.mark.timeout(240)
 R7 = "1737564117"   # the release buildhat 0.9.0 bundles: it uploads nothing and goes straight on

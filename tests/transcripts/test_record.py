@@ -2,6 +2,8 @@
 they say when a target cannot do what a recording needs."""
 from __future__ import annotations
 
+from repo_paths import REPO
+
 from buildhat_conformance.cli import main as cli_main
 from buildhat_conformance.harness.transcript import read_transcript
 
@@ -86,10 +88,9 @@ def test_script_record_and_replay_are_one_runner(tmp_path, capsys):
     """`script`, `record` and `replay` run a scenario the same way (one runner,
     transcripts/script_runner.py): on the in-process emulator their transcripts after t = 0 are the
     same bytes at the same times, and the lines the emulator's own script mode wrote in the
-    golden transcript (reviewed against FIRMWARE-FACTS in test_transcripts_golden.py)."""
-    import pathlib
+    golden transcript (reviewed against FIRMWARE-FACTS in tests/end_to_end/test_transcripts_golden.py)."""
 
-    golden = pathlib.Path(__file__).resolve().parent.parent / "transcripts" / "data"
+    golden = REPO / "transcripts" / "data"
     script = str(golden / "appendix-a-motor.script")
     target = "inprocess:1737564117"
     ran, recorded, replayed = (str(tmp_path / n) for n in ("script.jsonl", "record.jsonl", "replay.jsonl"))

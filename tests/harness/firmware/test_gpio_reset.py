@@ -11,6 +11,7 @@ import time
 
 import gpiod
 import pytest
+from firmware_images import image_of  # noqa: E402
 from gpiod.line import Direction, Value
 
 from buildhat_conformance.emulator.process_target import EmulatorControl
@@ -19,9 +20,6 @@ from buildhat_conformance.harness.firmware.gpio_reset import BOOT0_LINE, RESET_L
 from buildhat_conformance.harness.firmware.image import FirmwareImage
 from buildhat_conformance.harness.targets import TargetError, make_target
 from buildhat_conformance.protocol.profiles import get_profile
-
-sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
-from test_firmware_load import image_of  # noqa: E402
 
 EMULATOR = str(pathlib.Path(sys.executable).parent / "buildhat-emulator")
 

@@ -6,6 +6,8 @@ import os
 import sys
 
 import pytest
+from harness_fakehat import HERE as FAKEHAT  # noqa: E402
+from harness_fakehat import PtyResponder  # noqa: E402
 
 from buildhat_conformance.cli import main as cli
 from buildhat_conformance.harness.errors import NeedsCapability, TargetError
@@ -13,10 +15,6 @@ from buildhat_conformance.harness.targets import make_target
 from buildhat_conformance.harness.transcript import read_transcript
 from buildhat_conformance.transcripts.script import parse_script
 from buildhat_conformance.transcripts.script_runner import check_capabilities, run_script
-
-sys.path.insert(0, os.path.dirname(__file__))
-from harness_fakehat import HERE as FAKEHAT  # noqa: E402
-from harness_fakehat import PtyResponder  # noqa: E402
 
 CMD = f"cmd:{sys.executable} -u {FAKEHAT} --stdio"
 

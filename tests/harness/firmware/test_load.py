@@ -10,6 +10,8 @@ import subprocess
 import sys
 
 import pytest
+from firmware_images import files, image_of
+from repo_paths import TESTS
 
 from buildhat_conformance.bench import firmware_load as bench_load
 from buildhat_conformance.bench.firmware_load import new_key, sign
@@ -19,25 +21,12 @@ from buildhat_conformance.harness.firmware.image import FirmwareImage
 from buildhat_conformance.harness.firmware.progress import Progress
 from buildhat_conformance.harness.firmware.wire import Wire
 from buildhat_conformance.harness.targets.base import Target
-from buildhat_conformance.protocol.image_checksum import image_with_checksum
 from buildhat_conformance.protocol.profiles import get_profile
 
-HERE = pathlib.Path(__file__).resolve().parent
+HERE = TESTS
 BIN = pathlib.Path(sys.executable).parent
 EMULATOR = str(BIN / "buildhat-emulator")
 LINK = [sys.executable, str(HERE / "load_faulty_link.py")]
-
-
-def image_of(release: str, size: int = 600) -> bytes:
-    """``size`` bytes that the emulator's bootloader takes for ``release`` (its checksum)."""
-    return image_with_checksum(size, get_profile(release).image_checksum)
-
-
-def files(tmp_path, image: bytes, signature: bytes = bytes(64)):
-    img, sig = tmp_path / "firmware.bin", tmp_path / "signature.bin"
-    img.write_bytes(image)
-    sig.write_bytes(signature)
-    return str(img), str(sig)
 
 
 def load(capsys, target: str, img: str, sig: str, *extra: str):
@@ -249,7 +238,6 @@ def test_image_describes_its_release():
 # -- the release image of python-build-hat, then the suite on it ---------------------------------
 
 def _release_files():
-    sys.path.insert(0, str(HERE))
     from hostlib import venvs
 
     python = venvs.buildhat_python("0.9.0")     # from PyPI: a failed install fails (the test is marked)

@@ -8,14 +8,14 @@ from __future__ import annotations
 
 import argparse
 import os
-import pathlib
 import re
 import subprocess
 import sys
 
 import pytest
+from repo_paths import REPO
 
-ROOT = pathlib.Path(__file__).resolve().parent.parent
+ROOT = REPO
 SCRIPT = ROOT / "transcripts" / "data" / "abbreviation.script"
 TRANSCRIPT = ROOT / "transcripts" / "data" / "abbreviation.jsonl"
 
@@ -146,7 +146,7 @@ def test_a_silent_target_is_one_line_before_any_case(tmp_path):
 
 def test_firmware_judges_as_and_says_so(tmp_path):
     """A build no release matches, --firmware R2: judged as R2, and both are said. (A known
-    release judged as another exits 3 in one line: tests/test_conformance_wrong_answers.py.)"""
+    release judged as another exits 3 in one line: tests/conformance/test_link_clauses.py.)"""
     rc, out, err = _cli(["run", "-t", "inprocess:R7?version=1737600000", "--firmware", "R2", "-k",
                          "test_version", "--junit", "r/junit.xml"], tmp_path)
     assert "Traceback" not in err

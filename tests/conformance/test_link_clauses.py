@@ -14,9 +14,8 @@ import xml.etree.ElementTree as ET
 from typing import Dict, Tuple
 
 import pytest
-
-from .faulty.wrong_hat import first_command, no_echo, port_error
-from .mutants.suite_run import REPO
+from faulty.wrong_hat import first_command, no_echo, port_error
+from mutants.suite_run import REPO
 
 pytestmark = pytest.mark.timeout(300)
 

@@ -14,7 +14,8 @@ import re
 from pathlib import Path
 from typing import Dict, List, Optional, Set, Tuple
 
-REPO = Path(__file__).resolve().parent.parent
+from repo_paths import REPO
+
 PACKAGE = "buildhat_conformance"
 ROOT = ""                                   # the root package's own modules (buildhat_conformance/)
 RANK = {"protocol": 0, "harness": 1, "transcripts": 2, "emulator": 3, "sil": 4, "fuzz": 5,
@@ -142,4 +143,5 @@ def test_peers_and_the_root_are_above_or_beside():
 
 def test_no_folder_imports_one_above_it():
     bad = backward_imports(package_files())
-    assert not bad, "imports against the folder order (tests/test_package_layering.py):\n" + "\n".join(bad)
+    assert not bad, ("imports against the folder order (tests/project/test_package_layering.py):\n"
+                     + "\n".join(bad))
