@@ -58,14 +58,6 @@ def test_no_install_hint_names_the_package_on_an_index():
     assert not bad, bad
 
 
-def test_extra_hint_names_the_extras_packages():
-    from buildhat_conformance.harness.extras import install_hint
-
-    hint = install_hint("plots")
-    assert hint.startswith("pip install 'matplotlib>=") and "pip install -e '.[plots]'" in hint
-    assert "pytest-xdist" in install_hint("parallel")
-
-
 # Run in a child: setuptools' distutils shim must not meet a distutils another test imported.
 _MANIFEST_FILES = """
 import json, os, sys
