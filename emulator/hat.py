@@ -11,7 +11,7 @@ Ports, controllers and the fault monitor are separate objects it ticks:
 The Hat is their composition root: it builds them and hands each itself, which each part sees
 only through its Protocol in ``emulator/services.py`` (``PortServices``, ``ControllerServices``,
 ``FaultServices``, ``StartupServices``; the commands: ``emulator/command_context.py``). No part
-imports this module (tests/test_emulator_layering.py).
+imports this module (tests/emulator/test_layering.py).
 
 Each of them keeps ``due``: the first virtual millisecond in which its tick may do anything
 (0: at once). The Hat ticks an object only from then on, and a millisecond in which nothing is

@@ -3,9 +3,9 @@
 ``Hat`` (emulator/hat.py) is the composition root: it builds the ports, controllers, fault
 monitor and start-up and hands each of them itself, seen through the Protocol below that the
 part declares (``Port(hat: PortServices, index)``). A part may touch only what its Protocol
-names, and no part imports hat.py, not even for typing (tests/test_emulator_layering.py keeps it
+names, and no part imports hat.py, not even for typing (tests/emulator/test_layering.py keeps it
 so): a part can be built and ticked with a small fake instead of a whole HAT
-(tests/test_emulator_services.py). The command modules see the HAT through ``CommandContext``
+(tests/emulator/test_services.py). The command modules see the HAT through ``CommandContext``
 (emulator/command_context.py), which needs the concrete part classes and so lives beside them;
 a ``Reporter`` sees its port as ``reporting.ReporterPort``. This module imports no part of the
 emulator (only ``drive.Duty``), so any part may import it.

@@ -1,5 +1,5 @@
 """The exit statuses each command really returns, as data: every ``--help`` prints its own
-line from here, and tests/test_cli_consistency.py checks the statuses it sees against it.
+line from here, and tests/cli/test_cli.py checks the statuses it sees against it.
 
 The meanings are the project's contract (0 success, 1 the target failed the check, 2 the
 user's mistake, 3 the target's fault); a command lists only the ones it can return.

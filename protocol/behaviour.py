@@ -4,7 +4,7 @@ Users have the project, not the facts it was written from, so every text a user 
 JUnit messages, deviations.json) names a section of that document by its stable ``fb-`` anchor.
 The package carries the document (``protocol/FIRMWARE-BEHAVIOUR.md`` is a link to it, installed as
 a copy), so the report can quote the sections it cites even where no ``docs/`` folder was installed.
-tests/test_behaviour_doc.py checks that every anchor cited anywhere exists in the document.
+tests/protocol/test_behaviour.py checks that every anchor cited anywhere exists in the document.
 """
 from __future__ import annotations
 

@@ -15,7 +15,7 @@ is compiled unchanged; this pass rewrites the compiler's output instead, after e
 
 The added code keeps every register but the destination and the flags (pushfq/popfq; the
 firmware is compiled with -mno-red-zone so pushing is safe). The tests in
-tests/test_sil_float_convert.py check it against the chip's rules.
+tests/sil/test_float_convert.py check it against the chip's rules.
 """
 from __future__ import annotations
 

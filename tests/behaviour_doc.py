@@ -1,6 +1,6 @@
 """Exact data carried by docs/FIRMWARE-BEHAVIOUR.md (help texts, the shortest-prefix table), read
 by anchor, so tests need no ``../shared``: the document is the project's own account of the facts,
-and tests/test_behaviour_doc.py checks its exact strings against the original where that exists."""
+and tests/protocol/test_behaviour.py checks its exact strings against the original where that exists."""
 from __future__ import annotations
 
 import re

@@ -1,6 +1,6 @@
 """Render a report in headless Chromium at 1400x900: a screenshot of the first screen, and a
 measurement of everything that runs off the page (or scrolls inside a box) with every
-``<details>`` opened. Used by tests/test_report_browser.py; also a script:
+``<details>`` opened. Used by tests/end_to_end/test_report_browser.py; also a script:
 ``python tests/browser_check.py reports/index.html shot.png``."""
 from __future__ import annotations
 

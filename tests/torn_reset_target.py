@@ -6,7 +6,8 @@
   when a ``@reset`` lands while that line crosses the wire; in virtual time it is made exact here).
 - ``no-empty-line``: a wrong HAT whose start-up lacks its first line, the empty one.
 
-Loaded with ``-p torn_reset_target`` and this folder on PYTHONPATH (tests/test_conformance_torn_reset.py).
+Loaded with ``-p torn_reset_target`` and this folder on PYTHONPATH
+(tests/end_to_end/test_conformance_torn_reset.py).
 """
 from __future__ import annotations
 
@@ -14,9 +15,9 @@ import functools
 from typing import Any, Callable
 
 from buildhat_conformance.emulator import Emulator
-from buildhat_conformance.harness.targets import TargetError, register
 from buildhat_conformance.emulator.inprocess_target import InProcessTarget
 from buildhat_conformance.emulator.inprocess_target import from_url as inprocess_from_url
+from buildhat_conformance.harness.targets import TargetError, register
 
 HOW = ("torn", "no-empty-line")
 LEFTOVER = b"deltat=00000"        # the first bytes of `deltat=00000003`

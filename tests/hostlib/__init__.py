@@ -1,9 +1,9 @@
 """Helpers for running real host libraries (PyPI ``buildhat``) against the emulator.
 
-Use from a test file (pytest runs with ``--import-mode=importlib``, which puts nothing on ``sys.path``)::
+Use from a test file in any folder under tests/ (tests/conftest.py puts tests/ on ``sys.path``; pytest's
+``--import-mode=importlib`` adds nothing)::
 
-    sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
-    from hostlib.venvs import HostLibUnavailable, buildhat_python   # noqa: E402
+    from hostlib.venvs import buildhat_python
 
 - ``venvs``: ``buildhat_python("0.9.0" | "0.5.7")`` -> the interpreter of a cached library venv.
 - ``emulator_proc``: ``EmulatorProcess`` (``buildhat-emulator --pty --control``), ``control()``.

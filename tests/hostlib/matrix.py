@@ -1,7 +1,8 @@
 """The python-build-hat CI matrix: which library release runs which scenario on which emulator setup.
 
 Everything a scenario's result is judged against is decided here (device readings, shaft positions),
-handed to the emulator through its control channel, and checked by tests/test_hostlib_python_build_hat.py.
+handed to the emulator through its control channel, and checked by
+tests/end_to_end/test_hostlib_python_build_hat.py.
 Scenarios of a run are independent (one emulator each) and run in parallel: the library waits in real
 time (11 s after a firmware upload alone), so the wall time is the longest scenario, not the sum.
 """
@@ -66,7 +67,7 @@ class Outcome:
     name: str
     plan: Plan
     result: Optional[ScenarioResult] = None
-    skip: str = ""                     # why it could not run at all (PyPI unreachable)
+    skip: str = ""                     # why it could not run at all (PyPI unreachable): a failure
     setup_error: str = ""              # the emulator did not start
     emulator_exit: Optional[int] = None
     emulator_stderr: str = ""

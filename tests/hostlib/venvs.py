@@ -6,8 +6,10 @@ used only when its stamp file says it finished installing exactly the pinned req
 was interrupted is thrown away and redone. A file lock serialises builders (several test processes, or
 other engineers' tests, may ask for the same version at once).
 
-If PyPI cannot be reached, :class:`HostLibUnavailable` is raised with pip's own words; the tests turn that
-into a skip that says so. Any other pip failure is a real error and propagates.
+If PyPI cannot be reached, :class:`HostLibUnavailable` is raised with pip's own words, and the test fails
+with them: every test that installs is marked ``network``, and a run without the network leaves those out on
+purpose (``-m "not network"`` or ``BUILDHAT_TESTS_OFFLINE=1``, tests/conftest.py), never by an install
+failure. Any other pip failure is a real error and propagates.
 
 Command line (for CI scripts): ``python tests/hostlib/venvs.py 0.9.0`` prints the interpreter path.
 """
@@ -34,7 +36,7 @@ REPO = pathlib.Path(__file__).resolve().parents[2]
 #: (``buildhat/data/version``): 0.9.0 is the current release, 0.5.7 the newest that uploads R2, 0.5.12 the
 #: last 0.5.x (it uploads R5 1670596313 after resetting the HAT through gpiozero when the version differs).
 FIRMWARE_OF: Dict[str, int] = {"0.9.0": 1737564117, "0.5.7": 1636109636, "0.5.12": 1670596313}
-#: The releases the scenario matrix of tests/test_hostlib_python_build_hat.py runs.
+#: The releases the scenario matrix of tests/end_to_end/test_hostlib_python_build_hat.py runs.
 SUPPORTED = ("0.9.0", "0.5.7")
 #: Releases whose venv also holds this project (editable, no dependencies) and pytest, as a host library's CI
 #: would install them: 0.5.12 for the gpiozero pin factory entry point (``GPIOZERO_PIN_FACTORY=

@@ -5,7 +5,7 @@ Used as ``BUILDHAT_EMULATOR="python mutant_emulator.py MUTATION"``, so the harne
 starts the real emulator with the same arguments, makes a pty of its own, prints that path,
 and relays bytes, changing them in the one way MUTATION names. The control channel is the
 real emulator's, untouched, so world actions still work. The suite must notice each mutation
-in the tests for that behaviour and only there (tests/test_conformance_mutants.py).
+in the tests for that behaviour and only there (tests/end_to_end/test_conformance_mutants.py).
 """
 from __future__ import annotations
 

@@ -1,6 +1,7 @@
 """Run the conformance suite (or some of its cases) in a child pytest and read its JUnit file.
 
-Shared by the project's tests of the suite itself (tests/test_conformance_*.py).
+Shared by the project's tests of the suite itself (tests/conformance/,
+tests/end_to_end/test_conformance_*.py).
 """
 from __future__ import annotations
 

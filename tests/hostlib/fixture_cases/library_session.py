@@ -1,7 +1,8 @@
 """A host library's own test module, as its authors would write it: the real, unmodified python-build-hat in
 this process, one pytest session, one emulator shared by every test (the library keeps one serial
-connection per process). Copied into a scratch directory and run by tests/test_hostlib_fixture.py inside a
-library venv; the values to set and expect come from there (BUILDHAT_CASE, JSON).
+connection per process). Copied into a scratch directory and run by
+tests/end_to_end/test_hostlib_fixture.py inside a library venv; the values to set and expect come from
+there (BUILDHAT_CASE, JSON).
 """
 import json
 import os

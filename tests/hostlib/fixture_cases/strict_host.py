@@ -1,7 +1,7 @@
 """Two failing tests of a wrong host, as in a library's suite: under --strict-host the emulator stops at
 its first bad line and the host sees only an I/O error; without it, the test fails on its own while the
-emulator runs. Either failure message must name the offending line (tests/test_hostlib_fixture.py runs
-this in its own pytest session and reads its report)."""
+emulator runs. Either failure message must name the offending line
+(tests/end_to_end/test_hostlib_fixture.py runs this in its own pytest session and reads its report)."""
 import time
 
 import pytest

@@ -1,0 +1,60 @@
+"""Baud pacing of the command UART (emulator/uart.py, ``buildhat-emulator --baud``), checked in
+virtual time: both directions move at the wire rate and the firmware's report throttle sees the
+backlog. The real rate against the wall clock is measured by ``make bench`` only."""
+from __future__ import annotations
+
+from buildhat_conformance.emulator import Emulator
+
+EMPTY = {0: None, 1: None, 2: None, 3: None}
+PER_MS = 115200 / 10 / 1000          # 11.52 bytes a millisecond (8N1)
+
+
+def _booted(firmware: str = "R7", devices=EMPTY) -> Emulator:
+    emu = Emulator(firmware=firmware, devices=devices, baud=115200)
+    emu.boot()
+    emu.advance(50)
+    emu.read()
+    return emu
+
+
+def test_input_reaches_the_firmware_at_the_wire_rate() -> None:
+    emu = _booted()
+    lines = []
+    emu.hat.line_observers.append(lines.append)
+    emu.write(b"port 0\r" * 200)                 # 1400 bytes: ~122 ms on the wire
+    emu.advance(61)
+    # About half of them crossed: 61 ms carry 702 bytes = 100 lines of 7 bytes.
+    assert abs(len(lines) - 61 * PER_MS / 7) <= 2
+    emu.advance(70)
+    assert len(lines) == 200
+
+
+def test_output_leaves_at_the_wire_rate() -> None:
+    emu = _booted()
+    emu.write(b"help\r")
+    got = b""
+    for ms in range(1, 301):
+        emu.advance(1)
+        got += emu.read()
+        # Never ahead of the wire (5 input bytes first), never more than a byte behind it.
+        assert len(got) <= (ms - 5 / PER_MS) * PER_MS + 2
+        if ms > 10:
+            assert len(got) >= (ms - 5 / PER_MS - 2) * PER_MS
+    assert len(got) <= 2 + 4201
+
+
+def test_report_throttle_follows_the_paced_backlog() -> None:
+    # §6.2 / §11: R5+ print no report while the TX ring holds 4096 bytes or more. Two help
+    # texts (8402 bytes, 8192 kept) fill it; on an infinitely fast wire it would stay empty.
+    for firmware, throttles in (("R7", True), ("R1", False)):
+        emu = _booted(firmware, devices={0: "0x30", 1: None, 2: None, 3: None})
+        emu.write(b"port 0 ; select 1\r")
+        emu.advance(300)
+        emu.read()
+        emu.write(b"help ; help\r")
+        emu.advance(250)                          # the ring still holds > 5000 bytes
+        assert emu.hat.tx_pending() > 4096
+        # R1 queues its reports behind the help text (the wire has made room); R5+ hold them.
+        assert (b"P0M1:" not in bytes(emu.uart.tx)) == throttles, firmware
+        emu.advance(1000)                         # drained: reports come back
+        assert b"P0M1:" in emu.read()[-200:]

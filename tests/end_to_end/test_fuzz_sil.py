@@ -1,0 +1,65 @@
+"""Fuzzer findings on the firmware in the loop (``sil:TREE``) that were the fuzzer's own model,
+replayed with ``fuzz --reproduce`` as a user would: each must be ``not reproduced`` now.
+
+The firmware's command port is a 115200-baud wire in HAT time: input arrives byte by byte while
+the firmware prints, as on a real HAT (FIRMWARE-FACTS §1)."""
+
+import pytest
+from sil_support import cli, firmware_tree  # noqa: E402
+
+pytestmark = pytest.mark.timeout(900)
+
+PRELUDE = """@device 0 0x30
+@device 1 0x40
+@device 2 passive 8
+@device 3 none
+> echo 0
+> debug 0
+> port 3
+> select
+> port 2
+> select
+> port 1
+> select
+> port 0
+> select
+> version
+@wait 12
+"""
+
+# debug 51 (bit 1: the raw serial trace, §7.4) runs until the guard's `debug 0` has crossed the
+# wire; the trace lands in the next line's echo. The oracle judges such a step on liveness only.
+RAW_TRACE = PRELUDE + """> l
+> version
+@wait 173
+>raw ;list;;echo^\\xB8\\b\\b\\s1;\\r
+> version
+@wait 175
+>  ;comb +0 ; d +51;;por 0;
+@wait 147
+> version
+"""
+
+# selonce reports as soon as the device's data arrives (R5+, §6.2), here before the next line of
+# the same input has arrived; the report belongs to the selection after the first line.
+SELONCE_RACE = PRELUDE + """> selonc  +1
+> select 0; co
+@wait 664
+> version
+"""
+
+
+@pytest.fixture(scope="module")
+def cache(tmp_path_factory):
+    return tmp_path_factory.mktemp("silcache")
+
+
+@pytest.mark.parametrize("oracle, script", [("hygiene", RAW_TRACE), ("state", SELONCE_RACE)],
+                         ids=["raw-trace-on-a-wire", "selonce-race"])
+def test_a_model_finding_on_the_firmware_is_not_reproduced(cache, tmp_path, oracle, script):
+    path = tmp_path / f"{oracle}.script"
+    path.write_text(f"@name fuzz finding ({oracle}): on the firmware in the loop\n{script}")
+    done = cli("fuzz", "--reproduce", str(path), "--target", f"sil:{firmware_tree()}", "--confirm", "1",
+               cache=cache)
+    assert done.returncode == 0, done.stdout + done.stderr[-2000:]
+    assert done.stdout.startswith("not reproduced (0/1 replays)"), done.stdout

@@ -1,0 +1,51 @@
+"""`sil mutate` end to end through the user's command: a small seeded campaign on the real
+firmware's tree, with a planted regression the suite must kill by a failing case."""
+import json
+
+import pytest
+from sil_support import cli, firmware_tree  # noqa: E402
+
+pytestmark = pytest.mark.timeout(900)
+
+
+def test_a_small_campaign_kills_the_planted_regression(tmp_path):
+    out = tmp_path / "mut"
+    done = cli("sil", "mutate", str(firmware_tree()), "--count", "3", "--seed", "5", "-k", "test_commands",
+               "--plant", 'command.c:ostrnl(" V"):ostrnl(" v")', "-o", str(out), cache=tmp_path / "cache")
+    assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-2000:]
+    summary = json.loads((out / "mutation.json").read_text())
+    assert len(summary["mutants"]) == 4 and sum(summary["counts"].values()) == 4
+    mine = next(m for m in summary["mutants"] if m["kind"] == "planted")
+    assert mine["status"] == "killed" and any("vin" in c for c in mine["cases"]), mine
+    assert "mutation score" in done.stdout and (out / "mutation.html").exists()
+
+
+def test_hat_output_compares_lines_however_the_reads_cut_them(tmp_path):
+    from buildhat_conformance.sil.mutate import _case_lines
+
+    def transcript(name, events):
+        path = tmp_path / name
+        path.write_text("".join(json.dumps(e) + "\n" for e in events))
+        return str(path)
+
+    def run(*cases):
+        return _case_lines([(f"case{i}", "pass", [], transcript(f"{id(cases)}-{i}.jsonl", events))
+                            for i, events in enumerate(cases)])
+
+    whole = run([{"t": 1, "dir": "hat", "line": "    RAW: 00 SI: 01"},
+                 {"t": 2, "dir": "hat", "line": "echo 0 ; version sync-6c7b-142"},
+                 {"t": 3, "dir": "hat", "line": "P3M3: +49"}],
+                [{"t": 1, "dir": "hat", "line": ""}])
+    cut = run([{"t": 1, "dir": "hat", "partial": "    RAW: 00 "},
+               {"t": 1, "dir": "host", "bytes": "list\r"},
+               {"t": 9, "dir": "hat", "line": "SI: 01"},
+               {"t": 9, "dir": "hat", "line": "echo 0 ; version sync-7320-142"},
+               {"t": 9, "dir": "hat", "partial": "P3M3: +"}],
+              [{"t": 1, "dir": "hat", "line": "49"}, {"t": 1, "dir": "hat", "line": ""}])
+    other = run([{"t": 1, "dir": "hat", "line": "    RAW: 00 SI: 02"},
+                 {"t": 2, "dir": "hat", "line": "echo 0 ; version sync-6c7b-142"},
+                 {"t": 3, "dir": "hat", "line": "P3M3: +49"}],
+                [{"t": 1, "dir": "hat", "line": ""}])
+    assert whole == cut
+    assert whole["case0"] == ["    RAW: 00 SI: 01", "echo 0 ; version sync-*", "P3M3: +49"]
+    assert whole["case0"] != other["case0"] and whole["case1"] == other["case1"]

@@ -1,0 +1,52 @@
+"""``sil serve`` (sil/serve.py): the real firmware at wall-clock pace on stdio, answering a host as a
+HAT does (docs/FIRMWARE-BEHAVIOUR.md#fb-version: `version` prints the release's line), and its bad
+options one line with exit 2. Generous deadlines, no timing asserted."""
+from __future__ import annotations
+
+import os
+import select
+import subprocess
+import time
+
+import pytest
+from sil_support import CLI, cli, firmware_tree
+
+from buildhat_conformance.sil.serve import build_parser
+
+pytestmark = pytest.mark.timeout(600)
+
+
+@pytest.fixture(scope="module")
+def cache(tmp_path_factory):
+    return tmp_path_factory.mktemp("silcache")
+
+
+def test_served_on_stdio_the_firmware_answers_version(cache):
+    tree = firmware_tree()
+    built = cli("sil", "build", str(tree), cache=cache)       # built first: the serve starts at once
+    assert built.returncode == 0, built.stderr
+    env = dict(os.environ, BUILDHAT_SIL_CACHE=str(cache))
+    proc = subprocess.Popen(CLI + ["sil", "serve", str(tree), "--stdio", "--booted"], stdin=subprocess.PIPE,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env)
+    assert proc.stdin is not None and proc.stdout is not None
+    try:
+        proc.stdin.write(b"version\r")
+        proc.stdin.flush()
+        got, deadline = b"", time.monotonic() + 60
+        while b"Firmware version: 1737564117" not in got and time.monotonic() < deadline:
+            if select.select([proc.stdout], [], [], 1.0)[0]:
+                chunk = os.read(proc.stdout.fileno(), 4096)
+                if not chunk:
+                    break
+                got += chunk
+        assert b"Firmware version: 1737564117" in got, got
+    finally:
+        proc.kill()
+        proc.wait()
+
+
+def test_serve_needs_one_link_mode():
+    parser = build_parser()
+    with pytest.raises(SystemExit) as exc:
+        parser.parse_args(["tree", "--pty", "--stdio"])
+    assert exc.value.code == 2
