@@ -31,7 +31,7 @@ from .harness.targets.base import TargetError
 from .harness.version import __version__
 
 SUBCOMMANDS = {
-    "run": ("buildhat_conformance.conformance.runner", "run the conformance suite against a target"),
+    "run": ("buildhat_conformance.conformance.cli_run", "run the conformance suite against a target"),
     "script": ("buildhat_conformance.transcripts.cli_script",
                "run one scenario script and write its transcript"),
     "targets": ("buildhat_conformance.cli_targets", "list the targets this machine can see"),
