@@ -6,7 +6,7 @@ import signal
 import threading
 
 from ..harness.cli_options import SPEED_HELP, UsageError
-from .mock import serve_pty, serve_tcp
+from .mock_serve import serve_pty, serve_tcp
 
 __all__ = ["add_arguments", "main"]
 
