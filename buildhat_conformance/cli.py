@@ -31,14 +31,15 @@ from .harness.targets.base import TargetError
 from .harness.version import __version__
 
 SUBCOMMANDS = {
-    "run": ("buildhat_conformance.conformance.runner", "run the conformance suite against a target"),
+    "run": ("buildhat_conformance.conformance.cli_run", "run the conformance suite against a target"),
     "script": ("buildhat_conformance.transcripts.cli_script",
                "run one scenario script and write its transcript"),
     "targets": ("buildhat_conformance.cli_targets", "list the targets this machine can see"),
     "fuzz": ("buildhat_conformance.fuzz.cli", "grammar-based and stateful fuzzing of a target"),
-    "record": ("buildhat_conformance.transcripts.record", "record a scenario's transcript on a target"),
-    "replay": ("buildhat_conformance.transcripts.replay", "replay a transcript against a target and diff"),
-    "mock": ("buildhat_conformance.transcripts.mock", "serve a transcript as a fake HAT"),
+    "record": ("buildhat_conformance.transcripts.cli_record", "record a scenario's transcript on a target"),
+    "replay": ("buildhat_conformance.transcripts.cli_replay",
+               "replay a transcript against a target and diff"),
+    "mock": ("buildhat_conformance.transcripts.cli_mock", "serve a transcript as a fake HAT"),
     "report": ("buildhat_conformance.conformance.report.cli", "build the HTML report from JUnit files"),
     "load": ("buildhat_conformance.harness.firmware.cli", "load firmware through the HAT's bootloader"),
     "bench": ("buildhat_conformance.bench.cli", "benchmarks: timing, throughput, fidelity"),

@@ -3,7 +3,7 @@
 Before any case runs the target is checked (harness/preflight.py: it exists, is a serial
 device, something listens, the release is known, --firmware is valid, something answers);
 a problem is one line and exit status 2 (usage) or 3 (unreachable), and no report is
-touched. Then pytest runs the installed ``conformance`` package in a child process (so a
+touched. Then pytest runs the suite's cases (conformance/cases/) in a child process (so a
 target that hangs or dies cannot take the caller with it), writes the JUnit file, and the
 HTML report is built. pytest's own options go after ``--`` and are passed on unchanged
 (conformance/run_passthrough.py: which others still go on, and which are mistakes).
@@ -29,21 +29,11 @@ from ..harness.cli_options import (
     EXIT_FAILED,
     EXIT_OK,
     EXIT_TARGET,
-    RELEASE_HELP,
-    SPEED_HELP,
-    add_target_option,
     expand_target,
 )
-from ..harness.lab.selection import add_lab_arguments
 from ..harness.parent_death import die_with_parent
-from .lab_run import hold_for_run
-from .run_passthrough import PYTEST_HELP, UNKNOWN_ARGS_HINT, refused_arguments
 
-# The dispatcher (buildhat_conformance/cli.py) hands on what follows `--`, and what refused_arguments
-# lets through, to pytest as `args.extra`.
-PASS_UNKNOWN_ARGS = True
-__all__ = ["add_arguments", "main", "pytest_argv", "suite_dir", "refused_arguments", "UNKNOWN_ARGS_HINT",
-           "PASS_UNKNOWN_ARGS"]
+__all__ = ["run", "pytest_argv", "suite_dir"]
 EXIT_INTERRUPTED = 130
 _STOP_GRACE_S = 15.0       # the child closes the target and writes its files in this time
 # pytest's exit statuses: 0 all passed, 1 some failed, 2 interrupted, 3 internal error,
@@ -51,44 +41,6 @@ _STOP_GRACE_S = 15.0       # the child closes the target and writes its files in
 _PYTEST_TO_EXIT = {0: EXIT_OK, 1: EXIT_FAILED, 2: EXIT_INTERRUPTED, 3: EXIT_TARGET, 4: 2, 5: 2}
 # Options passed through to pytest that need pytest-xdist (several targets, or workers).
 _XDIST_OPTIONS = {"--inventory", "-n", "--numprocesses", "--dist", "--tx", "-d", "--looponfail", "-f"}
-
-
-def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.epilog = PYTEST_HELP
-    add_target_option(parser, multiple=True,
-                      extra_help="several: one xdist worker each, one merged report (docs/LAB.md; "
-                                 "or --inventory FILE)")
-    parser.add_argument("--speed", type=float, default=DEFAULT_SPEED, metavar="N",
-                        help=f"{SPEED_HELP}, for emulator URLs that give no ?speed= (default "
-                             f"{DEFAULT_SPEED:g})")
-    parser.add_argument("--firmware", default=None, metavar="RELEASE",
-                        help=f"judge as this release ({RELEASE_HELP}) instead of the one the target "
-                             "reports; to run an emulator of a release, name it in the URL (emulator:R2)")
-    parser.add_argument("--inventory", default=None, metavar="FILE",
-                        help="run against every HAT listed in FILE (one 'NAME URL' or 'URL' a line; "
-                             "docs/LAB.md)")
-    parser.add_argument("--junit", default=None, metavar="FILE",
-                        help="JUnit XML output (default: a new run folder reports/runs/<time>-<target>/, "
-                             "with reports/latest, reports/junit.xml and reports/index.html updated when "
-                             "cases ran)")
-    parser.add_argument("--transcripts", default=None, metavar="DIR",
-                        help="folder for the per-case transcripts (default: transcripts/ beside the JUnit "
-                             "file)")
-    parser.add_argument("-k", dest="keyword", default=None, metavar="EXPR",
-                        help="only the cases matching this pytest -k expression "
-                             "(e.g. 'select and not combi')")
-    parser.add_argument("--operator", action="store_true", help="ask a person for plug/unplug actions")
-    parser.add_argument("--max-target-faults", type=int, default=None, metavar="N",
-                        help="after N target faults in a row reset the HAT once if the target can (the "
-                             "emulator, or ?reset=gpio on a Raspberry Pi) and go on if it comes back; else "
-                             "stop talking to the target and report the remaining cases as not run "
-                             "(default 5; 0: never stop)")
-    parser.add_argument("--image", default=None, metavar="FILE",
-                        help="load this firmware image through the HAT's bootloader before the suite, "
-                             "and again if the run resets a dead HAT (with --signature; as "
-                             "'buildhat-conformance load')")
-    parser.add_argument("--signature", default=None, metavar="FILE", help="the image's 64-byte signature")
-    add_lab_arguments(parser)
 
 
 def suite_dir() -> str:
@@ -110,8 +62,8 @@ def pytest_argv(args: argparse.Namespace) -> List[str]:
     argv = [sys.executable, "-m", "pytest", suite_dir(), "-p", "no:cacheprovider", "--rootdir", suite_dir(),
             *[a for t in targets for a in ("--target", t)], "--conformance-junit", junit,
             "--transcripts", transcripts, "--import-mode=importlib", "-q",
-            # The suite uses no Hypothesis; its pytest plugin imports the library in the terminal
-            # summary, two seconds of every run (H10 profile).
+            # The suite uses no Hypothesis (a dev dependency only); where it is installed, its pytest
+            # plugin imports the library in the terminal summary, two seconds of every run (H10 profile).
             "-p", "no:hypothesispytest",
             "-p", "buildhat_conformance.conformance.plugin.interrupt",
             # The host-library fixture plugin (emulator/pytest_fixture.py) is not the suite's.
@@ -302,17 +254,9 @@ def load_image_first(args: argparse.Namespace) -> int:
     return 0
 
 
-def main(args: argparse.Namespace) -> int:
-    # labgrid places (--places, labgrid: targets) are held from here to the end (conformance/lab_run.py)
-    give_back = hold_for_run(args)
-    try:
-        return _run(args)
-    finally:
-        if give_back is not None:
-            give_back()
-
-
-def _run(args: argparse.Namespace) -> int:
+def run(args: argparse.Namespace) -> int:
+    """The run: preflight, a new run folder, the image loaded if given, the suite in a child pytest,
+    the report; the exit status of the table in cli_exits.py."""
     from .report import runs
 
     preflight(args)   # before the run folder and the load: a mistake is one line, reports/ untouched

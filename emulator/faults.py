@@ -20,11 +20,12 @@ The ``clear_faults`` command calls :meth:`FaultMonitor.clear_faults`.
 from __future__ import annotations
 
 import math
-from typing import List, Optional, Sequence
+from typing import List, Optional, Sequence, Tuple
 
 from .services import FaultServices
 
-__all__ = ["FaultMonitor", "DEGLITCH_MS", "REPEAT_MS", "HOLDOFF_MS", "DEFAULT_FLAGS"]
+__all__ = ["FaultCauses", "FaultMonitor", "DEGLITCH_MS", "REPEAT_MS", "HOLDOFF_MS", "DEFAULT_FLAGS",
+           "motor_fault_cause"]
 
 DEGLITCH_MS = 10          # the pin must be low for *more* than this
 REPEAT_MS = 1000          # port fault (and R1 motor fault) repeat period
@@ -81,18 +82,50 @@ class _HoldoffReport:
         return False
 
 
-class FaultMonitor:
+class FaultCauses:
+    """The world's side of the fault pins: ``@portfault`` and ``@motorfault`` set the causes and
+    latch a driver's flags. The emulator's monitor and sil's world (sil/world.py) share it; each
+    says in :meth:`_fault_changed` what a change sets going."""
+
+    def __init__(self) -> None:
+        self.port_fault_low = False
+        self.cause: List[bool] = [False] * NPORTS          # world: the fault condition exists
+        self.latched: List[Optional[tuple]] = [None] * NPORTS   # driver latch: flag bytes
+
+    def _fault_changed(self, ports: Sequence[int]) -> None:
+        raise NotImplementedError
+
+    def port_fault(self, asserted: bool) -> None:
+        """``@portfault 1|0``: the 3.3 V port supply fault pin low (1) or high (0)."""
+        self.port_fault_low = bool(asserted)
+        self._fault_changed(())
+
+    def motor_fault(self, asserted: bool, port: Optional[int] = None,
+                    flags: Optional[Sequence[int]] = None) -> None:
+        """``@motorfault 1 P [F4D F4E F4F]`` asserts the fault of port P's driver and latches
+        ``flags``; ``@motorfault 0 [P]`` removes the cause on P (all ports without P). The
+        latch stays until the firmware clears it."""
+        if asserted:
+            p, latched = motor_fault_cause(port, flags)
+            self.latched[p] = latched
+            self.cause[p] = True
+            self._fault_changed((p,))
+        else:
+            for p in range(NPORTS) if port is None else (_check_port(port),):
+                self.cause[p] = False
+            self._fault_changed(())
+
+
+class FaultMonitor(FaultCauses):
     """Fault pins, driver latches and the messages they cause."""
 
     def __init__(self, hat: FaultServices) -> None:
+        super().__init__()
         self.hat = hat          # the HAT as far as the fault monitor may use it
         style = hat.profile.features["motor_fault_report"]
         if style not in ("text_1hz", "dump_holdoff"):
             raise ValueError(f"unknown motor_fault_report {style!r}")
         self.dump_registers = style == "dump_holdoff"
-        self.port_fault_low = False
-        self.cause: List[bool] = [False] * NPORTS          # world: the fault condition exists
-        self.latched: List[Optional[tuple]] = [None] * NPORTS   # driver latch: flag bytes
         self._port_report = _RepeatingReport()
         self._motor_report = _HoldoffReport() if self.dump_registers else _RepeatingReport()
         self.due: float = 0     # the Hat ticks the monitor from this virtual ms on
@@ -105,31 +138,9 @@ class FaultMonitor:
         for p in ports:
             self.hat.ports[p].wake()
 
-    # -- world actions -------------------------------------------------------------------
-    def port_fault(self, asserted: bool) -> None:
-        """``@portfault 1|0``: the 3.3 V port supply fault pin low (1) or high (0)."""
-        self.port_fault_low = bool(asserted)
-        self._wake()
-
-    def motor_fault(self, asserted: bool, port: Optional[int] = None,
-                    flags: Optional[Sequence[int]] = None) -> None:
-        """``@motorfault 1 P [F4D F4E F4F]`` asserts the fault of port P's driver and latches
-        ``flags``; ``@motorfault 0 [P]`` removes the cause on P (all ports without P). The
-        latch stays until ``clear_faults``."""
-        if asserted:
-            if port is None:
-                raise ValueError("@motorfault 1 needs a port: @motorfault 1 P [F4D F4E F4F]")
-            p = self._check_port(port)
-            flags = DEFAULT_FLAGS if flags is None else tuple(flags)
-            if len(flags) != 3 or any(not 0 <= int(f) <= 0xFF for f in flags):
-                raise ValueError(f"motor fault flags must be 3 bytes 00..FF, got {list(flags)}")
-            self.cause[p] = True
-            self.latched[p] = tuple(int(f) for f in flags)
-            self._wake((p,))
-        else:
-            for p in range(NPORTS) if port is None else (self._check_port(port),):
-                self.cause[p] = False
-            self._wake()
+    # -- world actions (FaultCauses) -------------------------------------------------------
+    def _fault_changed(self, ports: Sequence[int]) -> None:
+        self._wake(ports)
 
     # -- firmware side -------------------------------------------------------------------
     def clear_faults(self) -> None:
@@ -184,6 +195,22 @@ class FaultMonitor:
     # -- helpers -------------------------------------------------------------------------
     @staticmethod
     def _check_port(port: int) -> int:
-        if not 0 <= int(port) < NPORTS:
-            raise ValueError(f"port must be 0..{NPORTS - 1}, got {port}")
-        return int(port)
+        return _check_port(port)
+
+
+def _check_port(port: int) -> int:
+    if not 0 <= int(port) < NPORTS:
+        raise ValueError(f"port must be 0..{NPORTS - 1}, got {port}")
+    return int(port)
+
+
+def motor_fault_cause(port: Optional[int], flags: Optional[Sequence[int]]) -> Tuple[int, Tuple[int, ...]]:
+    """The port and the three latched bytes of ``@motorfault 1 P [F4D F4E F4F]``, checked
+    (ValueError); the emulator's fault monitor and sil's world (sil/world.py) read it alike."""
+    if port is None:
+        raise ValueError("@motorfault 1 needs a port: @motorfault 1 P [F4D F4E F4F]")
+    p = _check_port(port)
+    flags = DEFAULT_FLAGS if flags is None else tuple(flags)
+    if len(flags) != 3 or any(not 0 <= int(f) <= 0xFF for f in flags):
+        raise ValueError(f"motor fault flags must be 3 bytes 00..FF, got {list(flags)}")
+    return p, tuple(int(f) for f in flags)

@@ -43,6 +43,11 @@ UNSPECIFIED = {
 }
 
 
+
+def _q16_arg(cur: Cursor) -> int:
+    """The next argument, a float the firmware stores as Q16.16 (bias, plimit, pwmparams)."""
+    return q16(cur.need(cur.float()))
+
 class HatModel:
     """The observable state of one HAT running ``profile``, and the parser that changes it."""
 
@@ -270,10 +275,10 @@ class HatModel:
         p.coast = False
 
     def _cmd_bias(self, cur: Cursor, out: List[Expect]) -> None:
-        self._here().bias = q16(cur.need(cur.float()))
+        self._here().bias = _q16_arg(cur)
 
     def _cmd_plimit(self, cur: Cursor, out: List[Expect]) -> None:
-        v = q16(cur.need(cur.float()))
+        v = _q16_arg(cur)
         if self.per_port_plimit:
             for p in self.ports:
                 p.plimit = v
@@ -281,11 +286,11 @@ class HatModel:
             self.plimit = v
 
     def _cmd_port_plimit(self, cur: Cursor, out: List[Expect]) -> None:
-        self._here().plimit = q16(cur.need(cur.float()))
+        self._here().plimit = _q16_arg(cur)
 
     def _cmd_pwmparams(self, cur: Cursor, out: List[Expect]) -> None:
-        thresh = q16(cur.need(cur.float()))
-        self._here().pwmparams = (thresh, q16(cur.need(cur.float())))
+        thresh = _q16_arg(cur)
+        self._here().pwmparams = (thresh, _q16_arg(cur))
 
     def _select(self, cur: Cursor, once: bool) -> None:
         p = self._here()

@@ -346,43 +346,49 @@ class Session(Identification, Conversation):
 
     def _wait_index(self, pred: Callable[[Event], bool], start: int, timeout: float) -> Optional[int]:
         """Index of the first event from ``start`` on that satisfies pred, or None after
-        ``timeout`` seconds (wall clock; HAT seconds / time_scale for virtual-time targets)."""
-        if self.virtual:
-            return self._pull_index(pred, start, timeout)
-        deadline = time.monotonic() + timeout
+        ``timeout`` seconds (wall clock; HAT seconds / time_scale for virtual-time targets).
+        One loop for both kinds of target; only how the next bytes come differs (``more``)."""
+        more = self._step_virtual(timeout) if self.virtual else self._step_real(timeout)
         i = start
-        with self._cond:
+        with contextlib.nullcontext() if self.virtual else self._cond:
             while True:
                 found = self.events.scan(pred, i)
                 if found is not None:
                     return found
                 i = len(self.events)
                 self._check()
-                left = deadline - time.monotonic()
-                if left <= 0:
+                if not more():
                     return None
-                self._cond.wait(min(left, 0.25))
 
-    def _pull_index(self, pred: Callable[[Event], bool], start: int, timeout: float) -> Optional[int]:
-        # Virtual time: each read moves the HAT on until output appears or the budget is spent.
-        budget_ms = timeout * 1000.0 * self.time_scale
-        i = start
-        while True:
-            found = self.events.scan(pred, i)
-            if found is not None:
-                return found
-            i = len(self.events)
-            self._check()
-            if budget_ms <= 0:
-                return None
+    def _step_real(self, timeout: float) -> Callable[[], bool]:
+        """Real time: wait (holding ``_cond``) for the reader thread's next event, until the deadline."""
+        deadline = time.monotonic() + timeout
+
+        def more() -> bool:
+            left = deadline - time.monotonic()
+            if left <= 0:
+                return False
+            self._cond.wait(min(left, 0.25))
+            return True
+        return more
+
+    def _step_virtual(self, timeout: float) -> Callable[[], bool]:
+        """Virtual time: each read moves the HAT on until output appears or the budget is spent."""
+        budget_ms = [timeout * 1000.0 * self.time_scale]
+
+        def more() -> bool:
+            if budget_ms[0] <= 0:
+                return False
             before, got = self._hat_now() or 0.0, len(self.received)
-            if not self._read_once(budget_ms / 1000.0 / self.time_scale):
+            if not self._read_once(budget_ms[0] / 1000.0 / self.time_scale):
                 self._check()
             spent = (self._hat_now() or before) - before
             if spent > 0:
-                budget_ms -= spent
+                budget_ms[0] -= spent
             elif len(self.received) == got:
-                budget_ms = 0  # neither time nor bytes moved: nothing more will come
+                budget_ms[0] = 0  # neither time nor bytes moved: nothing more will come
+            return True
+        return more
 
     def poll(self) -> None:
         """Take in what the target has already sent, letting no time pass (a virtual-time

@@ -26,7 +26,7 @@ from ..emulator import lpf2
 from ..emulator.api import DEFAULT_ADC
 from ..emulator.devices import ActiveDevice, MotorDevice, PassiveDevice, make_device
 from ..emulator.devices.port_actions import PortActions
-from ..emulator.faults import DEFAULT_FLAGS
+from ..emulator.faults import FaultCauses
 from ..emulator.ports import SIGNATURE_ACTIVE, SIGNATURE_EMPTY
 from .protocol import NS_PER_MS, Frame, encode
 
@@ -186,14 +186,13 @@ class SilPort(PortActions):
             self.due = dev.next_send(now)
 
 
-class _FaultLatches:
-    """The motor drivers' fault latches and the two fault pins (``@motorfault``, ``@portfault``)."""
+class _FaultLatches(FaultCauses):
+    """The motor drivers' fault latches and the two fault pins (``@motorfault``, ``@portfault``):
+    the world actions are the emulator's (emulator/faults.py); a change goes to the firmware's pins."""
 
     def __init__(self, world: SilWorld):
+        super().__init__()
         self.world = world
-        self.cause: List[bool] = [False] * 4
-        self.latched: List[Optional[tuple]] = [None] * 4
-        self.port_fault_low = False
 
     def _sync(self) -> None:
         motor_ok = all(f is None for f in self.latched)
@@ -203,25 +202,7 @@ class _FaultLatches:
             self.world.send(encode("F", 0, bytes(int(f) & 0xFF for f in flags), port=p))
             self.world.ports[p].wake()
 
-    def port_fault(self, asserted: bool) -> None:
-        self.port_fault_low = bool(asserted)
-        self._sync()
-
-    def motor_fault(self, asserted: bool, port: Optional[int] = None,
-                    flags: Optional[Sequence[int]] = None) -> None:
-        if asserted:
-            if port is None:
-                raise ValueError("@motorfault 1 needs a port: @motorfault 1 P [F4D F4E F4F]")
-            if not 0 <= int(port) <= 3:
-                raise ValueError(f"port must be 0..3, got {port}")
-            flags = DEFAULT_FLAGS if flags is None else tuple(flags)
-            if len(flags) != 3 or any(not 0 <= int(f) <= 0xFF for f in flags):
-                raise ValueError(f"motor fault flags must be 3 bytes 00..FF, got {list(flags)}")
-            self.cause[int(port)] = True
-            self.latched[int(port)] = tuple(flags)
-        else:
-            for p in ([int(port)] if port is not None else range(4)):
-                self.cause[p] = False
+    def _fault_changed(self, ports: Sequence[int]) -> None:
         self._sync()
 
     def cleared(self, port: int) -> None:

@@ -5,6 +5,8 @@ host first spoke), then one exchange per host line (the bytes up to and includin
 the output that followed it, each output chunk at its recorded delay after the host line.
 When the host sends the next recorded line, the mock answers with what the HAT answered.
 
+The fake HAT is served on a pty or TCP by transcripts/mock_serve.py.
+
 A host line that departs from the recording is reported and answered with nothing (a fake
 that answered anyway would make a host look right when it is not). If the same line appears
 a little further on in the recording (the host skipped something), the mock moves on to it
@@ -12,11 +14,6 @@ and reports the skipped lines. ``--strict`` stops at the first departure with ex
 """
 from __future__ import annotations
 
-import argparse
-import os
-import select
-import signal
-import socket
 import sys
 import threading
 import time
@@ -24,11 +21,9 @@ from collections import deque
 from dataclasses import dataclass, field
 from typing import Callable, Deque, List, Optional, Tuple
 
-from ..harness.cli_options import SPEED_HELP, UsageError
-from ..harness.pty import open_raw_pty
 from ..harness.transcript import CRLF, Transcript, field_bytes
 
-__all__ = ["Exchange", "MockHat", "exchanges_of", "serve_pty", "serve_tcp", "add_arguments", "main"]
+__all__ = ["Exchange", "MockHat", "exchanges_of"]
 
 
 @dataclass
@@ -219,128 +214,3 @@ class MockHat:
             self._cv.notify_all()
         if self._thread.is_alive():
             self._thread.join(timeout=2)
-
-
-# -- transports --------------------------------------------------------------------------
-class _Stop(Exception):
-    pass
-
-
-def _serve_fd(mock: MockHat, fd: int, stop: threading.Event, strict: bool) -> int:
-    mock.start()
-    try:
-        while not stop.is_set():
-            ready, _, _ = select.select([fd], [], [], 0.1)
-            if not ready:
-                continue
-            try:
-                data = os.read(fd, 4096)
-            except OSError:
-                return 0
-            if not data:
-                return 0
-            if mock.feed(data) and strict:
-                mock.log("--strict: stopping at the first departure")
-                return 1
-    finally:
-        mock.close()
-    return 0
-
-
-def serve_pty(transcript: Transcript, link: Optional[str] = None, speed: Optional[float] = None,
-              strict: bool = False, stop: Optional[threading.Event] = None,
-              on_ready: Optional[Callable[[str], None]] = None,
-              on_mock: Optional[Callable[[MockHat], None]] = None) -> int:
-    """Serve on a new pseudo-terminal until ``stop`` is set; ``on_ready`` gets the device path."""
-    master, slave, path = open_raw_pty(link)   # raw: bytes pass as on a UART (CR stays CR)
-    stop = stop or threading.Event()
-
-    def write(data: bytes) -> None:
-        view = memoryview(data)
-        while view:
-            n = os.write(master, view)
-            view = view[n:]
-
-    mock = MockHat(transcript, write, speed=speed)
-    if on_mock is not None:
-        on_mock(mock)
-    (on_ready or (lambda p: print(p, flush=True)))(link or path)
-    try:
-        # Our own slave fd stays open so a host closing and reopening the device does not end the run.
-        return _serve_fd(mock, master, stop, strict)
-    finally:
-        mock.log(mock.summary())
-        os.close(master)
-        os.close(slave)
-        if link and os.path.islink(link):
-            os.unlink(link)
-
-
-def serve_tcp(transcript: Transcript, host: str, port: int, speed: Optional[float] = None,
-              strict: bool = False, once: bool = False, stop: Optional[threading.Event] = None,
-              on_ready: Optional[Callable[[str], None]] = None) -> int:
-    """Serve one client at a time; every connection starts from the recording's start-up."""
-    stop = stop or threading.Event()
-    srv = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
-    srv.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
-    try:
-        srv.bind((host, port))
-    except OSError as exc:      # a port in use or not ours to take: the user's choice, one line
-        srv.close()
-        raise UsageError(f"--tcp {host}:{port}: {exc.strerror or exc}") from None
-    srv.listen(1)
-    srv.settimeout(0.2)
-    (on_ready or (lambda p: print(p, flush=True)))(f"socket://{host}:{srv.getsockname()[1]}")
-    status = 0
-    try:
-        while not stop.is_set():
-            try:
-                conn, _addr = srv.accept()
-            except socket.timeout:
-                continue
-            with conn:
-                mock = MockHat(transcript, conn.sendall, speed=speed)
-                status = _serve_fd(mock, conn.fileno(), stop, strict)
-                mock.log(mock.summary())
-            if once or status:
-                break
-    finally:
-        srv.close()
-    return status
-
-
-# -- command line ------------------------------------------------------------------------
-def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("transcript", metavar="FILE", help="transcript (.jsonl) to serve")
-    mode = parser.add_mutually_exclusive_group()
-    mode.add_argument("--pty", action="store_true", help="serve on a pseudo-terminal (default); "
-                      "the first stdout line is its path")
-    mode.add_argument("--tcp", metavar="[HOST:]PORT", help="serve on a TCP port (pyserial socket://)")
-    parser.add_argument("--link", metavar="PATH", help="with --pty: also make this symlink to the device")
-    parser.add_argument("--speed", type=float, metavar="N",
-                        help=f"{SPEED_HELP}: the recorded delays (HAT time) play N times faster than real "
-                             "time (default: the recording's time_scale, so the host sees the pace it saw)")
-    parser.add_argument("--strict", action="store_true",
-                        help="stop with exit status 1 at the first host line that departs from the recording")
-    parser.add_argument("--once", action="store_true", help="with --tcp: exit after the first client leaves")
-
-
-def main(args: argparse.Namespace) -> int:
-    from .transcript_check import load_transcript
-
-    transcript = load_transcript(args.transcript)
-    stop = threading.Event()
-
-    def on_signal(_sig, _frame) -> None:
-        stop.set()
-
-    signal.signal(signal.SIGTERM, on_signal)
-    signal.signal(signal.SIGINT, on_signal)
-    if args.tcp:
-        host, _, port = args.tcp.rpartition(":")
-        try:
-            port_no = int(port)
-        except ValueError:
-            raise UsageError(f"--tcp wants [HOST:]PORT, got {args.tcp!r}") from None
-        return serve_tcp(transcript, host or "127.0.0.1", port_no, args.speed, args.strict, args.once, stop)
-    return serve_pty(transcript, args.link, args.speed, args.strict, stop)

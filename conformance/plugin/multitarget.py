@@ -1,7 +1,7 @@
 """Several HATs at once: one pytest-xdist worker per target, one merged JUnit report.
 
-    pytest conformance --target emulator:R5 --target emulator:R7 --target /dev/ttyUSB0
-    pytest conformance --inventory lab.txt          # or: buildhat-conformance run --inventory lab.txt
+    pytest conformance/cases --target emulator:R5 --target emulator:R7 --target /dev/ttyUSB0
+    pytest conformance/cases --inventory lab.txt          # or: buildhat-conformance run --inventory lab.txt
 
 An inventory is a text file, one HAT per line: a name, then its target URL (``#`` starts a
 comment; a line with only a URL is named after its position)::

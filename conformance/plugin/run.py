@@ -1,10 +1,6 @@
-"""pytest plugin of the conformance suite: options, the shared HAT session, per-case
-transcripts, verdict classes, an always-valid JUnit file and a per-requirement summary.
-
-Options: ``--target URL`` (default ``emulator``), ``--firmware V`` (override detection),
-``--operator`` (ask a person for world actions), ``--transcripts DIR``,
-``--conformance-junit PATH``, ``--speed N`` (time scale for emulator URLs that give none),
-``--max-target-faults N`` (stop talking to a target after N target faults in a row).
+"""The run, a part of the suite's pytest plugin: the shared HAT session, a verdict class per
+case, target faults counted, an always-valid JUnit file and a per-requirement summary. The
+options are plugin/options.py; the fixtures every case gets, plugin/case_fixtures.py.
 
 Target faults (conformance/target_fault.py) get the verdict ``target-fault``: a JUnit
 ``<error>`` whose message is one line saying what the target did. After N of them in a row the
@@ -402,72 +398,3 @@ class CannotJudge(Exception):
 
 
 _run_key = pytest.StashKey[Run]()
-
-
-# -- fixtures ------------------------------------------------------------------------------
-@pytest.fixture(scope="session")
-def _run(pytestconfig: Any) -> Run:
-    return pytestconfig.stash[_run_key]
-
-
-@pytest.fixture
-def hat(_run: Run) -> Hat:
-    """The HAT under test, shared by every case (opened once, closed at the end). Function-scoped
-    as a fixture (the session is cached by the run) so that a target that could not be opened is
-    a target fault once, not an error cached for every later case."""
-    return _run.open()
-
-
-@pytest.fixture(autouse=True)
-def _conformance_case(request: Any, _run: Run) -> Any:
-    """Per case: its own transcript, the resynchronising fence, and its JUnit properties."""
-    from ...harness.transcript import TranscriptWriter
-
-    item = request.node
-    ids = requirement_ids(item)
-    item.user_properties.extend([("requirements", ",".join(ids)), ("target", _run.url)])
-    if _run.stopped is None and _run.tee is not None and _run.tee.dead:
-        _run.stopped = f"the target went away ({first_line(_run.tee.dead)})"
-    if _run.stopped is None and _run.reset_due is not None:
-        _run.recover()
-    if _run.stopped is None and _run.hat is None:
-        try:
-            _run.open()
-        except CannotJudge:
-            pass                # stopped: said below, as for every later case
-    if _run.stopped is not None:
-        item.stash[_not_run_key] = _run.stopped
-        pytest.skip(f"not run: {_run.stopped}")
-    hat = _run.open()
-    assert _run.tee is not None
-    between = hat.between
-    verdict = Verdict(hat.profile.name, (between[0].name, between[1].name) if between else None)
-    item.stash[_verdict_key] = verdict
-    path = os.path.join(_run.transcripts, transcript_name(item.nodeid) + ".jsonl")
-    p = hat.profile
-    item.user_properties.extend([
-        ("firmware", firmware_of(hat)),
-        ("profile", p.name if hat.profile_exact else f"{p.name} (nearest earlier)"), ("transcript", path)])
-    if between:
-        verdict.note(f"unknown build between {between[0].name} and {between[1].name}: judged by the "
-                     "document; where they differ, informational")
-    elif not hat.profile_exact:
-        verdict.note(f"unknown firmware version; judged as {p.name}, the nearest earlier release")
-    writer = TranscriptWriter(path, {"firmware": firmware_of(hat), "target": _run.url, "case": item.nodeid,
-                                     "requirements": ids, "profile": p.name})
-    _run.tee.switch(writer)
-    waited = getattr(hat.session, "waited_hat_ms", 0.0)   # H10: see Session.note_wait
-    restarts = hat.restarts
-    try:
-        hat.resync()
-        if hat.restarts > restarts:
-            verdict.note("the HAT restarted before this case; the suite's set-up was restored")
-        yield
-        if not item.stash.get(_call_failed_key, False):
-            hat.check_reboot()     # a restart late in a case that did not fence after it
-    finally:
-        _run.tee.switch(None)
-        writer.close()
-        # H10 (make bench): the HAT time this case had to wait, summed by bench/suite.py.
-        item.user_properties.append(
-            ("hat_wait_ms", f"{getattr(hat.session, 'waited_hat_ms', 0.0) - waited:.1f}"))

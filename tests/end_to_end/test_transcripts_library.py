@@ -16,7 +16,7 @@ from buildhat_conformance.cli import main as cli_main
 from buildhat_conformance.harness.targets import make_target
 from buildhat_conformance.harness.transcript import read_transcript
 from buildhat_conformance.protocol.devices import DEFAULT_LAYOUT
-from buildhat_conformance.transcripts.mock import serve_pty
+from buildhat_conformance.transcripts.mock_serve import serve_pty
 from buildhat_conformance.transcripts.record import ready_lines, record_proxy
 
 pytestmark = pytest.mark.timeout(240)

@@ -13,7 +13,8 @@ import time
 import pytest
 
 from buildhat_conformance.harness.transcript import TranscriptWriter, read_transcript
-from buildhat_conformance.transcripts.mock import MockHat, exchanges_of, serve_pty, serve_tcp
+from buildhat_conformance.transcripts.mock import MockHat, exchanges_of
+from buildhat_conformance.transcripts.mock_serve import serve_pty, serve_tcp
 
 VERSION = b"Firmware version: 1737564117 2025-01-22T16:41:57+00:00"
 

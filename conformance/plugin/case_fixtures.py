@@ -1,0 +1,95 @@
+"""The fixtures every conformance case gets: the shared ``hat`` and, per case, its own transcript,
+the resynchronising fence, its verdict and its JUnit properties. The run they draw on (one session,
+verdicts, fault counting) is plugin/run.py."""
+from __future__ import annotations
+
+import os
+from typing import Any
+
+import pytest
+
+from ..link import Hat
+from ..target_fault import first_line
+from ..verdict import Verdict
+from .run import (
+    CannotJudge,
+    Run,
+    _call_failed_key,
+    _not_run_key,
+    _run_key,
+    _verdict_key,
+    requirement_ids,
+    transcript_name,
+)
+from .summary import firmware_of
+
+__all__ = ["hat"]
+
+
+# -- fixtures ------------------------------------------------------------------------------
+@pytest.fixture(scope="session")
+def _run(pytestconfig: Any) -> Run:
+    return pytestconfig.stash[_run_key]
+
+
+@pytest.fixture
+def hat(_run: Run) -> Hat:
+    """The HAT under test, shared by every case (opened once, closed at the end). Function-scoped
+    as a fixture (the session is cached by the run) so that a target that could not be opened is
+    a target fault once, not an error cached for every later case."""
+    return _run.open()
+
+
+@pytest.fixture(autouse=True)
+def _conformance_case(request: Any, _run: Run) -> Any:
+    """Per case: its own transcript, the resynchronising fence, and its JUnit properties."""
+    from ...harness.transcript import TranscriptWriter
+
+    item = request.node
+    ids = requirement_ids(item)
+    item.user_properties.extend([("requirements", ",".join(ids)), ("target", _run.url)])
+    if _run.stopped is None and _run.tee is not None and _run.tee.dead:
+        _run.stopped = f"the target went away ({first_line(_run.tee.dead)})"
+    if _run.stopped is None and _run.reset_due is not None:
+        _run.recover()
+    if _run.stopped is None and _run.hat is None:
+        try:
+            _run.open()
+        except CannotJudge:
+            pass                # stopped: said below, as for every later case
+    if _run.stopped is not None:
+        item.stash[_not_run_key] = _run.stopped
+        pytest.skip(f"not run: {_run.stopped}")
+    hat = _run.open()
+    assert _run.tee is not None
+    between = hat.between
+    verdict = Verdict(hat.profile.name, (between[0].name, between[1].name) if between else None)
+    item.stash[_verdict_key] = verdict
+    path = os.path.join(_run.transcripts, transcript_name(item.nodeid) + ".jsonl")
+    p = hat.profile
+    item.user_properties.extend([
+        ("firmware", firmware_of(hat)),
+        ("profile", p.name if hat.profile_exact else f"{p.name} (nearest earlier)"), ("transcript", path)])
+    if between:
+        verdict.note(f"unknown build between {between[0].name} and {between[1].name}: judged by the "
+                     "document; where they differ, informational")
+    elif not hat.profile_exact:
+        verdict.note(f"unknown firmware version; judged as {p.name}, the nearest earlier release")
+    writer = TranscriptWriter(path, {"firmware": firmware_of(hat), "target": _run.url, "case": item.nodeid,
+                                     "requirements": ids, "profile": p.name})
+    _run.tee.switch(writer)
+    waited = getattr(hat.session, "waited_hat_ms", 0.0)   # H10: see Session.note_wait
+    restarts = hat.restarts
+    try:
+        hat.resync()
+        if hat.restarts > restarts:
+            verdict.note("the HAT restarted before this case; the suite's set-up was restored")
+        yield
+        if not item.stash.get(_call_failed_key, False):
+            hat.check_reboot()     # a restart late in a case that did not fence after it
+    finally:
+        _run.tee.switch(None)
+        writer.close()
+        # H10 (make bench): the HAT time this case had to wait, summed by bench/suite.py.
+        item.user_properties.append(
+            ("hat_wait_ms", f"{getattr(hat.session, 'waited_hat_ms', 0.0) - waited:.1f}"))
