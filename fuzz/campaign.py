@@ -22,7 +22,7 @@ import random
 import re
 import time
 from dataclasses import dataclass, field
-from typing import Callable, Dict, List, Optional, Tuple
+from typing import Callable, Dict, List, Optional, Tuple, Union
 
 from ..harness.script import Script
 from ..harness.targets.base import Target, TargetError
@@ -96,7 +96,8 @@ class CampaignConfig:
     fresh: bool = True            # every open starts a freshly booted HAT (the layout is known)
     keep_open: bool = False       # one target for many runs (the prelude resets it)
     out_limit: Optional[int] = None   # bytes one exchange may print (a wire's TX ring)
-    tx_ring: bool = False         # output may meet a full TX ring (a wire, cmd:): fuzz/txring.py
+    # output may meet a full TX ring (a wire, cmd:, sil:): fuzz/txring.py; one flag, or one per side
+    tx_ring: Union[bool, Tuple[bool, ...]] = False
     confirm: int = 3
     reduce_seconds: float = 30.0
     labels: Tuple[str, str] = ("target", "against")

@@ -18,7 +18,7 @@ import os
 import re
 import shlex
 import sys
-from typing import Callable, Dict, Optional, Tuple
+from typing import Callable, Dict, Optional, Tuple, Union
 
 from ..harness.cli_options import RELEASE_HELP, add_hidden_alias
 from ..harness.script import ScriptError, load_script
@@ -116,12 +116,28 @@ def is_wire(url: str) -> bool:
     return True
 
 
+def _one_ring(url: str) -> bool:
+    return is_wire(url) or _scheme(url) not in ("inprocess", "emulator")
+
+
 def has_tx_ring(url: str, against: Optional[str] = None) -> bool:
     """Output may meet a full TX ring (fuzz/txring.py): any target but our emulator unpaced, whose
     output never waits (a `cmd:` target may be firmware behind a pipe, with a ring of its own)."""
-    def one(u: str) -> bool:
-        return is_wire(u) or _scheme(u) not in ("inprocess", "emulator")
-    return one(url) or bool(against and one(against))
+    return _one_ring(url) or bool(against and _one_ring(against))
+
+
+def ring_sides(url: str, against: Optional[str] = None) -> Tuple[bool, ...]:
+    """:func:`has_tx_ring` per side, target first: only a side with a ring pauses for it."""
+    return (_one_ring(url),) + ((_one_ring(against),) if against else ())
+
+
+def _sides_rings(target: str, against: Optional[str], secondary: Optional[Callable[[], Target]]
+                 ) -> Union[bool, Tuple[bool, ...]]:
+    """The runner's ``tx_ring``: per side when both URLs are known (a second target given as an
+    opener alone, with no URL, shares the first's)."""
+    if secondary is not None and not against:
+        return has_tx_ring(target)
+    return ring_sides(target, against)
 
 
 def opener_for(url: str) -> Callable[[], Target]:
@@ -168,7 +184,7 @@ def _config(args: argparse.Namespace, target: str, primary: Optional[Callable[[]
         # A paced wire (a HAT's, or an emulator told baud=) drops output once the TX ring is full, and
         # so does the firmware in the loop (sil:), whose ring drains at 115200 baud in HAT time.
         keep_open=not virtual, out_limit=OUT_LIMIT if not virtual or has_tx_ring(target, args.against)
-        else None, tx_ring=has_tx_ring(target, args.against), confirm=args.confirm,
+        else None, tx_ring=_sides_rings(target, args.against, secondary), confirm=args.confirm,
         reduce_seconds=args.shrink_time, devices=devices)
 
 
@@ -253,7 +269,7 @@ def reproduce(args: argparse.Namespace, primary: Optional[Callable[[], Target]] 
     hits, first, others, refused = 0, None, [], []
     for _ in range(attempts):
         finding = replay_script(script, open_primary, profile, fence_s, fresh=is_fresh(target), against=other,
-                                tx_ring=has_tx_ring(target, against))
+                                tx_ring=_sides_rings(target, against, secondary))
         if finding is None:
             continue
         if finding.details.get("prelude"):
