@@ -42,6 +42,20 @@ class SilControl(InProcessControl):
                               "hold", "pos", "reset", "layout", "virtual_time"})
 
 
+# Builds found this process, by tree, options and the tree's file stamps: a campaign opens a
+# target per run, and hashing the tree's sources each time cost ~20 ms a run.
+_FOUND: Dict[tuple, Any] = {}
+
+
+def _stamps(path: str) -> tuple:
+    try:
+        with os.scandir(path) as entries:
+            return tuple(sorted((e.name, e.stat().st_mtime_ns, e.stat().st_size)
+                                for e in entries if e.is_file()))
+    except OSError:
+        return ()
+
+
 def program_for(where: str, sanitize: List[str], coverage: bool) -> Tuple[str, Any]:
     """The host program for a tree (built, or taken from the cache) or a given program; and the
     build (None for a given program)."""
@@ -52,10 +66,18 @@ def program_for(where: str, sanitize: List[str], coverage: bool) -> Tuple[str, A
             raise TargetError(f"sil:{where}: not an executable program "
                               "(give a firmware tree or a built program)")
         return os.path.abspath(path), None
-    try:
-        build = build_tree(path, sanitize=sanitize, coverage=coverage)
-    except BuildError as exc:
-        raise TargetError(f"sil: {exc}") from None
+    # (a tree edited since, or a checkout holding it in firmware-pico/, is looked up again)
+    key = (os.path.abspath(path), tuple(sanitize), coverage, _stamps(path),
+           _stamps(os.path.join(path, "firmware-pico")))
+    build = _FOUND.get(key)
+    if build is None or not build.program.exists():
+        try:
+            build = build_tree(path, sanitize=sanitize, coverage=coverage)
+        except BuildError as exc:
+            raise TargetError(f"sil: {exc}") from None
+        if len(_FOUND) >= 16:
+            _FOUND.clear()
+        _FOUND[key] = build
     return str(build.program), build
 
 
