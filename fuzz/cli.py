@@ -35,7 +35,7 @@ from .replay import replay_script
 from .summary import KEPT_OPEN, Progress, print_summary
 
 __all__ = ["add_arguments", "main", "detect_profile", "opener_for", "is_fresh", "run", "reproduce",
-           "DEFAULT_TARGET"]
+           "DEFAULT_TARGET", "check_jobs"]
 
 DEFAULT_OUT = os.path.join("reports", "fuzz")
 DEFAULT_TARGET = "inprocess"
@@ -88,6 +88,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--shrink-time", type=float, default=30.0, metavar="S",
                         help="seconds a finding may spend being reduced by replaying smaller scripts "
                              "(default 30)")
+    parser.add_argument("--jobs", type=int, default=1, metavar="N",
+                        help="run N campaign workers at once, each with targets of its own, into one "
+                             "summary (targets started anew at each open: inprocess, emulator, cmd:, "
+                             "sil:; for several real HATs use --places); default 1")
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress line")
     from ..harness.lab.selection import add_lab_arguments
 
@@ -203,7 +207,13 @@ def run(args: argparse.Namespace, primary: Optional[Callable[[], Target]] = None
     if not args.quiet:
         print(f"fuzz: seed {seed}" + (" (chosen at random)" if chosen else "") + f", budget {budget}",
               file=sys.stderr, flush=True)
-    result = run_campaign(config, budget, seed, database, f"{_scheme(target)}>{_scheme(args.against or '')}")
+    scheme = f"{_scheme(target)}>{_scheme(args.against or '')}"
+    jobs = getattr(args, "jobs", 1) or 1
+    if jobs > 1:
+        from .jobs import run_jobs
+        result, config.stats = run_jobs(config, budget, seed, jobs, database, scheme, progress, progress.note)
+    else:
+        result = run_campaign(config, budget, seed, database, scheme)
     stats = config.stats
     stats.examples = result.runs
     progress.end(stats)
@@ -297,6 +307,7 @@ def reproduce(args: argparse.Namespace, primary: Optional[Callable[[], Target]] 
 def main(args: argparse.Namespace) -> int:
     from .lab_campaigns import hold_for_campaign, run_places
 
+    check_jobs(args)
     # labgrid places are held for the whole campaign, or all campaigns (fuzz/lab_campaigns.py)
     give_back = hold_for_campaign(args)
     try:
@@ -309,6 +320,24 @@ def main(args: argparse.Namespace) -> int:
     finally:
         if give_back is not None:
             give_back()
+
+
+def check_jobs(args: argparse.Namespace) -> None:
+    """``--jobs N`` needs targets that start a new HAT at every open (one per worker)."""
+    from ..harness.cli_options import UsageError
+
+    jobs = getattr(args, "jobs", 1)
+    if jobs < 1:
+        raise UsageError(f"--jobs takes a positive number of workers, got {jobs}")
+    if jobs == 1:
+        return
+    if args.reproduce or getattr(args, "places", None):
+        raise UsageError("--jobs runs campaign workers: it does not go with --reproduce or --places")
+    for url in (args.target or DEFAULT_TARGET, args.against):
+        if url and not is_fresh(url):
+            raise UsageError(f"--jobs {jobs}: {url} is one HAT, which one worker at a time can use "
+                             "(--jobs needs inprocess, emulator, cmd: or sil: targets; for several "
+                             "HATs, --places)")
 
 
 def _main(args: argparse.Namespace) -> int:

@@ -23,17 +23,19 @@ from ...sil.process import FirmwareDied
 from .base import TargetCrashed, TargetError
 from .inprocess import HatModel, InProcessControl, InProcessTarget, _parse_devices
 
-__all__ = ["SilTarget", "SilControl", "from_url", "program_for"]
+__all__ = ["SilTarget", "SilControl", "from_url", "program_for", "close_templates"]
 
 
+# Booted firmwares kept to be copied, by the process that started them: a forked process (a
+# `fuzz --jobs` worker) must not talk to its parent's over the parent's pipes.
 _BOOTED_FIRMWARES: Dict[tuple, Any] = {}
 
 
 @atexit.register
-def _close_templates() -> None:
-    for hat in _BOOTED_FIRMWARES.values():
-        hat.close()
-    _BOOTED_FIRMWARES.clear()
+def close_templates() -> None:
+    """Quit the booted firmwares this process started (a forked child's are its parent's)."""
+    for key in [k for k in _BOOTED_FIRMWARES if k[0] == os.getpid()]:
+        _BOOTED_FIRMWARES.pop(key).close()
 
 
 class SilControl(InProcessControl):
@@ -136,7 +138,7 @@ class SilTarget(InProcessTarget):
             return self._new()
         # One booted firmware per program, layout and seed, kept for this process; every open
         # is a copy of it (the process forks), so a fuzzing run starts in a millisecond.
-        key = (self.program, tuple(sorted(self.devices.items())), self.seed, self.firmware)
+        key = (os.getpid(), self.program, tuple(sorted(self.devices.items())), self.seed, self.firmware)
         template: Any = _BOOTED_FIRMWARES.get(key)
         if template is None or template.died is not None:
             template = self._new()
