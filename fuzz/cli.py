@@ -3,6 +3,7 @@
     buildhat-conformance fuzz -t inprocess:R7 --budget 30s --seed 1
     buildhat-conformance fuzz -t /dev/serial0 --against emulator --budget 500x
     buildhat-conformance fuzz --reproduce reports/fuzz/fate.script -t emulator:R7
+    buildhat-conformance fuzz -t sil:~/buildhat/firmware-pico --against inprocess --jobs 2   # fuzz/jobs.py
 
 Findings (one per oracle, confirmed by replays and reduced) are written to ``-o/--output`` (default
 ``reports/fuzz``; ``--out`` is its old spelling): ``<oracle>.script`` (replay with ``--reproduce``

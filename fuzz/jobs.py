@@ -130,25 +130,24 @@ def run_jobs(config: CampaignConfig, budget: Budget, seed: int, jobs: int, datab
     open_pipes = list(pipes)
     while open_pipes:
         try:
-            ready = multiprocessing.connection.wait(open_pipes, timeout=1.0)
+            for conn in multiprocessing.connection.wait(open_pipes, timeout=1.0):
+                try:
+                    kind, index, payload = conn.recv()  # type: ignore[union-attr]
+                except (EOFError, OSError):
+                    open_pipes.remove(conn)
+                    continue
+                if kind == "progress":
+                    latest[index] = payload
+                    on_progress(merge_stats(list(latest.values())))
+                elif kind == "note":
+                    on_note(f"worker {index}: {payload}")
+                elif kind == "done":
+                    done[index] = payload
+                    latest[index] = payload[1]
+                else:
+                    errors.append(payload)
         except KeyboardInterrupt:
             continue                  # the workers were interrupted too: collect what they ran
-        for conn in ready:
-            try:
-                kind, index, payload = conn.recv()  # type: ignore[union-attr]
-            except (EOFError, OSError):
-                open_pipes.remove(conn)
-                continue
-            if kind == "progress":
-                latest[index] = payload
-                on_progress(merge_stats(list(latest.values())))
-            elif kind == "note":
-                on_note(f"worker {index}: {payload}")
-            elif kind == "done":
-                done[index] = payload
-                latest[index] = payload[1]
-            else:
-                errors.append(payload)
     for proc in workers:
         proc.join(timeout=30)
     for index, proc in enumerate(workers):
