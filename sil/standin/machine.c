@@ -43,7 +43,7 @@ uint64_t sil_now;
 static uint64_t blocks;
 static uint64_t handler_blocks;         /* of those, run inside interrupt handlers */
 static uint64_t next_due = UINT64_MAX;  /* when sil_service must run next (never before power-on) */
-static int in_service, in_irq, in_handler, yield_wanted;
+static int in_service, in_irq, yield_wanted;
 static irq_handler_t handlers[SIL_NUM_IRQS];
 static uint8_t enabled[SIL_NUM_IRQS], pending[SIL_NUM_IRQS];
 static uint32_t armed;                  /* interrupts enabled with a handler: the only ones to ask */
@@ -83,7 +83,7 @@ static int take_interrupt(void) {
         uint num = (uint)__builtin_ctz(left);
         if (!irq_wanted(num)) continue;
         pending[num] = 0;
-        in_irq = in_handler = 1;
+        in_irq = 1;
         in_service = 0;                /* events and the world go on during a long handler */
         periph_irq_enter(num);
         stat_irqs++;
@@ -92,7 +92,7 @@ static int take_interrupt(void) {
         handler_blocks += blocks - start;
         periph_irq_exit(num);
         in_service = 1;
-        in_irq = in_handler = 0;
+        in_irq = 0;
         touched = 1;
         return 1;
     }
@@ -176,10 +176,6 @@ static void skip_idle(void) {
 }
 
 uint64_t time_us_64(void) {
-    if (in_handler) {                 /* a handler's read: not the main loop's pass */
-        sil_spend(NS_PER_TIMER_READ);
-        return sil_now / 1000;
-    }
     stat_reads++;
     uint64_t main_blocks = blocks - handler_blocks;
     uint64_t interval = main_blocks - last_read_blocks;
