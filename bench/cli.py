@@ -107,7 +107,12 @@ def _groups(quick: bool) -> List[Group]:
         ("suite on the firmware, real time", lambda: sil.suite(real_time=True, keyword=k), [
             (Figure("suite wall time against sil:?speed=1", "s"), "wall_s")], 1),
         ("fuzz on the firmware", lambda: sil.fuzz(seconds=fuzz_secs), [
-            (Figure("fuzz lines/s against sil:", "lines/s", ">= 2,000", "higher", 2000.0), "lines_per_s")],
+            (Figure("fuzz lines/s against sil:", "lines/s", ">= 2,000", "higher", 2000.0), "lines_per_s"),
+            (Figure("fuzz lines/s, sil: --against inprocess", "lines/s", ">= 2,000", "higher", 2000.0),
+             "against_inprocess_lines_per_s"),
+            (Figure("fuzz lines/s, sil: --against emulator", "lines/s", ">= 2,000", "higher", 2000.0),
+             "against_emulator_lines_per_s"),
+            (Figure("fuzz lines/s, sil: --jobs 2", "lines/s"), "jobs2_lines_per_s")],
          None),
         ("firmware coverage", lambda: sil.coverage(fuzz_seconds=20.0 if quick else 60.0), [
             (Figure("firmware line coverage, whole suite", "%", ">= 90 %", "higher", 90.0), "suite_line_pct"),

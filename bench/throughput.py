@@ -24,7 +24,7 @@ PTY_URL = "emulator:latest?speed=1"
 PACED_URL = "emulator:latest?speed=1&baud=115200"
 
 _RATE = re.compile(r"^fuzz: (\d+) runs, (\d+) inputs \((\d+) lines, (\d+) lines/s\) in ([\d.]+) s", re.M)
-_CPU = re.compile(r"this process: ([\d.]+) s of CPU, (\d+) lines per CPU second", re.M)
+_CPU = re.compile(r"(?:this process|\d+ workers): ([\d.]+) s of CPU, (\d+) lines per CPU second", re.M)
 _WIRE = re.compile(r"wire: sent (\d+) B/s, received (\d+) B/s; the busier direction carries (\d+) %", re.M)
 _FINDING = re.compile(r"^  FINDING \[(\w+)\]", re.M)
 

@@ -22,7 +22,7 @@ import random
 import re
 import time
 from dataclasses import dataclass, field
-from typing import Callable, Dict, List, Optional, Tuple
+from typing import Callable, Dict, List, Optional, Tuple, Union
 
 from ..harness.targets.base import Target, TargetError
 from ..protocol.profiles import Profile
@@ -96,7 +96,8 @@ class CampaignConfig:
     fresh: bool = True            # every open starts a freshly booted HAT (the layout is known)
     keep_open: bool = False       # one target for many runs (the prelude resets it)
     out_limit: Optional[int] = None   # bytes one exchange may print (a wire's TX ring)
-    tx_ring: bool = False         # output may meet a full TX ring (a wire, cmd:): fuzz/txring.py
+    # output may meet a full TX ring (a wire, cmd:, sil:): fuzz/txring.py; one flag, or one per side
+    tx_ring: Union[bool, Tuple[bool, ...]] = False
     confirm: int = 3
     reduce_seconds: float = 30.0
     labels: Tuple[str, str] = ("target", "against")
@@ -133,6 +134,7 @@ class CampaignResult:
     prelude_failures: List[str] = field(default_factory=list)   # runs the target did not let start
     stopped: Optional[str] = None     # the target let no run start this many times in a row
     not_done: Optional[str] = None    # why the campaign could not do its job (exit 3), if it could not
+    workers: int = 1              # campaigns run at once (--jobs); cpu is then their sum
 
     def finding(self, oracle: str) -> Optional[Confirmed]:
         return next((f for f in self.findings if f.oracle == oracle), None)
@@ -354,16 +356,22 @@ def _forget_run(folder: Optional[str], seed: int) -> None:
 
 
 def run_campaign(config: CampaignConfig, budget: Budget, seed: int, database: Optional[str] = None,
-                 database_scheme: str = "") -> CampaignResult:
+                 database_scheme: str = "", first: int = 0, stride: int = 1,
+                 replay_stored: bool = True) -> CampaignResult:
     """Runs until the budget is spent. ``database``: a folder where failing runs are kept; the
-    next campaign of the same kind replays them first."""
+    next campaign of the same kind replays them first (unless ``replay_stored`` is False).
+    ``first``, ``stride``: the run indexes this campaign takes (``--jobs``: worker w of N takes
+    w, w+N, ...; a run budget ``Kx`` is then the runs of indexes below K), so every run is the one
+    a single campaign of that seed would draw at that index."""
     campaign = Campaign(config)
     result = CampaignResult(seed=seed)
     folder = os.path.join(database, _database_key(config, database_scheme)) if database else None
-    stored = _stored_runs(folder)
+    stored = _stored_runs(folder) if replay_stored else []
+    if budget.examples is not None and stride > 1:
+        budget = Budget(examples=len(range(first, budget.examples, stride)))
     start = time.monotonic()
     cpu_start, checking_cpu = time.process_time(), 0.0
-    index = refused = 0
+    index, refused = first, 0
 
     def spent() -> bool:
         return budget.seconds is not None and time.monotonic() - start - result.checking \
@@ -377,7 +385,7 @@ def run_campaign(config: CampaignConfig, budget: Budget, seed: int, database: Op
                 break
             from_store = bool(stored)
             seed_i = stored.pop(0) if stored else run_seed(seed, index)
-            index += 0 if from_store else 1
+            index += 0 if from_store else stride
             result.runs += 1
             config.stats.examples = result.runs
             try:

@@ -3,6 +3,7 @@
     buildhat-conformance fuzz -t inprocess:R7 --budget 30s --seed 1
     buildhat-conformance fuzz -t /dev/serial0 --against emulator --budget 500x
     buildhat-conformance fuzz --reproduce reports/fuzz/fate.script -t emulator:R7
+    buildhat-conformance fuzz -t sil:~/buildhat/firmware-pico --against inprocess --jobs 2   # fuzz/jobs.py
 
 Findings (one per oracle, confirmed by replays and reduced) are written to ``-o/--output`` (default
 ``reports/fuzz``; ``--out`` is its old spelling): ``<oracle>.script`` (replay with ``--reproduce``
@@ -18,7 +19,7 @@ import os
 import re
 import shlex
 import sys
-from typing import Callable, Dict, Optional, Tuple
+from typing import Callable, Dict, Optional, Tuple, Union
 
 from ..harness.cli_options import RELEASE_HELP, add_hidden_alias
 from ..harness.targets import make_target
@@ -35,7 +36,7 @@ from .replay import replay_script
 from .summary import KEPT_OPEN, Progress, print_summary
 
 __all__ = ["add_arguments", "main", "detect_profile", "opener_for", "is_fresh", "run", "reproduce",
-           "DEFAULT_TARGET"]
+           "DEFAULT_TARGET", "check_jobs"]
 
 DEFAULT_OUT = os.path.join("reports", "fuzz")
 DEFAULT_TARGET = "inprocess"
@@ -88,6 +89,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--shrink-time", type=float, default=30.0, metavar="S",
                         help="seconds a finding may spend being reduced by replaying smaller scripts "
                              "(default 30)")
+    parser.add_argument("--jobs", type=int, default=1, metavar="N",
+                        help="run N campaign workers at once, each with targets of its own, into one "
+                             "summary (targets started anew at each open: inprocess, emulator, cmd:, "
+                             "sil:; for several real HATs use --places); default 1")
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress line")
     from ..harness.lab.selection import add_lab_arguments
 
@@ -116,12 +121,28 @@ def is_wire(url: str) -> bool:
     return True
 
 
+def _one_ring(url: str) -> bool:
+    return is_wire(url) or _scheme(url) not in ("inprocess", "emulator")
+
+
 def has_tx_ring(url: str, against: Optional[str] = None) -> bool:
     """Output may meet a full TX ring (fuzz/txring.py): any target but our emulator unpaced, whose
     output never waits (a `cmd:` target may be firmware behind a pipe, with a ring of its own)."""
-    def one(u: str) -> bool:
-        return is_wire(u) or _scheme(u) not in ("inprocess", "emulator")
-    return one(url) or bool(against and one(against))
+    return _one_ring(url) or bool(against and _one_ring(against))
+
+
+def ring_sides(url: str, against: Optional[str] = None) -> Tuple[bool, ...]:
+    """:func:`has_tx_ring` per side, target first: only a side with a ring pauses for it."""
+    return (_one_ring(url),) + ((_one_ring(against),) if against else ())
+
+
+def _sides_rings(target: str, against: Optional[str], secondary: Optional[Callable[[], Target]]
+                 ) -> Union[bool, Tuple[bool, ...]]:
+    """The runner's ``tx_ring``: per side when both URLs are known (a second target given as an
+    opener alone, with no URL, shares the first's)."""
+    if secondary is not None and not against:
+        return has_tx_ring(target)
+    return ring_sides(target, against)
 
 
 def opener_for(url: str) -> Callable[[], Target]:
@@ -168,7 +189,7 @@ def _config(args: argparse.Namespace, target: str, primary: Optional[Callable[[]
         # A paced wire (a HAT's, or an emulator told baud=) drops output once the TX ring is full, and
         # so does the firmware in the loop (sil:), whose ring drains at 115200 baud in HAT time.
         keep_open=not virtual, out_limit=OUT_LIMIT if not virtual or has_tx_ring(target, args.against)
-        else None, tx_ring=has_tx_ring(target, args.against), confirm=args.confirm,
+        else None, tx_ring=_sides_rings(target, args.against, secondary), confirm=args.confirm,
         reduce_seconds=args.shrink_time, devices=devices)
 
 
@@ -187,7 +208,13 @@ def run(args: argparse.Namespace, primary: Optional[Callable[[], Target]] = None
     if not args.quiet:
         print(f"fuzz: seed {seed}" + (" (chosen at random)" if chosen else "") + f", budget {budget}",
               file=sys.stderr, flush=True)
-    result = run_campaign(config, budget, seed, database, f"{_scheme(target)}>{_scheme(args.against or '')}")
+    scheme = f"{_scheme(target)}>{_scheme(args.against or '')}"
+    jobs = getattr(args, "jobs", 1) or 1
+    if jobs > 1:
+        from .jobs import run_jobs
+        result, config.stats = run_jobs(config, budget, seed, jobs, database, scheme, progress, progress.note)
+    else:
+        result = run_campaign(config, budget, seed, database, scheme)
     stats = config.stats
     stats.examples = result.runs
     progress.end(stats)
@@ -253,7 +280,7 @@ def reproduce(args: argparse.Namespace, primary: Optional[Callable[[], Target]] 
     hits, first, others, refused = 0, None, [], []
     for _ in range(attempts):
         finding = replay_script(script, open_primary, profile, fence_s, fresh=is_fresh(target), against=other,
-                                tx_ring=has_tx_ring(target, against))
+                                tx_ring=_sides_rings(target, against, secondary))
         if finding is None:
             continue
         if finding.details.get("prelude"):
@@ -281,6 +308,7 @@ def reproduce(args: argparse.Namespace, primary: Optional[Callable[[], Target]] 
 def main(args: argparse.Namespace) -> int:
     from .lab_campaigns import hold_for_campaign, run_places
 
+    check_jobs(args)
     # labgrid places are held for the whole campaign, or all campaigns (fuzz/lab_campaigns.py)
     give_back = hold_for_campaign(args)
     try:
@@ -293,6 +321,24 @@ def main(args: argparse.Namespace) -> int:
     finally:
         if give_back is not None:
             give_back()
+
+
+def check_jobs(args: argparse.Namespace) -> None:
+    """``--jobs N`` needs targets that start a new HAT at every open (one per worker)."""
+    from ..harness.cli_options import UsageError
+
+    jobs = getattr(args, "jobs", 1)
+    if jobs < 1:
+        raise UsageError(f"--jobs takes a positive number of workers, got {jobs}")
+    if jobs == 1:
+        return
+    if args.reproduce or getattr(args, "places", None):
+        raise UsageError("--jobs runs campaign workers: it does not go with --reproduce or --places")
+    for url in (args.target or DEFAULT_TARGET, args.against):
+        if url and not is_fresh(url):
+            raise UsageError(f"--jobs {jobs}: {url} is one HAT, which one worker at a time can use "
+                             "(--jobs needs inprocess, emulator, cmd: or sil: targets; for several "
+                             "HATs, --places)")
 
 
 def _main(args: argparse.Namespace) -> int:

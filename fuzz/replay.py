@@ -22,7 +22,7 @@ def replay_script(script: Union[str, Script], open_target: Callable[[], Target],
                   fence_s: float = 2.0, fresh: bool = True,
                   against: Optional[Tuple[Callable[[], Target], Profile]] = None, keep_open: bool = False,
                   on_fail: Optional[Callable[[Finding], None]] = None,
-                  tx_ring: bool = False) -> Optional[Finding]:
+                  tx_ring: Union[bool, Tuple[bool, ...]] = False) -> Optional[Finding]:
     """The finding the replay produces (None if every check passed). With ``against`` (an opener
     and its release) the script goes to both targets and the differential oracle runs too.
     ``keep_open``: the openers hand out targets that stay open after the replay (``on_fail`` is

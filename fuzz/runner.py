@@ -5,7 +5,7 @@ replay of a finding's script (fuzz/replay.py), so a replay judges exactly as the
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Callable, Dict, List, Optional, Sequence, Set, Tuple
+from typing import Callable, Dict, List, Optional, Sequence, Set, Tuple, Union
 
 from ..harness.events import line_kind
 from ..harness.targets.base import Target, TargetError
@@ -111,18 +111,23 @@ class Runner:
     def __init__(self, openers: Sequence[Tuple[str, Callable[[], Target], Profile]], fence_s: float = 2.0,
                  fresh: bool = True, stats: Optional[Stats] = None,
                  devices: Optional[Dict[int, Optional[tuple]]] = None, keep_open: bool = False,
-                 tx_ring: bool = False):
+                 tx_ring: Union[bool, Sequence[bool]] = False):
         """``openers`` may hand out targets that are already open (a campaign reusing one
         target for many runs); ``keep_open``: :meth:`close` leaves them open. ``tx_ring``: the
         targets' output may wait in a TX ring that drops it when full (a paced or real wire, a
-        `cmd:` target: fuzz/txring.py)."""
+        `cmd:` target, the firmware in the loop: fuzz/txring.py); one flag for every side, or
+        one per side (``--against``: our unpaced emulator has no ring to wait for)."""
         self.stats = stats or Stats()
         self.sides: List[Side] = []
         self.kinds_seen: Set[str] = set()
         self.fresh = fresh
         self.keep_open = keep_open
         self.settled = False      # the targets come from a run that ended cleanly (see start)
-        self.tx_ring = tx_ring
+        self.rings = ([bool(tx_ring)] * len(openers) if isinstance(tx_ring, bool)
+                      else [bool(r) for r in tx_ring])
+        if len(self.rings) != len(openers):
+            raise ValueError(f"tx_ring: {len(self.rings)} flag(s) for {len(openers)} side(s)")
+        self.tx_ring = any(self.rings)     # the inputs: every side receives the same bytes
         self._queued: List[int] = []   # per side: what streams may have queued in the TX ring
         self._apart: Set[int] = set()  # ports whose light matrix one side lost (not compared)
         for label, opener, profile in openers:
@@ -195,33 +200,37 @@ class Runner:
         debug bit 1 set (with ``tx_ring``, also 8 or 16) get :data:`DEBUG_OFF` (decided on the first
         side's model, so every side receives the same bytes). A step whose output may meet a
         full TX ring lets it drain before the fence (``pause_ms``: that many HAT ms, as a
-        replayed script says; None: as fuzz/txring.py reckons). Returns each side's answer."""
+        replayed script says; None: as fuzz/txring.py reckons); only a side with a ring pauses:
+        one without (our emulator unpaced) has nothing to drain, and on a wall-clock target the
+        pause would idle the campaign. Returns each side's answer."""
         # Where a ring applies, the debug streams it does not hold back are guarded too (fuzz/txring.py).
         mask = (1 | UNHELD_DEBUG if self.tx_ring else 1) if guard else 0
         before = [side.model.debug for side in self.sides]
         first = plan_step(self.sides[0].model, datas, mask)
         plans = [first] + [plan_step(side.model, first.datas) for side in self.sides[1:]]
         queued = [backlog(p.states, d | side.model.debug, side.model.selrate_engine,
-                          bool(side.profile.feature("tx_throttle_reports"))) if self.tx_ring else 0
-                  for side, p, d in zip(self.sides, plans, before)]
+                          bool(side.profile.feature("tx_throttle_reports"))) if ring else 0
+                  for side, p, d, ring in zip(self.sides, plans, before, self.rings)]
         # What a stream stopped by the last step queued may still be draining ahead of this answer.
         queued, self._queued = [max(q, last) for q, last in zip(queued, self._queued)], queued
-        keeps = [headroom(q, p.size_max) if self.tx_ring else None for p, q in zip(plans, queued)]
+        keeps = [headroom(q, p.size_max) if ring else None for p, q, ring in zip(plans, queued, self.rings)]
         if pause_ms is None:
             pause_ms = max([drain_ms(p.size_max, len(p.blob), k)
                             for p, k in zip(plans, keeps) if k is not None], default=0)
+        pauses = [pause_ms if ring else 0 for ring in self.rings]
         records = []
-        for side, plan in zip(self.sides, plans):
+        for side, plan, pause in zip(self.sides, plans, pauses):
             records.append(len(getattr(side.link.target, "line_records", ())))
-            self._send(side, plan.blob[:-len(FENCE)] if pause_ms else plan.blob, plan.blob)
-        early = [side.link.wait(pause_ms) if pause_ms else b"" for side in self.sides]
-        for side, plan in zip(self.sides, plans):
-            if pause_ms:
+            self._send(side, plan.blob[:-len(FENCE)] if pause else plan.blob, plan.blob)
+        early = [side.link.wait(pause) if pause else b"" for side, pause in zip(self.sides, pauses)]
+        for side, plan, pause in zip(self.sides, plans, pauses):
+            if pause:
                 self._send(side, FENCE, plan.blob)
         lost = False
         answers: List[bytes] = []
         compared: List[bytes] = []       # what the differential oracle compares (echo made whole)
-        for side, plan, before, keep, ahead, queue in zip(self.sides, plans, records, keeps, early, queued):
+        for side, plan, before, keep, ahead, queue, pause in zip(self.sides, plans, records, keeps, early,
+                                                                 queued, pauses):
             self.stats.count("liveness")
             try:
                 # (fence lines that came during the pause count: a `version` among the inputs; the
@@ -231,7 +240,7 @@ class Runner:
                 got = ahead + side.link.receive(side.fence_line, plan.fences - ahead.count(side.fence_line),
                                                 plan.size + queue, len(plan.blob),
                                                 prompt=None if side.model.tainted else bool(side.model.echo),
-                                                at_least=1 if keep is not None and pause_ms else None)
+                                                at_least=1 if keep is not None and pause else None)
             except LinkTimeout as exc:
                 message, more = liveness_message(side.label, str(exc), plan.blob, side.fence_line,
                                                  ahead + exc.received)

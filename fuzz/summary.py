@@ -119,7 +119,8 @@ def print_summary(result: CampaignResult, stats: Stats, productions, files: Dict
           f"{stats.lines / el:.0f} lines/s) in {result.elapsed:.1f} s{checking}")
     if result.cpu > 0:
         # On a shared machine the wall-clock rate is what others leave over; this is the fuzzer's own.
-        print(f"  this process: {result.cpu:.1f} s of CPU, "
+        who = f"{result.workers} workers" if result.workers > 1 else "this process"
+        print(f"  {who}: {result.cpu:.1f} s of CPU, "
               f"{stats.lines / result.cpu:.0f} lines per CPU second")
     if wire:
         sent, recv = stats.sent_bytes / el, stats.recv_bytes / el

@@ -217,6 +217,7 @@ class SilHat:
             if self.died is not None:
                 return "ok dead"
             return "ok hung" if self.hung else "ok sil"
+        self.outside.catch_up(self.now)        # the shafts move up to the action first
         perform_line(self.outside, line)
         if head == "@plug":
             self.devices[int(words[1])] = parse_device_spec(" ".join(words[2:]))

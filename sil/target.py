@@ -23,23 +23,39 @@ from ..emulator.inprocess_target import HatModel, InProcessControl, InProcessTar
 from ..harness.targets.base import TargetCrashed, TargetError
 from .process import FirmwareDied
 
-__all__ = ["SilTarget", "SilControl", "from_url", "program_for"]
+__all__ = ["SilTarget", "SilControl", "from_url", "program_for", "close_templates"]
 
 
+# Booted firmwares kept to be copied, by the process that started them: a forked process (a
+# `fuzz --jobs` worker) must not talk to its parent's over the parent's pipes.
 _BOOTED_FIRMWARES: Dict[tuple, Any] = {}
 
 
 @atexit.register
-def _close_templates() -> None:
-    for hat in _BOOTED_FIRMWARES.values():
-        hat.close()
-    _BOOTED_FIRMWARES.clear()
+def close_templates() -> None:
+    """Quit the booted firmwares this process started (a forked child's are its parent's)."""
+    for key in [k for k in _BOOTED_FIRMWARES if k[0] == os.getpid()]:
+        _BOOTED_FIRMWARES.pop(key).close()
 
 
 class SilControl(InProcessControl):
     # No bootloader: a firmware tree's bootloader is not built.
     capabilities = frozenset({"plug", "unplug", "data", "motorfault", "portfault", "button", "adc", "rate",
                               "hold", "pos", "reset", "layout", "virtual_time"})
+
+
+# Builds found this process, by tree, options and the tree's file stamps: a campaign opens a
+# target per run, and hashing the tree's sources each time cost ~20 ms a run.
+_FOUND: Dict[tuple, Any] = {}
+
+
+def _stamps(path: str) -> tuple:
+    try:
+        with os.scandir(path) as entries:
+            return tuple(sorted((e.name, e.stat().st_mtime_ns, e.stat().st_size)
+                                for e in entries if e.is_file()))
+    except OSError:
+        return ()
 
 
 def program_for(where: str, sanitize: List[str], coverage: bool) -> Tuple[str, Any]:
@@ -52,10 +68,18 @@ def program_for(where: str, sanitize: List[str], coverage: bool) -> Tuple[str, A
             raise TargetError(f"sil:{where}: not an executable program "
                               "(give a firmware tree or a built program)")
         return os.path.abspath(path), None
-    try:
-        build = build_tree(path, sanitize=sanitize, coverage=coverage)
-    except BuildError as exc:
-        raise TargetError(f"sil: {exc}") from None
+    # (a tree edited since, or a checkout holding it in firmware-pico/, is looked up again)
+    key = (os.path.abspath(path), tuple(sanitize), coverage, _stamps(path),
+           _stamps(os.path.join(path, "firmware-pico")))
+    build = _FOUND.get(key)
+    if build is None or not build.program.exists():
+        try:
+            build = build_tree(path, sanitize=sanitize, coverage=coverage)
+        except BuildError as exc:
+            raise TargetError(f"sil: {exc}") from None
+        if len(_FOUND) >= 16:
+            _FOUND.clear()
+        _FOUND[key] = build
     return str(build.program), build
 
 
@@ -114,7 +138,7 @@ class SilTarget(InProcessTarget):
             return self._new()
         # One booted firmware per program, layout and seed, kept for this process; every open
         # is a copy of it (the process forks), so a fuzzing run starts in a millisecond.
-        key = (self.program, tuple(sorted(self.devices.items())), self.seed, self.firmware)
+        key = (os.getpid(), self.program, tuple(sorted(self.devices.items())), self.seed, self.firmware)
         template: Any = _BOOTED_FIRMWARES.get(key)
         if template is None or template.died is not None:
             template = self._new()

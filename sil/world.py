@@ -30,10 +30,20 @@ from ..emulator.faults import FaultCauses
 from ..emulator.ports import SIGNATURE_ACTIVE, SIGNATURE_EMPTY
 from .protocol import NS_PER_MS, Frame, encode
 
-__all__ = ["SilWorld", "SilPort", "SETUP_BAUD"]
+__all__ = ["SilWorld", "SilPort", "SETUP_BAUD", "SHAFT_MODES", "shows_shaft"]
 
 SETUP_BAUD = 2400            # LPF2 devices start talking at 2400 baud
 Duty = Union[int, str]
+# The motor modes whose values come from the shaft (emulator/devices/motor.py, model_values); the
+# others show zeros or what the HAT wrote. tests/test_sil_world_motor.py holds the two together.
+SHAFT_MODES = frozenset({"SPEED", "POS", "APOS", "CALIB"})
+
+
+def shows_shaft(dev: MotorDevice) -> bool:
+    """The selected mode, or a mode of its combi, reads the shaft."""
+    combi = dev.combis.get(dev.mode)
+    modes = [m for m, _dataset in combi] if combi else [dev.mode]
+    return any(dev.modes.get(m, {}).get("name") in SHAFT_MODES for m in modes)
 
 
 class _Profile:
@@ -182,8 +192,16 @@ class SilPort(PortActions):
         if isinstance(dev, MotorDevice) and self.due <= now + 1:
             # A moving shaft wants every millisecond, but only a sample can send: its physics
             # catches up in one step then (the drive cannot change unseen: every change of it
-            # stops the firmware and steps the motor first, above).
+            # stops the firmware and steps the motor first, above; so do world actions and a
+            # cleared fault latch, SilWorld.catch_up).
             self.due = dev.next_send(now)
+            if (self.due > now + 1 and dev.state == "data" and dev.rate_ms <= 0
+                    and not shows_shaft(dev)):
+                # Nor can a sample find a new payload while what it shows does not come from the
+                # shaft: the motor is ticked again when something reaches it (a message, a drive,
+                # a world action), each of which wakes the port. (Half the firmware's stops for
+                # the world in a fuzzing campaign were such samples.)
+                self.due = math.inf
 
 
 class _FaultLatches(FaultCauses):
@@ -205,9 +223,10 @@ class _FaultLatches(FaultCauses):
     def _fault_changed(self, ports: Sequence[int]) -> None:
         self._sync()
 
-    def cleared(self, port: int) -> None:
+    def cleared(self, port: int, now: int) -> None:
         """The firmware cleared port's latch: it latches again at once if the cause remains."""
         if self.latched[port] is not None and not self.cause[port]:
+            self.world.catch_up(now)         # the shaft moved without power up to now
             self.latched[port] = None
             self._sync()
 
@@ -263,9 +282,16 @@ class SilWorld:
         if frame.kind in ("p", "u", "d") and frame.port < 4:
             self.ports[frame.port].from_firmware(frame)
         elif frame.kind == "f" and frame.port < 4:
-            self.faults.cleared(frame.port)
+            self.faults.cleared(frame.port, frame.t // NS_PER_MS)
         elif frame.kind == "l":
             self.event("led", frame.t // NS_PER_MS, value=frame.payload[0])
+
+    def catch_up(self, now: int) -> None:
+        """Step every motor's shaft to ``now`` under the drive it has had (before anything changes
+        what its physics sees: a world action, a fault latch)."""
+        for port in self.ports:
+            if isinstance(port.device, MotorDevice):
+                port.device.step(now)
 
     def next_due(self) -> float:
         """The first virtual ms at which a device has something to do (inf: none)."""

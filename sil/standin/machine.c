@@ -11,10 +11,14 @@
  * every virtual microsecond. When two timer reads in a row were separated by the same number
  * of blocks and nothing outside the CPU changed in between, the loop is polling; the clock
  * then jumps to the next event or the next millisecond edge of the timer, whichever comes
- * first. See sil/README.md for why this keeps behaviour unchanged.
+ * first. An event taken while the loop stood at its timer read (the jump lands on it) was seen
+ * by the whole pass after it: if that pass is as long as the polling pass, the loop is still
+ * polling, and the clock jumps again at once. See sil/README.md for why this keeps behaviour
+ * unchanged.
  */
 #include "sil.h"
 
+#include <stdio.h>
 #include <stdlib.h>
 
 /* What a basic block costs: five or six Cortex-M0+ instructions, about ten cycles at 133 MHz.
@@ -37,15 +41,19 @@ static uint64_t ns_per_block = NS_PER_BLOCK_DEFAULT;
 uint64_t sil_now;
 
 static uint64_t blocks;
+static uint64_t handler_blocks;         /* of those, run inside interrupt handlers */
 static uint64_t next_due = UINT64_MAX;  /* when sil_service must run next (never before power-on) */
 static int in_service, in_irq, yield_wanted;
 static irq_handler_t handlers[SIL_NUM_IRQS];
 static uint8_t enabled[SIL_NUM_IRQS], pending[SIL_NUM_IRQS];
+static uint32_t armed;                  /* interrupts enabled with a handler: the only ones to ask */
 
-/* Timer-read idling (see above). */
-static int touched = 1, quiet_reads;
-static uint64_t last_read_blocks, last_interval, first_read_us;
+/* Timer-read idling (see above). Intervals count the main loop's blocks only: a handler that
+ * ran in between is an event, not a longer pass. */
+static int touched = 1, touched_at_read, quiet_reads;
+static uint64_t last_read_blocks, last_interval, idle_interval, first_read_us;
 static int have_first_read;
+static uint64_t stat_reads, stat_jumps, stat_jumped_ns, stat_irqs;   /* BUILDHAT_SIL_STATS, below */
 
 void sil_touch(void) { touched = 1; }
 
@@ -60,19 +68,28 @@ void sil_wake(void) {
     if (yield_wanted) next_due = sil_now;
 }
 
+static void rearm(uint num) {
+    uint32_t bit = 1u << num;
+    armed = (enabled[num] && handlers[num]) ? (armed | bit) : (armed & ~bit);
+}
+
 static int irq_wanted(uint num) {
-    return enabled[num] && handlers[num] && (pending[num] || periph_irq_level(num));
+    return (armed >> num & 1u) && (pending[num] || periph_irq_level(num));
 }
 
 /* Take one interrupt, lowest number first (the NVIC's order at equal priority). */
 static int take_interrupt(void) {
-    for (uint num = 0; num < SIL_NUM_IRQS; num++) {
+    for (uint32_t left = armed; left; left &= left - 1) {
+        uint num = (uint)__builtin_ctz(left);
         if (!irq_wanted(num)) continue;
         pending[num] = 0;
         in_irq = 1;
         in_service = 0;                /* events and the world go on during a long handler */
         periph_irq_enter(num);
+        stat_irqs++;
+        uint64_t start = blocks;
         handlers[num]();
+        handler_blocks += blocks - start;
         periph_irq_exit(num);
         in_service = 1;
         in_irq = 0;
@@ -101,8 +118,8 @@ void sil_service(void) {
 }
 
 static int any_irq_wanted(void) {
-    for (uint num = 0; num < SIL_NUM_IRQS; num++)
-        if (irq_wanted(num)) return 1;
+    for (uint32_t left = armed; left; left &= left - 1)
+        if (irq_wanted((uint)__builtin_ctz(left))) return 1;
     return 0;
 }
 
@@ -150,24 +167,40 @@ static void skip_idle(void) {
     uint64_t d = sil_now / 1000 - first_read_us;
     uint64_t edge = (first_read_us + (d + 999) / 1000 * 1000 + 1) * 1000;
     uint64_t target = edge < next_due ? edge : next_due;
-    if (target > sil_now) sil_now = target;
+    if (target > sil_now) {
+        stat_jumps++;
+        stat_jumped_ns += target - sil_now;
+        sil_now = target;
+    }
     if (sil_now >= next_due) sil_service();
 }
 
 uint64_t time_us_64(void) {
-    uint64_t interval = blocks - last_read_blocks;
-    last_read_blocks = blocks;
-    if (!touched && interval == last_interval) quiet_reads++;
-    else quiet_reads = 0;
+    stat_reads++;
+    uint64_t main_blocks = blocks - handler_blocks;
+    uint64_t interval = main_blocks - last_read_blocks;
+    last_read_blocks = main_blocks;
+    if (touched)                      /* something changed during the pass: it may have missed it */
+        quiet_reads = 0;
+    else if (touched_at_read)         /* changed before the pass began: the pass saw all of it */
+        quiet_reads = idle_interval && interval == idle_interval ? 2 : 0;
+    else if (interval == last_interval)
+        quiet_reads++;
+    else
+        quiet_reads = 0;
+    if (quiet_reads == 0) idle_interval = 0;
     last_interval = interval;
     touched = 0;
     if (!have_first_read) {
         have_first_read = 1;
         first_read_us = sil_now / 1000;
     } else if (quiet_reads >= 2) {
+        idle_interval = interval;
         skip_idle();
     }
     sil_spend(NS_PER_TIMER_READ);
+    touched_at_read = touched;        /* events and interrupts the jump landed on */
+    touched = 0;
     return sil_now / 1000;
 }
 
@@ -182,12 +215,15 @@ void tight_loop_contents(void) {}
 bool stdio_init_all(void) { return true; }
 
 void irq_set_exclusive_handler(uint num, irq_handler_t handler) {
-    if (num < SIL_NUM_IRQS) handlers[num] = handler;
+    if (num >= SIL_NUM_IRQS) return;
+    handlers[num] = handler;
+    rearm(num);
 }
 
 void irq_set_enabled(uint num, bool on) {
     if (num >= SIL_NUM_IRQS) return;
     enabled[num] = on;
+    rearm(num);
     sil_touch();
     if (on) sil_service();
 }
@@ -211,11 +247,27 @@ void restore_interrupts(uint32_t status) {
     if (!in_irq) sil_service();
 }
 
+/* BUILDHAT_SIL_STATS=FILE: at exit, one line of what the run cost is appended to FILE (for
+ * tuning the idling above: blocks and timer reads per virtual millisecond, jumps taken). */
+static const char *stats_path;
+
+static void write_stats(void) {
+    FILE *f = fopen(stats_path, "a");
+    if (!f) return;
+    fprintf(f, "ns %llu blocks %llu handler_blocks %llu irqs %llu reads %llu jumps %llu jumped_ns %llu\n",
+            (unsigned long long)sil_now, (unsigned long long)blocks, (unsigned long long)handler_blocks,
+            (unsigned long long)stat_irqs, (unsigned long long)stat_reads, (unsigned long long)stat_jumps,
+            (unsigned long long)stat_jumped_ns);
+    fclose(f);
+}
+
 /* Early (priority 101): instrumented constructors of the firmware's objects (gcov's) must find
  * the clock stopped until the world has said how to run. */
 __attribute__((constructor(101))) static void sil_power_on(void) {
     const char *cost = getenv("BUILDHAT_SIL_NS_PER_BLOCK");
     if (cost && atoi(cost) > 0) ns_per_block = (uint64_t)atoi(cost);
+    stats_path = getenv("BUILDHAT_SIL_STATS");
+    if (stats_path && *stats_path) atexit(write_stats);
     periph_init();
     link_start();                      /* the world's set-up frames, then its first run */
     sil_wake();

@@ -169,3 +169,34 @@ def test_what_survives_a_full_ring_is_matched_against_the_later_output():
     # a report printed once the ring drained, right after the stub of a cut help line
     stub = text[:keep + 40] + b"P0M0: +5\r\n" + b"\r\n7.20 V\r\n" + FENCE_ANSWER
     assert match_lossy(plan.expected, stub, allowed, keep) is not None
+
+
+def test_only_a_side_with_a_ring_pauses_for_it():
+    """Differential mode, a paced side against our emulator unpaced (``--against emulator``): only
+    the paced side waits for its ring to drain before the fence. The unpaced one has no ring to
+    wait for; on a wall-clock target that wait idled the whole campaign (issue 22)."""
+    paced = InProcessTarget("R7", devices=MOTORS, baud=115200)
+    unpaced = InProcessTarget("R7", devices=MOTORS)
+    runner = Runner([("target", lambda: paced, R7), ("against", lambda: unpaced, R7)], 0.3, True,
+                    devices=MOTORS, tx_ring=(True, False))
+    try:
+        runner.start()
+        runner.exchange([b"port 0\r", b"pwm\r", b"set 1\r", b"select 0\r", b"selrate 0\r"])
+        runner.wait(300)
+        for _ in range(2):
+            runner.exchange([b"help\r"])
+        waits = [[e for e in side.link.trace.entries if e[0] == "wait"] for side in runner.sides]
+    finally:
+        runner.close()
+    # Both sides took the drawn wait; only the paced side paused before the fence of `help`.
+    assert [len(w) for w in waits] == [3, 1], waits
+    with pytest.raises(ValueError):
+        Runner([("target", lambda: paced, R7)], 0.3, tx_ring=(True, False))
+
+
+def test_the_rings_of_a_pairing_are_per_side():
+    from buildhat_conformance.fuzz.cli import has_tx_ring, ring_sides
+    assert ring_sides("sil:/x", "emulator") == (True, False)
+    assert ring_sides("inprocess", "sil:/x") == (False, True)
+    assert ring_sides("emulator:R7?baud=115200") == (True,)
+    assert has_tx_ring("inprocess", "sil:/x") and not has_tx_ring("inprocess", "emulator")
