@@ -12,7 +12,7 @@
   the text and the 5-line register dump, then a 1000 ms hold-off in which the pin is not
   looked at, then again more than 10 ms low: a period of about 1011 ms).
 
-World actions (scenario scripts, the control channel; parsed by ``harness.script`` and routed
+World actions (scenario scripts, the control channel; parsed by ``transcripts.script`` and routed
 by ``emulator/world.py``) land here: ``@portfault 1|0`` -> :meth:`FaultMonitor.port_fault`;
 ``@motorfault 1 P [F4D F4E F4F]`` / ``@motorfault 0 [P]`` -> :meth:`FaultMonitor.motor_fault`.
 The ``clear_faults`` command calls :meth:`FaultMonitor.clear_faults`.

@@ -1,6 +1,6 @@
 """World actions (scenario-script ``@plug``, ``@data``, faults ...) handed to the emulator's objects.
 
-The action line is parsed by ``harness.script.parse_world_action`` (one parser for scripts
+The action line is parsed by ``transcripts.script.parse_world_action`` (one parser for scripts
 and the control channel); this table says which object performs it:
 
 | action        | call                                                     | owner |
@@ -90,7 +90,7 @@ def perform(hat: WorldSide, action: Action) -> None:
 
 
 def perform_line(hat: WorldSide, line: str) -> None:
-    """Parse (``harness.script.parse_world_action``) and perform one world-action line."""
+    """Parse (``transcripts.script.parse_world_action``) and perform one world-action line."""
     try:
         action = parse_world_action(line)
     except ValueError as exc:

@@ -81,7 +81,7 @@ def merge_results(parts: List[CampaignResult], stats: Stats) -> CampaignResult:
 def _worker(index: int, jobs: int, config: CampaignConfig, budget: Budget, seed: int,
             database: Optional[str], scheme: str, conn: Any) -> None:
     """One worker: its campaign, its figures sent now and then, its result at the end."""
-    from ..harness.targets.sil import close_templates
+    from ..sil.target import close_templates
 
     last = [0.0]
 

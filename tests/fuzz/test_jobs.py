@@ -15,9 +15,8 @@ from buildhat_conformance.fuzz.campaign import CampaignResult, Confirmed
 from buildhat_conformance.fuzz.jobs import merge_results, merge_stats
 from buildhat_conformance.fuzz.oracles import finding_class
 from buildhat_conformance.fuzz.runner import Stats
-from buildhat_conformance.harness.script import Script
+from buildhat_conformance.transcripts.script import Script
 
-HERE = pathlib.Path(__file__).parent
 EXE = os.path.join(os.path.dirname(sys.executable), "buildhat-conformance")
 
 
