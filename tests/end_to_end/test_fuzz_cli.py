@@ -107,7 +107,7 @@ def test_a_finding_is_confirmed_shell_quoted_and_saved_to_the_database_with_a_se
     import importlib.util
 
     from buildhat_conformance.emulator.inprocess_target import InProcessTarget
-    from buildhat_conformance.fuzz import cli
+    from buildhat_conformance.fuzz import cli, command
 
     spec = importlib.util.spec_from_file_location("planted_faults", HERE / "planted" / "faults.py")
     faults = importlib.util.module_from_spec(spec)
@@ -121,7 +121,7 @@ def test_a_finding_is_confirmed_shell_quoted_and_saved_to_the_database_with_a_se
                               "--families", "valid", "--confirm", "2", "--shrink-time", "1", "--waits", "",
                               "--out", str(out), "--quiet", "--profile", "R7"])
     args.devices = empty
-    result, files = cli.run(args, primary=lambda: InProcessTarget("R7", devices=empty,
+    result, files = command.run(args, primary=lambda: InProcessTarget("R7", devices=empty,
                                                                   factory=faults.FAULTS["wrong"]))
     assert result.findings
     finding = result.findings[0]

@@ -14,7 +14,7 @@ import pytest
 from repo_paths import TESTS
 
 from buildhat_conformance.emulator.inprocess_target import InProcessTarget
-from buildhat_conformance.fuzz import cli
+from buildhat_conformance.fuzz import cli, command
 from buildhat_conformance.fuzz.reduce import steps_of
 from buildhat_conformance.fuzz.replay import replay_script
 from buildhat_conformance.protocol.profiles import get_profile
@@ -48,7 +48,7 @@ def _opener(factory=None, devices=None):
 
 def test_short_campaign_against_the_emulator_has_no_findings(tmp_path):
     args = _args(tmp_path, "--budget", "12x", "--seed", "7", "--steps", "15")
-    result, files = cli.run(args, primary=_opener())
+    result, files = command.run(args, primary=_opener())
     assert not result.findings, "\n".join(f"{f.oracle}: {f.message}" for f in result.findings)
     junit = ET.parse(tmp_path / "junit.xml").getroot()
     names = {c.get("name") for c in junit.iter("testcase")}
@@ -66,7 +66,7 @@ def test_planted_fault_gives_a_shrunk_replayable_finding(tmp_path, kind, oracles
     args = _args(tmp_path, "--budget", "60x", "--seed", "3", "--families", "valid", "--steps", "8",
                  "--shrink-time", "60", "--waits", "")
     args.devices = EMPTY
-    result, files = cli.run(args, primary=_opener(factory, EMPTY))
+    result, files = command.run(args, primary=_opener(factory, EMPTY))
     assert result.findings, f"the planted '{kind}' fault was not found"
     finding = result.findings[0]
     assert finding.oracle in oracles, finding.message

@@ -5,7 +5,7 @@ import argparse
 from types import SimpleNamespace
 
 from buildhat_conformance.emulator.inprocess_target import InProcessTarget
-from buildhat_conformance.fuzz import cli
+from buildhat_conformance.fuzz import cli, command
 from buildhat_conformance.fuzz.differential import compare_answers, first_difference, parted_matrix
 from buildhat_conformance.fuzz.reduce import steps_of
 from buildhat_conformance.fuzz.replay import replay_script
@@ -41,7 +41,7 @@ def _opener(release):
 def test_two_copies_of_one_release_agree(tmp_path):
     args = _args(tmp_path, "--target", "inprocess:R7", "--against", "inprocess:R7", "--budget", "4x",
                  "--seed", "5", "--steps", "8")
-    result, _files = cli.run(args, primary=_opener("R7"), secondary=_opener("R7"))
+    result, _files = command.run(args, primary=_opener("R7"), secondary=_opener("R7"))
     assert not result.findings, [f.message for f in result.findings]
 
 
@@ -49,7 +49,7 @@ def test_two_releases_differ_and_the_difference_replays(tmp_path):
     # R5 still has `bias` and a 10-number `pid`; R7 has pwmparams, pid_diff, a new help text ...
     args = _args(tmp_path, "--target", "inprocess:R7", "--against", "inprocess:R5", "--budget", "40x",
                  "--seed", "5", "--steps", "8", "--families", "valid", "--shrink-time", "60")
-    result, files = cli.run(args, primary=_opener("R7"), secondary=_opener("R5"))
+    result, files = command.run(args, primary=_opener("R7"), secondary=_opener("R5"))
     finding = result.finding("differential")
     assert finding is not None, [f.message for f in result.findings]
     script = load_script(files["differential"]["script"])

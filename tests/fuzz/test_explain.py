@@ -10,7 +10,7 @@ import pathlib
 from repo_paths import TESTS
 
 from buildhat_conformance.emulator.inprocess_target import InProcessTarget
-from buildhat_conformance.fuzz import cli
+from buildhat_conformance.fuzz import cli, command
 from buildhat_conformance.fuzz.oracles import Finding
 from buildhat_conformance.fuzz.runner import Runner
 from buildhat_conformance.protocol.profiles import get_profile
@@ -34,7 +34,7 @@ def test_a_finding_line_and_its_script_name_the_step_and_the_differing_lines(tmp
                               "--out", str(tmp_path), "--quiet", "--no-database"])
     args.devices = EMPTY
     wrong = _wrong_coast()
-    result, files = cli.run(args, primary=lambda: InProcessTarget("R7", devices=EMPTY, factory=wrong))
+    result, files = command.run(args, primary=lambda: InProcessTarget("R7", devices=EMPTY, factory=wrong))
     finding = result.finding("fate")
     assert finding is not None, [f.message for f in result.findings]
     line = next(x for x in capsys.readouterr().out.splitlines() if x.startswith("  FINDING [fate]"))

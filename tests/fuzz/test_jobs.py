@@ -10,7 +10,7 @@ import pathlib
 import subprocess
 import sys
 
-from buildhat_conformance.fuzz import cli
+from buildhat_conformance.fuzz import cli, command
 from buildhat_conformance.fuzz.campaign import CampaignResult, Confirmed
 from buildhat_conformance.fuzz.jobs import merge_results, merge_stats
 from buildhat_conformance.fuzz.oracles import finding_class
@@ -30,11 +30,11 @@ def _args(out: pathlib.Path, *extra: str) -> argparse.Namespace:
 
 def test_a_run_budget_over_two_workers_runs_the_same_runs(tmp_path, monkeypatch):
     seen = []
-    summary = cli.print_summary
-    monkeypatch.setattr(cli, "print_summary", lambda result, stats, *rest: (seen.append(stats),
+    summary = command.print_summary
+    monkeypatch.setattr(command, "print_summary", lambda result, stats, *rest: (seen.append(stats),
                                                                             summary(result, stats, *rest)))
-    one, _ = cli.run(_args(tmp_path / "one", "--budget", "6x"))
-    two, _ = cli.run(_args(tmp_path / "two", "--budget", "6x", "--jobs", "2"))
+    one, _ = command.run(_args(tmp_path / "one", "--budget", "6x"))
+    two, _ = command.run(_args(tmp_path / "two", "--budget", "6x", "--jobs", "2"))
     one_stats, two_stats = seen
     assert not one.findings and not two.findings
     assert (one.runs, two.runs, two.workers) == (6, 6, 2)

@@ -195,7 +195,7 @@ def test_only_a_side_with_a_ring_pauses_for_it():
 
 
 def test_the_rings_of_a_pairing_are_per_side():
-    from buildhat_conformance.fuzz.cli import has_tx_ring, ring_sides
+    from buildhat_conformance.fuzz.target_kinds import has_tx_ring, ring_sides
     assert ring_sides("sil:/x", "emulator") == (True, False)
     assert ring_sides("inprocess", "sil:/x") == (False, True)
     assert ring_sides("emulator:R7?baud=115200") == (True,)
