@@ -55,6 +55,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     mut.add_argument("--jobs", type=int, default=2, metavar="N", help="mutants at once (default 2)")
     mut.add_argument("-k", dest="keyword", default=None, metavar="EXPR",
                      help="only the suite's cases matching EXPR")
+    mut.add_argument("--all-cases", action="store_true",
+                     help="run every case on a killed mutant too (default: its run stops at the first "
+                          "failing case, which is all the verdict needs)")
     mut.add_argument("--plant", action="append", default=[], metavar="FILE:OLD:NEW",
                      help="also run this hand-made mutant (the first OLD in FILE becomes NEW)")
     mut.add_argument("-o", "--output", default=os.path.join("reports", "mutation"), metavar="DIR",
@@ -126,13 +129,13 @@ def _mutate(args: argparse.Namespace) -> int:
     out = Path(args.output)
 
     def progress(o, i, n) -> None:
-        print(f"[{i}/{n}] {o.status:<17} {o.mutant.describe()}"
-              + (f"  <- {o.cases[0]}" if o.cases else (f"  ({o.detail})" if o.detail else "")), flush=True)
+        said = (f"  <- {o.verdict_text()}" if o.cases else (f"  ({o.detail})" if o.detail else ""))
+        print(f"[{i}/{n}] {o.status:<17} {o.mutant.describe()}{said}", flush=True)
 
     print(f"sil mutate: {len(chosen)} mutants of {tree} (seed {args.seed}); reference run first", flush=True)
     try:
         campaign = run_campaign(str(tree), chosen, out / "work", jobs=args.jobs, keyword=args.keyword,
-                                progress=progress)
+                                progress=progress, stop_at_first=not args.all_cases)
     except (BuildError, RuntimeError) as exc:
         print(f"buildhat-conformance sil: {exc}", file=sys.stderr)
         return 3

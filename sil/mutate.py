@@ -2,7 +2,9 @@
 in a copy of a firmware tree (sil/mutants.py), build each with the stand-in (only the changed
 file is compiled), run the suite against it in virtual time, and say per mutant what happened:
 
-- ``killed``: a case failed (its name is kept): the suite defends that line;
+- ``killed``: a case failed (its name is kept): the suite defends that line. The mutant's run
+  stops at its first failing case (``stopped``), which is all the verdict needs; with
+  ``stop_at_first=False`` (``--all-cases``) every case runs and every failing one is listed;
 - ``killed-by-fault``: only target faults (a crash, silence): caught, but not as a clause;
 - ``survived``: every case passed although some byte the HAT sent differs from the original's
   (the cases that saw a difference, and their requirement IDs, are listed);
@@ -46,6 +48,16 @@ class Outcome:
     requirements: List[str] = field(default_factory=list)
     detail: str = ""
     seconds: float = 0.0
+    stopped: bool = False       # killed, and the run stopped at its first failing case
+
+    def verdict_text(self) -> str:
+        """What a reader is told beside the status: who killed it, or what else is known."""
+        if self.status == "killed" and self.cases:
+            return f"killed by {self.cases[0]}" + (" (the run stopped at the first failure)" if self.stopped
+                                                   else "".join(f", {c}" for c in self.cases[1:3]) +
+                                                   (f" and {len(self.cases) - 3} more" if len(self.cases) > 3
+                                                    else ""))
+        return ", ".join(self.cases[:3]) or self.detail
 
 
 @dataclass
@@ -55,6 +67,7 @@ class Campaign:
     seconds: float
     reference_cases: int
     unstable_cases: int = 0      # cases whose output two runs of the unmutated tree do not agree on
+    stop_at_first: bool = True   # a killed mutant's run stopped at its first failing case
 
     def count(self, status: str) -> int:
         return sum(1 for o in self.outcomes if o.status == status)
@@ -73,15 +86,18 @@ class Campaign:
                 f"{self.judged} not likely equivalent); {len(self.outcomes)} mutants: {parts}; "
                 f"{self.seconds:.0f} s" + (f"; {self.unstable_cases} case(s) left out of the comparison: "
                                            f"their output varies between two unmutated runs"
-                                           if self.unstable_cases else ""))
+                                           if self.unstable_cases else "")
+                + ("; each killed mutant's run stopped at its first failing case" if self.stop_at_first
+                   else ""))
 
     def as_dict(self) -> dict:
         return {"tree": self.tree, "score": round(self.score, 2), "judged": self.judged,
                 "seconds": round(self.seconds, 1), "reference_cases": self.reference_cases,
-                "unstable_cases": self.unstable_cases,
+                "unstable_cases": self.unstable_cases, "stop_at_first": self.stop_at_first,
                 "counts": {s: self.count(s) for s in STATUSES},
                 "mutants": [dict(asdict(o.mutant), ident=o.mutant.ident, status=o.status, cases=o.cases,
-                                 requirements=o.requirements, detail=o.detail, seconds=round(o.seconds, 1))
+                                 requirements=o.requirements, detail=o.detail, seconds=round(o.seconds, 1),
+                                 stopped_at_first_failure=o.stopped)
                             for o in self.outcomes]}
 
 
@@ -178,7 +194,7 @@ def _differences(reference: Dict[str, Tuple[List[str], List[str]]],
 
 
 def _one(mutant: Mutant, tree: Path, base: Build, work: Path, keyword: Optional[str],
-         reference: Dict[str, Tuple[List[str], List[str]]]) -> Outcome:
+         reference: Dict[str, Tuple[List[str], List[str]]], stop_at_first: bool = True) -> Outcome:
     t0 = time.monotonic()
     folder = work / "mutants" / mutant.ident
     if folder.exists():
@@ -192,14 +208,15 @@ def _one(mutant: Mutant, tree: Path, base: Build, work: Path, keyword: Optional[
         return Outcome(mutant, "no-build", detail=str(exc), seconds=time.monotonic() - t0)
     finally:
         shutil.rmtree(folder / "tree", ignore_errors=True)
-    code, junit = _suite(str(build.program), folder, keyword, stop_at_first=True)
+    code, junit = _suite(str(build.program), folder, keyword, stop_at_first)
     verdicts = _verdicts(junit)
     failed = [c for c, v, _r, _t in verdicts if v == "fail"]
     reqs = sorted({r for c, v, rs, _t in verdicts if v == "fail" for r in rs})
     faults = [c for c, v, _r, _t in verdicts if v in ("target-fault", "not-run")]
     out: Outcome
     if failed:
-        out = Outcome(mutant, "killed", failed, reqs)
+        # pytest -x stops after the first failure; later cases are not in the JUnit file.
+        out = Outcome(mutant, "killed", failed, reqs, stopped=stop_at_first)
     elif not verdicts:
         log = (folder / "run.log").read_text(encoding="utf-8", errors="replace").strip().splitlines()
         out = Outcome(mutant, "no-boot", detail=(log[-1] if log else f"run exited {code}"))
@@ -223,8 +240,11 @@ Progress = Callable[[Outcome, int, int], None]
 
 
 def run_campaign(tree: str, mutants: Sequence[Mutant], work: Path, jobs: int = 2,
-                 keyword: Optional[str] = None, progress: Progress = lambda o, i, n: None) -> Campaign:
-    """Run ``mutants`` of ``tree``; ``work`` keeps the reference run and each survivor's transcripts."""
+                 keyword: Optional[str] = None, progress: Progress = lambda o, i, n: None,
+                 stop_at_first: bool = True) -> Campaign:
+    """Run ``mutants`` of ``tree``; ``work`` keeps the reference run and each survivor's transcripts.
+    ``stop_at_first``: a mutant's run ends at its first failing case (the verdict is the same; a
+    survivor or an equivalent mutant runs every case either way)."""
     t0 = time.monotonic()
     work.mkdir(parents=True, exist_ok=True)
     base = build_tree(tree, cache=work / "builds")
@@ -255,9 +275,11 @@ def run_campaign(tree: str, mutants: Sequence[Mutant], work: Path, jobs: int = 2
     reference = {c: (r, ref_lines[c]) for c, _v, r, _t in ref if c not in unstable}
     outcomes: List[Outcome] = []
     with ThreadPoolExecutor(max_workers=max(1, jobs)) as pool:
-        futures = [pool.submit(_one, m, Path(base.tree), base, work, keyword, reference) for m in mutants]
+        futures = [pool.submit(_one, m, Path(base.tree), base, work, keyword, reference, stop_at_first)
+                   for m in mutants]
         for i, fut in enumerate(futures, 1):
             outcome = fut.result()
             outcomes.append(outcome)
             progress(outcome, i, len(futures))
-    return Campaign(str(base.tree), outcomes, time.monotonic() - t0, len(ref), len(unstable))
+    return Campaign(str(base.tree), outcomes, time.monotonic() - t0, len(ref), len(unstable),
+                    stop_at_first=stop_at_first)
