@@ -114,14 +114,17 @@ def _copy_tree(tree: Path, dest: Path) -> Path:
     return dest
 
 
-def _suite(program: str, folder: Path, keyword: Optional[str], stop_at_first: bool) -> Tuple[int, Path]:
+def _suite(program: str, folder: Path, keyword: Optional[str], stop_at_first: bool,
+           order: Optional[Path] = None) -> Tuple[int, Path]:
     junit = folder / "junit.xml"
     argv = _command() + ["run", "--target", f"sil:{program}", "--junit", str(junit),
                          "--transcripts", str(folder / "transcripts"), "--max-target-faults", "3"]
     if keyword:
         argv += ["-k", keyword]
-    if stop_at_first:
-        argv += ["--", "-x"]
+    pytest_args = (["-x"] if stop_at_first else []) + \
+        (["-p", "buildhat_conformance.sil.case_order", "--case-order", str(order)] if order else [])
+    if pytest_args:
+        argv += ["--"] + pytest_args
     done = subprocess.run(argv, capture_output=True, text=True, timeout=1800)
     (folder / "run.log").write_text(done.stdout + done.stderr, encoding="utf-8")
     return done.returncode, junit
@@ -194,7 +197,8 @@ def _differences(reference: Dict[str, Tuple[List[str], List[str]]],
 
 
 def _one(mutant: Mutant, tree: Path, base: Build, work: Path, keyword: Optional[str],
-         reference: Dict[str, Tuple[List[str], List[str]]], stop_at_first: bool = True) -> Outcome:
+         reference: Dict[str, Tuple[List[str], List[str]]], stop_at_first: bool = True,
+         order: Optional[Path] = None) -> Outcome:
     t0 = time.monotonic()
     folder = work / "mutants" / mutant.ident
     if folder.exists():
@@ -208,7 +212,7 @@ def _one(mutant: Mutant, tree: Path, base: Build, work: Path, keyword: Optional[
         return Outcome(mutant, "no-build", detail=str(exc), seconds=time.monotonic() - t0)
     finally:
         shutil.rmtree(folder / "tree", ignore_errors=True)
-    code, junit = _suite(str(build.program), folder, keyword, stop_at_first)
+    code, junit = _suite(str(build.program), folder, keyword, stop_at_first, order)
     verdicts = _verdicts(junit)
     failed = [c for c, v, _r, _t in verdicts if v == "fail"]
     reqs = sorted({r for c, v, rs, _t in verdicts if v == "fail" for r in rs})
@@ -241,10 +245,11 @@ Progress = Callable[[Outcome, int, int], None]
 
 def run_campaign(tree: str, mutants: Sequence[Mutant], work: Path, jobs: int = 2,
                  keyword: Optional[str] = None, progress: Progress = lambda o, i, n: None,
-                 stop_at_first: bool = True) -> Campaign:
+                 stop_at_first: bool = True, killers_first: Sequence[str] = ()) -> Campaign:
     """Run ``mutants`` of ``tree``; ``work`` keeps the reference run and each survivor's transcripts.
     ``stop_at_first``: a mutant's run ends at its first failing case (the verdict is the same; a
-    survivor or an equivalent mutant runs every case either way)."""
+    survivor or an equivalent mutant runs every case either way). ``killers_first``: cases
+    (``module::case[param]``) every run of the campaign, the reference's too, runs first."""
     t0 = time.monotonic()
     work.mkdir(parents=True, exist_ok=True)
     base = build_tree(tree, cache=work / "builds")
@@ -258,9 +263,13 @@ def run_campaign(tree: str, mutants: Sequence[Mutant], work: Path, jobs: int = 2
     # there says nothing about a mutant.
     again_folder = ref_folder / "again"
     again_folder.mkdir()
+    order: Optional[Path] = None
+    if killers_first:
+        order = work / "case-order.txt"
+        order.write_text("".join(c + "\n" for c in killers_first), encoding="utf-8")
     with ThreadPoolExecutor(max_workers=2 if jobs > 1 else 1) as pool:
-        first = pool.submit(_suite, str(base.program), ref_folder, keyword, False)
-        second = pool.submit(_suite, str(base.program), again_folder, keyword, False)
+        first = pool.submit(_suite, str(base.program), ref_folder, keyword, False, order)
+        second = pool.submit(_suite, str(base.program), again_folder, keyword, False, order)
         code, junit = first.result()
         second.result()
     ref = _verdicts(junit)
@@ -275,7 +284,7 @@ def run_campaign(tree: str, mutants: Sequence[Mutant], work: Path, jobs: int = 2
     reference = {c: (r, ref_lines[c]) for c, _v, r, _t in ref if c not in unstable}
     outcomes: List[Outcome] = []
     with ThreadPoolExecutor(max_workers=max(1, jobs)) as pool:
-        futures = [pool.submit(_one, m, Path(base.tree), base, work, keyword, reference, stop_at_first)
+        futures = [pool.submit(_one, m, Path(base.tree), base, work, keyword, reference, stop_at_first, order)
                    for m in mutants]
         for i, fut in enumerate(futures, 1):
             outcome = fut.result()
