@@ -105,7 +105,7 @@ def main(args: argparse.Namespace) -> int:
 
 
 def _mutate(args: argparse.Namespace) -> int:
-    from .case_order import killers as case_killers
+    from .mutant_run import killers as case_killers
     from .mutants import find_mutants, planted, sample
     from .mutate import run_campaign
     from .mutation_report import write_reports

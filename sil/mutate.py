@@ -121,10 +121,10 @@ def _suite(program: str, folder: Path, keyword: Optional[str], stop_at_first: bo
                          "--transcripts", str(folder / "transcripts"), "--max-target-faults", "3"]
     if keyword:
         argv += ["-k", keyword]
-    pytest_args = (["-x"] if stop_at_first else []) + \
-        (["-p", "buildhat_conformance.sil.case_order", "--case-order", str(order)] if order else [])
-    if pytest_args:
-        argv += ["--"] + pytest_args
+    # A target fault does not stop the run (pytest's -x would): a later case may still fail.
+    argv += ["--", "-p", "buildhat_conformance.sil.mutant_run"]
+    argv += ["--stop-at-fail"] if stop_at_first else []
+    argv += ["--case-order", str(order)] if order else []
     done = subprocess.run(argv, capture_output=True, text=True, timeout=1800)
     (folder / "run.log").write_text(done.stdout + done.stderr, encoding="utf-8")
     return done.returncode, junit
@@ -219,7 +219,7 @@ def _one(mutant: Mutant, tree: Path, base: Build, work: Path, keyword: Optional[
     faults = [c for c, v, _r, _t in verdicts if v in ("target-fault", "not-run")]
     out: Outcome
     if failed:
-        # pytest -x stops after the first failure; later cases are not in the JUnit file.
+        # --stop-at-fail ends the run after the first failing case; later ones are not in the JUnit file.
         out = Outcome(mutant, "killed", failed, reqs, stopped=stop_at_first)
     elif not verdicts:
         log = (folder / "run.log").read_text(encoding="utf-8", errors="replace").strip().splitlines()

@@ -58,7 +58,7 @@ def test_hat_output_compares_lines_however_the_reads_cut_them(tmp_path):
 def test_killers_of_an_earlier_campaign_run_first_in_their_rank(tmp_path):
     from types import SimpleNamespace
 
-    from buildhat_conformance.sil.case_order import killers, pytest_collection_modifyitems
+    from buildhat_conformance.sil.mutant_run import killers, pytest_collection_modifyitems
 
     summary = tmp_path / "mutation.json"
     summary.write_text(json.dumps({"mutants": [

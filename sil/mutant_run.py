@@ -1,4 +1,10 @@
-"""A pytest plugin for `sil mutate`: the suite's cases in a given order, the usual killers first.
+"""A pytest plugin for the suite's runs in `sil mutate`: stop at the first failing case, and run
+the usual killers first.
+
+``--stop-at-fail``: the run ends after the first case whose verdict is ``fail``, which is all a
+mutant's verdict (killed) needs. Unlike pytest's ``-x`` a target fault does not stop it: a mutant
+that makes one case fault and a later one fail is killed by that failing case, not "killed by a
+fault" (the plugin's ``--max-target-faults`` still gives up on a HAT that keeps faulting).
 
 A killed mutant's run stops at its first failing case, so the sooner a case that kills many
 mutants runs, the cheaper the campaign. ``--case-order FILE`` (one pytest node id a line, first
@@ -19,7 +25,10 @@ from typing import Any, List
 
 import pytest
 
-__all__ = ["killers", "pytest_addoption", "pytest_collection_modifyitems"]
+__all__ = ["killers", "pytest_addoption", "pytest_collection_modifyitems", "pytest_sessionstart",
+           "pytest_runtest_logreport"]
+
+_session: List[Any] = []        # the running session (one per process), for its shouldfail
 
 
 def killers(summary: Path) -> List[str]:
@@ -36,6 +45,22 @@ def killers(summary: Path) -> List[str]:
 def pytest_addoption(parser: Any) -> None:
     parser.addoption("--case-order", default=None, metavar="FILE",
                      help="run the cases named in FILE (one a line, module::case[param]) first, in order")
+    parser.addoption("--stop-at-fail", action="store_true", default=False,
+                     help="end the run after the first failing case (a target fault does not stop it)")
+
+
+def pytest_sessionstart(session: Any) -> None:
+    _session[:] = [session]
+
+
+def pytest_runtest_logreport(report: Any) -> None:
+    """A failed phase that the conformance plugin did not call a target fault is a ``fail``
+    verdict; the session then ends after this case, as with ``-x``."""
+    if not report.failed or not _session or "target_fault" in dict(report.user_properties):
+        return
+    session = _session[0]
+    if session.config.getoption("--stop-at-fail"):
+        session.shouldfail = f"stopped at the first failing case: {report.nodeid}"
 
 
 def _name(item: Any) -> str:
