@@ -142,7 +142,9 @@ def _mutate(args: argparse.Namespace) -> int:
                 from None
 
     def progress(o, i, n) -> None:
-        said = (f"  <- {o.verdict_text()}" if o.cases else (f"  ({o.detail})" if o.detail else ""))
+        said = ("  (every case passed: survived or likely equivalent is judged after the control runs)"
+                if o.status == "pending" else
+                f"  <- {o.verdict_text()}" if o.cases else (f"  ({o.detail})" if o.detail else ""))
         print(f"[{i}/{n}] {o.status:<17} {o.mutant.describe()}{said}", flush=True)
 
     print(f"sil mutate: {len(chosen)} mutants of {tree} (seed {args.seed}); reference run first"

@@ -10,8 +10,11 @@ file is compiled), run the suite against it in virtual time, and say per mutant 
   (the cases that saw a difference, and their requirement IDs, are listed);
 - ``likely-equivalent``: every case passed and no line the HAT sent differs from the original's
   run of the same suite (the reference campaign): no host can tell, as far as the suite looks.
-  Cases whose output differs between two runs of the original (when a host line reaches the
-  HAT is paced partly by the wall clock) are left out of that comparison;
+  Cases whose output differs between runs of the original (when a host line reaches the HAT is
+  paced partly by the wall clock, and a motor's state carries that into later cases) are left
+  out of that comparison: a second run beside the reference, and a control run of the original
+  among every ``CONTROL_EVERY`` mutants, under the load the mutants meet; so survivors and
+  equivalent mutants are judged once the campaign's runs are done;
 - ``no-build``, ``no-boot``: the mutant does not compile, or does not answer ``version``.
 
 The score is killed / (all - likely-equivalent - no-build - no-boot). The firmware is
@@ -35,9 +38,12 @@ from typing import Callable, Dict, List, Optional, Sequence, Tuple
 from .build import Build, BuildError, build_tree
 from .mutants import Mutant
 
-__all__ = ["Outcome", "Campaign", "run_campaign", "STATUSES"]
+__all__ = ["Outcome", "Campaign", "run_campaign", "STATUSES", "CONTROL_EVERY"]
 
 STATUSES = ("killed", "killed-by-fault", "survived", "likely-equivalent", "no-build", "no-boot")
+#: One run of the unmutated tree among every this many mutants: the output that varies between
+#: runs under the campaign's own load is learnt from these controls, not from its start alone.
+CONTROL_EVERY = 30
 
 
 @dataclass
@@ -66,7 +72,8 @@ class Campaign:
     outcomes: List[Outcome]
     seconds: float
     reference_cases: int
-    unstable_cases: int = 0      # cases whose output two runs of the unmutated tree do not agree on
+    unstable_cases: int = 0      # cases whose output the runs of the unmutated tree do not agree on
+    controls: int = 0            # runs of the unmutated tree besides the reference
     stop_at_first: bool = True   # a killed mutant's run stopped at its first failing case
 
     def count(self, status: str) -> int:
@@ -85,7 +92,7 @@ class Campaign:
         return (f"mutation score {self.score:.1f}% ({self.count('killed')} killed by a failing case of "
                 f"{self.judged} not likely equivalent); {len(self.outcomes)} mutants: {parts}; "
                 f"{self.seconds:.0f} s" + (f"; {self.unstable_cases} case(s) left out of the comparison: "
-                                           f"their output varies between two unmutated runs"
+                                           f"their output varies between {self.controls + 1} unmutated runs"
                                            if self.unstable_cases else "")
                 + ("; each killed mutant's run stopped at its first failing case" if self.stop_at_first
                    else ""))
@@ -197,8 +204,9 @@ def _differences(reference: Dict[str, Tuple[List[str], List[str]]],
 
 
 def _one(mutant: Mutant, tree: Path, base: Build, work: Path, keyword: Optional[str],
-         reference: Dict[str, Tuple[List[str], List[str]]], stop_at_first: bool = True,
-         order: Optional[Path] = None) -> Outcome:
+         stop_at_first: bool = True, order: Optional[Path] = None) -> Outcome:
+    """Build and run one mutant. One whose cases all passed comes back ``pending`` (its
+    transcripts kept): survived or likely equivalent is decided once the controls have run."""
     t0 = time.monotonic()
     folder = work / "mutants" / mutant.ident
     if folder.exists():
@@ -227,17 +235,35 @@ def _one(mutant: Mutant, tree: Path, base: Build, work: Path, keyword: Optional[
     elif faults:
         out = Outcome(mutant, "killed-by-fault", faults[:5])
     else:
-        diff = _differences(reference, verdicts)
-        if diff:
-            out = Outcome(mutant, "survived", [c for c, _r in diff][:10],
-                          sorted({r for _c, rs in diff for r in rs}))
-        else:
-            out = Outcome(mutant, "likely-equivalent")
-    if out.status in ("killed", "likely-equivalent", "no-boot"):
+        out = Outcome(mutant, "pending", detail=str(junit))
+    if out.status in ("killed", "no-boot"):
         shutil.rmtree(folder / "transcripts", ignore_errors=True)   # keep what a developer reads
     shutil.rmtree(Path(build.folder), ignore_errors=True)
     out.seconds = time.monotonic() - t0
     return out
+
+
+def _judge(out: Outcome, reference: Dict[str, Tuple[List[str], List[str]]]) -> None:
+    """A pending mutant: survived (the cases whose lines differ) or likely equivalent."""
+    junit = Path(out.detail)
+    diff = _differences(reference, _verdicts(junit))
+    out.detail = ""
+    if diff:
+        out.status, out.cases = "survived", [c for c, _r in diff][:10]
+        out.requirements = sorted({r for _c, rs in diff for r in rs})
+    else:
+        out.status = "likely-equivalent"
+        shutil.rmtree(junit.parent / "transcripts", ignore_errors=True)
+
+
+def _control(program: str, folder: Path, keyword: Optional[str],
+             order: Optional[Path]) -> Dict[str, List[str]]:
+    """One run of the unmutated tree among the mutants: each case's HAT lines."""
+    if folder.exists():
+        shutil.rmtree(folder)
+    folder.mkdir(parents=True)
+    _code, junit = _suite(program, folder, keyword, False, order)
+    return _case_lines(_verdicts(junit))
 
 
 Progress = Callable[[Outcome, int, int], None]
@@ -278,17 +304,27 @@ def run_campaign(tree: str, mutants: Sequence[Mutant], work: Path, jobs: int = 2
         raise RuntimeError(f"the unmutated tree does not pass the suite (exit {code}; "
                            f"{len(bad)} case(s) not passing, first: {bad[:1]}): mutants cannot be judged")
     ref_lines = _case_lines(ref)
-    again = _case_lines(_verdicts(again_folder / "junit.xml"))
-    unstable = sorted(c for c in ref_lines if again.get(c) != ref_lines[c])
-    (ref_folder / "unstable-cases.txt").write_text("".join(c + "\n" for c in unstable), encoding="utf-8")
-    reference = {c: (r, ref_lines[c]) for c, _v, r, _t in ref if c not in unstable}
+    runs = [_case_lines(_verdicts(again_folder / "junit.xml"))]
     outcomes: List[Outcome] = []
     with ThreadPoolExecutor(max_workers=max(1, jobs)) as pool:
-        futures = [pool.submit(_one, m, Path(base.tree), base, work, keyword, reference, stop_at_first, order)
-                   for m in mutants]
+        futures = []
+        controls = []
+        for i, m in enumerate(mutants):
+            if i and i % CONTROL_EVERY == 0:
+                folder = work / "controls" / str(len(controls))
+                controls.append(pool.submit(_control, str(base.program), folder, keyword, order))
+            futures.append(pool.submit(_one, m, Path(base.tree), base, work, keyword, stop_at_first, order))
         for i, fut in enumerate(futures, 1):
             outcome = fut.result()
             outcomes.append(outcome)
             progress(outcome, i, len(futures))
+        runs += [c.result() for c in controls]
+    unstable = sorted(c for c in ref_lines if any(run.get(c) != ref_lines[c] for run in runs))
+    (ref_folder / "unstable-cases.txt").write_text("".join(c + "\n" for c in unstable), encoding="utf-8")
+    reference = {c: (r, ref_lines[c]) for c, _v, r, _t in ref if c not in unstable}
+    for i, outcome in enumerate(outcomes, 1):
+        if outcome.status == "pending":
+            _judge(outcome, reference)
+            progress(outcome, i, len(outcomes))
     return Campaign(str(base.tree), outcomes, time.monotonic() - t0, len(ref), len(unstable),
-                    stop_at_first=stop_at_first)
+                    controls=len(runs), stop_at_first=stop_at_first)
