@@ -9,7 +9,7 @@ from ..protocol.devices import catalogue
 from .link import Hat
 from .needs import World
 from .oracles.listing import render_active
-from .probes import TickClock
+from .probes import MOTOR, TickClock
 from .verdict import Verdict
 
 SENSOR = 0x3E       # the ultrasonic sensor: an active device the default layout does not have
@@ -145,6 +145,9 @@ def test_stall_line_only_past_2_ms(hat: Hat, world: World) -> None:
     for _ in range(3):
         hat.exchange("list", timeout_ms=3000)
     hat.exchange("help")
+    # A PID line every 10 ms tick lengthens some passes to about 2 ms: not a stall yet.
+    TickClock(hat, world.active(MOTOR)).run(1000)
+    hat.exchange("debug 0")
     stalls = [e.text for e in hat.since(mark) if e.text.startswith("deltat=")]
     bad = [t for t in stalls if not re.fullmatch(r"deltat=[0-9A-F]{8}", t) or int(t[7:], 16) <= 2]
     assert not bad, f"stall lines must show more than 2 ms in 8 upper-case hex digits: {bad}"
