@@ -105,6 +105,11 @@ class TickClock:
         self._pending = []
         return events
 
+    def include(self, events: List[Any]) -> None:
+        """Events a test took from the link itself since the last window (a quick look at the
+        first lines): they are counted in the next window, as if it had taken them."""
+        self._pending = list(events) + self._pending
+
     def ticks_at(self, events: List[Any], text: str) -> List[int]:
         """For each line equal to ``text``: how many ticks came before it in ``events``."""
         out, ticks = [], 0

@@ -55,6 +55,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     mut.add_argument("--jobs", type=int, default=2, metavar="N", help="mutants at once (default 2)")
     mut.add_argument("-k", dest="keyword", default=None, metavar="EXPR",
                      help="only the suite's cases matching EXPR")
+    mut.add_argument("--all-cases", action="store_true",
+                     help="run every case on a killed mutant too (default: its run stops at the first "
+                          "failing case, which is all the verdict needs)")
+    mut.add_argument("--killers-first", default=None, metavar="JSON",
+                     help="run first, in every run of the campaign, the cases that killed mutants in an "
+                          "earlier campaign (its mutation.json; default: the one in --output, if any; "
+                          "'none': the suite's own order)")
     mut.add_argument("--plant", action="append", default=[], metavar="FILE:OLD:NEW",
                      help="also run this hand-made mutant (the first OLD in FILE becomes NEW)")
     mut.add_argument("-o", "--output", default=os.path.join("reports", "mutation"), metavar="DIR",
@@ -98,6 +105,7 @@ def main(args: argparse.Namespace) -> int:
 
 
 def _mutate(args: argparse.Namespace) -> int:
+    from .mutant_run import killers as case_killers
     from .mutants import find_mutants, planted, sample
     from .mutate import run_campaign
     from .mutation_report import write_reports
@@ -124,15 +132,27 @@ def _mutate(args: argparse.Namespace) -> int:
     if not chosen:
         raise UsageError("no mutants to run (--count 0 and no --plant)")
     out = Path(args.output)
+    earlier = Path(args.killers_first) if args.killers_first not in (None, "none") else out / "mutation.json"
+    killers: list = []
+    if args.killers_first != "none" and (args.killers_first is not None or earlier.is_file()):
+        try:
+            killers = case_killers(earlier)
+        except (OSError, ValueError) as exc:
+            raise UsageError(f"--killers-first {earlier}: not an earlier campaign's mutation.json ({exc})") \
+                from None
 
     def progress(o, i, n) -> None:
-        print(f"[{i}/{n}] {o.status:<17} {o.mutant.describe()}"
-              + (f"  <- {o.cases[0]}" if o.cases else (f"  ({o.detail})" if o.detail else "")), flush=True)
+        said = ("  (every case passed: survived or likely equivalent is judged after the control runs)"
+                if o.status == "pending" else
+                f"  <- {o.verdict_text()}" if o.cases else (f"  ({o.detail})" if o.detail else ""))
+        print(f"[{i}/{n}] {o.status:<17} {o.mutant.describe()}{said}", flush=True)
 
-    print(f"sil mutate: {len(chosen)} mutants of {tree} (seed {args.seed}); reference run first", flush=True)
+    print(f"sil mutate: {len(chosen)} mutants of {tree} (seed {args.seed}); reference run first"
+          + (f"; the {len(killers)} cases that killed mutants in {earlier} run first" if killers else ""),
+          flush=True)
     try:
         campaign = run_campaign(str(tree), chosen, out / "work", jobs=args.jobs, keyword=args.keyword,
-                                progress=progress)
+                                progress=progress, stop_at_first=not args.all_cases, killers_first=killers)
     except (BuildError, RuntimeError) as exc:
         print(f"buildhat-conformance sil: {exc}", file=sys.stderr)
         return 3

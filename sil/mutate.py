@@ -2,14 +2,19 @@
 in a copy of a firmware tree (sil/mutants.py), build each with the stand-in (only the changed
 file is compiled), run the suite against it in virtual time, and say per mutant what happened:
 
-- ``killed``: a case failed (its name is kept): the suite defends that line;
+- ``killed``: a case failed (its name is kept): the suite defends that line. The mutant's run
+  stops at its first failing case (``stopped``), which is all the verdict needs; with
+  ``stop_at_first=False`` (``--all-cases``) every case runs and every failing one is listed;
 - ``killed-by-fault``: only target faults (a crash, silence): caught, but not as a clause;
 - ``survived``: every case passed although some byte the HAT sent differs from the original's
   (the cases that saw a difference, and their requirement IDs, are listed);
 - ``likely-equivalent``: every case passed and no line the HAT sent differs from the original's
   run of the same suite (the reference campaign): no host can tell, as far as the suite looks.
-  Cases whose output differs between two runs of the original (when a host line reaches the
-  HAT is paced partly by the wall clock) are left out of that comparison;
+  Cases whose output differs between runs of the original (when a host line reaches the HAT is
+  paced partly by the wall clock, and a motor's state carries that into later cases) are left
+  out of that comparison: a second run beside the reference, and a control run of the original
+  among every ``CONTROL_EVERY`` mutants, under the load the mutants meet; so survivors and
+  equivalent mutants are judged once the campaign's runs are done;
 - ``no-build``, ``no-boot``: the mutant does not compile, or does not answer ``version``.
 
 The score is killed / (all - likely-equivalent - no-build - no-boot). The firmware is
@@ -33,9 +38,12 @@ from typing import Callable, Dict, List, Optional, Sequence, Tuple
 from .build import Build, BuildError, build_tree
 from .mutants import Mutant
 
-__all__ = ["Outcome", "Campaign", "run_campaign", "STATUSES"]
+__all__ = ["Outcome", "Campaign", "run_campaign", "STATUSES", "CONTROL_EVERY"]
 
 STATUSES = ("killed", "killed-by-fault", "survived", "likely-equivalent", "no-build", "no-boot")
+#: One run of the unmutated tree among every this many mutants: the output that varies between
+#: runs under the campaign's own load is learnt from these controls, not from its start alone.
+CONTROL_EVERY = 30
 
 
 @dataclass
@@ -46,6 +54,16 @@ class Outcome:
     requirements: List[str] = field(default_factory=list)
     detail: str = ""
     seconds: float = 0.0
+    stopped: bool = False       # killed, and the run stopped at its first failing case
+
+    def verdict_text(self) -> str:
+        """What a reader is told beside the status: who killed it, or what else is known."""
+        if self.status == "killed" and self.cases:
+            return f"killed by {self.cases[0]}" + (" (the run stopped at the first failure)" if self.stopped
+                                                   else "".join(f", {c}" for c in self.cases[1:3]) +
+                                                   (f" and {len(self.cases) - 3} more" if len(self.cases) > 3
+                                                    else ""))
+        return ", ".join(self.cases[:3]) or self.detail
 
 
 @dataclass
@@ -54,7 +72,9 @@ class Campaign:
     outcomes: List[Outcome]
     seconds: float
     reference_cases: int
-    unstable_cases: int = 0      # cases whose output two runs of the unmutated tree do not agree on
+    unstable_cases: int = 0      # cases whose output the runs of the unmutated tree do not agree on
+    controls: int = 0            # runs of the unmutated tree besides the reference
+    stop_at_first: bool = True   # a killed mutant's run stopped at its first failing case
 
     def count(self, status: str) -> int:
         return sum(1 for o in self.outcomes if o.status == status)
@@ -72,16 +92,19 @@ class Campaign:
         return (f"mutation score {self.score:.1f}% ({self.count('killed')} killed by a failing case of "
                 f"{self.judged} not likely equivalent); {len(self.outcomes)} mutants: {parts}; "
                 f"{self.seconds:.0f} s" + (f"; {self.unstable_cases} case(s) left out of the comparison: "
-                                           f"their output varies between two unmutated runs"
-                                           if self.unstable_cases else ""))
+                                           f"their output varies between {self.controls + 1} unmutated runs"
+                                           if self.unstable_cases else "")
+                + ("; each killed mutant's run stopped at its first failing case" if self.stop_at_first
+                   else ""))
 
     def as_dict(self) -> dict:
         return {"tree": self.tree, "score": round(self.score, 2), "judged": self.judged,
                 "seconds": round(self.seconds, 1), "reference_cases": self.reference_cases,
-                "unstable_cases": self.unstable_cases,
+                "unstable_cases": self.unstable_cases, "stop_at_first": self.stop_at_first,
                 "counts": {s: self.count(s) for s in STATUSES},
                 "mutants": [dict(asdict(o.mutant), ident=o.mutant.ident, status=o.status, cases=o.cases,
-                                 requirements=o.requirements, detail=o.detail, seconds=round(o.seconds, 1))
+                                 requirements=o.requirements, detail=o.detail, seconds=round(o.seconds, 1),
+                                 stopped_at_first_failure=o.stopped)
                             for o in self.outcomes]}
 
 
@@ -98,14 +121,17 @@ def _copy_tree(tree: Path, dest: Path) -> Path:
     return dest
 
 
-def _suite(program: str, folder: Path, keyword: Optional[str], stop_at_first: bool) -> Tuple[int, Path]:
+def _suite(program: str, folder: Path, keyword: Optional[str], stop_at_first: bool,
+           order: Optional[Path] = None) -> Tuple[int, Path]:
     junit = folder / "junit.xml"
     argv = _command() + ["run", "--target", f"sil:{program}", "--junit", str(junit),
                          "--transcripts", str(folder / "transcripts"), "--max-target-faults", "3"]
     if keyword:
         argv += ["-k", keyword]
-    if stop_at_first:
-        argv += ["--", "-x"]
+    # A target fault does not stop the run (pytest's -x would): a later case may still fail.
+    argv += ["--", "-p", "buildhat_conformance.sil.mutant_run"]
+    argv += ["--stop-at-fail"] if stop_at_first else []
+    argv += ["--case-order", str(order)] if order else []
     done = subprocess.run(argv, capture_output=True, text=True, timeout=1800)
     (folder / "run.log").write_text(done.stdout + done.stderr, encoding="utf-8")
     return done.returncode, junit
@@ -178,7 +204,9 @@ def _differences(reference: Dict[str, Tuple[List[str], List[str]]],
 
 
 def _one(mutant: Mutant, tree: Path, base: Build, work: Path, keyword: Optional[str],
-         reference: Dict[str, Tuple[List[str], List[str]]]) -> Outcome:
+         stop_at_first: bool = True, order: Optional[Path] = None) -> Outcome:
+    """Build and run one mutant. One whose cases all passed comes back ``pending`` (its
+    transcripts kept): survived or likely equivalent is decided once the controls have run."""
     t0 = time.monotonic()
     folder = work / "mutants" / mutant.ident
     if folder.exists():
@@ -192,39 +220,62 @@ def _one(mutant: Mutant, tree: Path, base: Build, work: Path, keyword: Optional[
         return Outcome(mutant, "no-build", detail=str(exc), seconds=time.monotonic() - t0)
     finally:
         shutil.rmtree(folder / "tree", ignore_errors=True)
-    code, junit = _suite(str(build.program), folder, keyword, stop_at_first=True)
+    code, junit = _suite(str(build.program), folder, keyword, stop_at_first, order)
     verdicts = _verdicts(junit)
     failed = [c for c, v, _r, _t in verdicts if v == "fail"]
     reqs = sorted({r for c, v, rs, _t in verdicts if v == "fail" for r in rs})
     faults = [c for c, v, _r, _t in verdicts if v in ("target-fault", "not-run")]
     out: Outcome
     if failed:
-        out = Outcome(mutant, "killed", failed, reqs)
+        # --stop-at-fail ends the run after the first failing case; later ones are not in the JUnit file.
+        out = Outcome(mutant, "killed", failed, reqs, stopped=stop_at_first)
     elif not verdicts:
         log = (folder / "run.log").read_text(encoding="utf-8", errors="replace").strip().splitlines()
         out = Outcome(mutant, "no-boot", detail=(log[-1] if log else f"run exited {code}"))
     elif faults:
         out = Outcome(mutant, "killed-by-fault", faults[:5])
     else:
-        diff = _differences(reference, verdicts)
-        if diff:
-            out = Outcome(mutant, "survived", [c for c, _r in diff][:10],
-                          sorted({r for _c, rs in diff for r in rs}))
-        else:
-            out = Outcome(mutant, "likely-equivalent")
-    if out.status in ("killed", "likely-equivalent", "no-boot"):
+        out = Outcome(mutant, "pending", detail=str(junit))
+    if out.status in ("killed", "no-boot"):
         shutil.rmtree(folder / "transcripts", ignore_errors=True)   # keep what a developer reads
     shutil.rmtree(Path(build.folder), ignore_errors=True)
     out.seconds = time.monotonic() - t0
     return out
 
 
+def _judge(out: Outcome, reference: Dict[str, Tuple[List[str], List[str]]]) -> None:
+    """A pending mutant: survived (the cases whose lines differ) or likely equivalent."""
+    junit = Path(out.detail)
+    diff = _differences(reference, _verdicts(junit))
+    out.detail = ""
+    if diff:
+        out.status, out.cases = "survived", [c for c, _r in diff][:10]
+        out.requirements = sorted({r for _c, rs in diff for r in rs})
+    else:
+        out.status = "likely-equivalent"
+        shutil.rmtree(junit.parent / "transcripts", ignore_errors=True)
+
+
+def _control(program: str, folder: Path, keyword: Optional[str],
+             order: Optional[Path]) -> Dict[str, List[str]]:
+    """One run of the unmutated tree among the mutants: each case's HAT lines."""
+    if folder.exists():
+        shutil.rmtree(folder)
+    folder.mkdir(parents=True)
+    _code, junit = _suite(program, folder, keyword, False, order)
+    return _case_lines(_verdicts(junit))
+
+
 Progress = Callable[[Outcome, int, int], None]
 
 
 def run_campaign(tree: str, mutants: Sequence[Mutant], work: Path, jobs: int = 2,
-                 keyword: Optional[str] = None, progress: Progress = lambda o, i, n: None) -> Campaign:
-    """Run ``mutants`` of ``tree``; ``work`` keeps the reference run and each survivor's transcripts."""
+                 keyword: Optional[str] = None, progress: Progress = lambda o, i, n: None,
+                 stop_at_first: bool = True, killers_first: Sequence[str] = ()) -> Campaign:
+    """Run ``mutants`` of ``tree``; ``work`` keeps the reference run and each survivor's transcripts.
+    ``stop_at_first``: a mutant's run ends at its first failing case (the verdict is the same; a
+    survivor or an equivalent mutant runs every case either way). ``killers_first``: cases
+    (``module::case[param]``) every run of the campaign, the reference's too, runs first."""
     t0 = time.monotonic()
     work.mkdir(parents=True, exist_ok=True)
     base = build_tree(tree, cache=work / "builds")
@@ -238,9 +289,13 @@ def run_campaign(tree: str, mutants: Sequence[Mutant], work: Path, jobs: int = 2
     # there says nothing about a mutant.
     again_folder = ref_folder / "again"
     again_folder.mkdir()
+    order: Optional[Path] = None
+    if killers_first:
+        order = work / "case-order.txt"
+        order.write_text("".join(c + "\n" for c in killers_first), encoding="utf-8")
     with ThreadPoolExecutor(max_workers=2 if jobs > 1 else 1) as pool:
-        first = pool.submit(_suite, str(base.program), ref_folder, keyword, False)
-        second = pool.submit(_suite, str(base.program), again_folder, keyword, False)
+        first = pool.submit(_suite, str(base.program), ref_folder, keyword, False, order)
+        second = pool.submit(_suite, str(base.program), again_folder, keyword, False, order)
         code, junit = first.result()
         second.result()
     ref = _verdicts(junit)
@@ -249,15 +304,27 @@ def run_campaign(tree: str, mutants: Sequence[Mutant], work: Path, jobs: int = 2
         raise RuntimeError(f"the unmutated tree does not pass the suite (exit {code}; "
                            f"{len(bad)} case(s) not passing, first: {bad[:1]}): mutants cannot be judged")
     ref_lines = _case_lines(ref)
-    again = _case_lines(_verdicts(again_folder / "junit.xml"))
-    unstable = sorted(c for c in ref_lines if again.get(c) != ref_lines[c])
-    (ref_folder / "unstable-cases.txt").write_text("".join(c + "\n" for c in unstable), encoding="utf-8")
-    reference = {c: (r, ref_lines[c]) for c, _v, r, _t in ref if c not in unstable}
+    runs = [_case_lines(_verdicts(again_folder / "junit.xml"))]
     outcomes: List[Outcome] = []
     with ThreadPoolExecutor(max_workers=max(1, jobs)) as pool:
-        futures = [pool.submit(_one, m, Path(base.tree), base, work, keyword, reference) for m in mutants]
+        futures = []
+        controls = []
+        for i, m in enumerate(mutants):
+            if i and i % CONTROL_EVERY == 0:
+                folder = work / "controls" / str(len(controls))
+                controls.append(pool.submit(_control, str(base.program), folder, keyword, order))
+            futures.append(pool.submit(_one, m, Path(base.tree), base, work, keyword, stop_at_first, order))
         for i, fut in enumerate(futures, 1):
             outcome = fut.result()
             outcomes.append(outcome)
             progress(outcome, i, len(futures))
-    return Campaign(str(base.tree), outcomes, time.monotonic() - t0, len(ref), len(unstable))
+        runs += [c.result() for c in controls]
+    unstable = sorted(c for c in ref_lines if any(run.get(c) != ref_lines[c] for run in runs))
+    (ref_folder / "unstable-cases.txt").write_text("".join(c + "\n" for c in unstable), encoding="utf-8")
+    reference = {c: (r, ref_lines[c]) for c, _v, r, _t in ref if c not in unstable}
+    for i, outcome in enumerate(outcomes, 1):
+        if outcome.status == "pending":
+            _judge(outcome, reference)
+            progress(outcome, i, len(outcomes))
+    return Campaign(str(base.tree), outcomes, time.monotonic() - t0, len(ref), len(unstable),
+                    controls=len(runs), stop_at_first=stop_at_first)

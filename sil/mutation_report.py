@@ -26,7 +26,8 @@ def write_reports(campaign: Campaign, folder: Path) -> Path:
     for o in sorted(campaign.outcomes, key=lambda o: (order.get(o.status, 9), o.mutant.file, o.mutant.line)):
         m = o.mutant
         change = f"<code>{html.escape(m.original)}</code> &rarr; <code>{html.escape(m.replacement)}</code>"
-        who = "<br>".join(html.escape(c) for c in o.cases[:6]) or html.escape(o.detail)
+        who = (html.escape(o.verdict_text()) if o.status == "killed"
+               else "<br>".join(html.escape(c) for c in o.cases[:6]) or html.escape(o.detail))
         rows.append(f"<tr><td class='{o.status}'>{o.status}</td><td>{html.escape(m.file)}:{m.line}"
                     f"<br><small>{html.escape(m.function)}</small></td><td>{m.kind}</td><td>{change}</td>"
                     f"<td>{who}</td><td>{html.escape(', '.join(o.requirements))}</td></tr>")
@@ -37,7 +38,9 @@ def write_reports(campaign: Campaign, folder: Path) -> Path:
             f"killed by a failing case. {counts}. {campaign.seconds:.0f} s.</p>"
             "<p>A <b>survivor</b> changed what the HAT sent in the cases listed, yet every case passed: "
             "the suite does not defend that line. <b>Likely equivalent</b>: no byte the HAT sent in the "
-            "whole suite differs from the unmutated firmware's.</p>"
+            "whole suite differs from the unmutated firmware's."
+            + (" A killed mutant's run stopped at its first failing case (<code>--all-cases</code> runs "
+               "them all)." if campaign.stop_at_first else "") + "</p>"
             "<table><tr><th>outcome</th><th>where</th><th>kind</th><th>change</th>"
             "<th>killed by / saw a difference</th><th>requirements</th></tr>" + "".join(rows) + "</table>")
     path = folder / "mutation.html"

@@ -9,6 +9,7 @@ from ...protocol.devices import catalogue
 from ..link import Hat
 from ..needs import World
 from ..oracles.listing import render_active
+from ..probes import MOTOR, TickClock
 from ..verdict import Verdict
 
 SENSOR = 0x3E       # the ultrasonic sensor: an active device the default layout does not have
@@ -48,6 +49,33 @@ def test_passive_device_connect_message(hat: Hat, world: World, verdict: Verdict
     assert n >= 1, "no 'connected' message"
     verdict.document(n == 1, key="PASSIVE-CONNECT-REPEATS", firmware_ok=n >= 3,
                      seen=f"{n} 'connected to passive ID 1' lines in 1.5 s")
+
+
+@pytest.mark.req("EVT-CONNECT", "EVT-DISCONNECT")
+def test_passive_device_swapped_for_another_connects_after_six_scans(hat: Hat, world: World,
+                                                                     motor_port: int) -> None:
+    # FIRMWARE-BEHAVIOUR#fb-passive: another ID on a connected port is `disconnected`, and the new
+    # device is `connected` once six scans in a row read its ID, as at a first plug-in: not at
+    # the next scan, as if the count of the device before went on. Timed in controller ticks.
+    world.require("plug", "plugging a device in")
+    p = world.empty_port(avoid=(motor_port,))
+    world.plug(p, ("passive", 1))
+    clock = TickClock(hat, motor_port)
+    clock.run(100)
+    world.plug_only(p, ("passive", 2))
+    events = clock.run(2000)
+    hat.exchange("debug 0")
+    on = clock.ticks_at(events, f"P{p}: connected to passive ID 2")
+    assert on, f"no 'connected to passive ID 2' within 2 s of the swap: {[e.text for e in events][-8:]!r}"
+    if hat.feature("passive_connect_repeats"):
+        return                         # R1 scans from scratch every time and says no `disconnected`
+    gone = clock.ticks_at(events, f"P{p}: disconnected")
+    assert gone and gone[0] <= on[0], f"'disconnected' at ticks {gone}, 'connected' at {on}"
+    # Five more scans after the one that found the new ID, four at the least (10 ms a tick).
+    least = 4 * int(hat.feature("passive_scan_ms")) // 10
+    assert on[0] - gone[0] >= least, \
+        f"'connected to passive ID 2' {on[0] - gone[0]} ticks after 'disconnected': six scans take " \
+        f"{least} or more"
 
 
 @pytest.mark.req("EVT-DISCONNECT")
@@ -117,6 +145,9 @@ def test_stall_line_only_past_2_ms(hat: Hat, world: World) -> None:
     for _ in range(3):
         hat.exchange("list", timeout_ms=3000)
     hat.exchange("help")
+    # A PID line every 10 ms tick lengthens some passes to about 2 ms: not a stall yet.
+    TickClock(hat, world.active(MOTOR)).run(1000)
+    hat.exchange("debug 0")
     stalls = [e.text for e in hat.since(mark) if e.text.startswith("deltat=")]
     bad = [t for t in stalls if not re.fullmatch(r"deltat=[0-9A-F]{8}", t) or int(t[7:], 16) <= 2]
     assert not bad, f"stall lines must show more than 2 ms in 8 upper-case hex digits: {bad}"

@@ -47,6 +47,16 @@ def test_port_power_fault_repeats_while_present_and_stops_after(hat: Hat, world:
     world.require("portfault", "a way to overload the 3.3 V port supply")
     clock = TickClock(hat, motor_port)
     world.action("@portfault 1")
+    # The first report comes at once and the next a second later: three within 300 ms is a HAT
+    # repeating it far too often. Such a HAT fills its TX ring at once and then drops bytes, so
+    # the rate is judged on its first, whole lines and the fault ended before the ring spills.
+    first = hat.wait_for(lambda e: e.text == "Port power fault", 3, 300)
+    burst = sum(1 for e in first if e.text == "Port power fault")
+    if burst >= 3:
+        world.action("@portfault 0")
+        hat.collect_ms(1500)             # what the ring holds drains (two full rings' time)
+    assert burst < 3, f"{burst} reports within 300 ms of the fault, 1 Hz expected"
+    clock.include(first)
     during = clock.run(3300)
     world.action("@portfault 0")
     released = clock.count(during)

@@ -12,8 +12,26 @@ import re
 import pytest
 
 from ..link import Hat
+from ..target_fault import TargetFault
 
 VIN = re.compile(rb"\r\n[0-9]+\.[0-9]{2} V\r\n")
+# `echo 1`, then the fence's `version` echoed after a prompt and answered, then a prompt: a sound
+# link, whatever the prompts look like.
+ECHO_ON_ANSWERED = re.compile(rb"\r\n(P[^\r\n>]*>)version\r\nFirmware version: [^\r\n]+\r\n(P[^\r\n>]*>)")
+
+
+def echo_on_reply(hat: Hat) -> bytes:
+    """What `echo 1` printed. A prompt the link does not know as one hides the fence's echo, so
+    the link cannot find its place; when the HAT answered that fence whole, the link is sound
+    and the prompt is the finding (a garbled link stays a target fault)."""
+    start = len(hat.session.received)
+    try:
+        return hat.exchange("echo 1").raw
+    except TargetFault:
+        answered = ECHO_ON_ANSWERED.match(bytes(hat.session.received[start:]))
+        if answered is None or answered.group(1) == b"P0>":
+            raise
+        return b"\r\n" + answered.group(1)
 
 
 @pytest.mark.link_clause("crlf")
@@ -40,7 +58,7 @@ def test_clause_version_answers_one_line(hat: Hat) -> None:
 def test_clause_echo_on_echoes_and_prompts_echo_off_stops(hat: Hat) -> None:
     # FACTS §1: `echo 1` typed with echo off gives CRLF and the prompt; then every stored byte
     # is echoed; `echo 0` is echoed (echo was on while it arrived) and prints no prompt.
-    on = hat.exchange("echo 1").raw
+    on = echo_on_reply(hat)
     typed = hat.exchange("vin").raw
     off = hat.exchange("echo 0").raw
     quiet = hat.exchange("").raw

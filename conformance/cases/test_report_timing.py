@@ -53,7 +53,7 @@ def test_select_reports_every_100_ms(hat: Hat, motor_port: int, line: str, head:
 
 
 @pytest.mark.req("FW-SELRATE", "CMD-SELECT-MODE")
-@pytest.mark.parametrize("rate", [25, 40, 250])
+@pytest.mark.parametrize("rate", [3, 25, 40, 250])
 def test_selrate_period(hat: Hat, motor_port: int, rate: int) -> None:
     p = motor_port
     if not hat.has("selrate"):

@@ -14,7 +14,7 @@ import xml.etree.ElementTree as ET
 from typing import Dict, Tuple
 
 import pytest
-from faulty.wrong_hat import first_command, no_echo, port_error
+from faulty.wrong_hat import PortlessPrompt, first_command, no_echo, port_error
 from mutants.suite_run import REPO
 
 pytestmark = pytest.mark.timeout(300)
@@ -52,6 +52,9 @@ def test_the_wrappers_change_only_their_behaviour() -> None:
     assert first_command(b"vin ; vin") == b"vin \x00 vin"
     assert first_command(b";;vin;vin") == b";;vin\x00vin" and first_command(b"vin") == b"vin"
     assert no_echo(b"echo 1 ; vin") == b"echo 0 ; vin" and no_echo(b"e 15") == b"e 00"
+    prompt = PortlessPrompt()
+    assert prompt.output(b"\r\nP0>vin\r\nP3M1: 5\r\nP") == b"\r\nP>vin\r\nP3M1: 5\r\n"
+    assert prompt.output(b"2>") == b"P>" and prompt.output(b"P1: ok") + prompt.flush() == b"P1: ok"
 
 
 def test_port_9_answered_with_error_fails_the_clamping_clause(tmp_path) -> None:
@@ -94,6 +97,17 @@ def test_a_hat_whose_echo_never_turns_on_fails_the_echo_clause_only(tmp_path) ->
         ["test_clause_echo_on_echoes_and_prompts_echo_off_stops"], verdicts
     assert "target-fault" not in verdicts.values() and len(verdicts) > 10, verdicts
     assert "CMD-ECHO" in out, out[-2000:]
+
+
+def test_a_hat_whose_prompt_lacks_its_port_fails_the_echo_clause(tmp_path) -> None:
+    # `P>` for `P0>` hides the fence's echo from the link; the HAT still answers it whole, so it
+    # is a failing clause (LINK-PROMPT), not a garbled link.
+    rc, out, cases = _run(tmp_path, _wrong("portless-prompt"), "-k", "clause or test_vin_prints")
+    verdicts = {name: v for name, (v, _m, _p) in cases.items()}
+    assert rc == 1, out[-3000:]
+    assert verdicts["test_clause_echo_on_echoes_and_prompts_echo_off_stops"] == "fail", verdicts
+    assert "P>" in cases["test_clause_echo_on_echoes_and_prompts_echo_off_stops"][1], cases
+    assert verdicts["test_vin_prints_volts_with_two_decimals"] == "pass", verdicts
 
 
 def test_skips_settle_once_and_name_the_second_motor(tmp_path) -> None:

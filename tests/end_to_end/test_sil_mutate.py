@@ -49,3 +49,26 @@ def test_hat_output_compares_lines_however_the_reads_cut_them(tmp_path):
     assert whole == cut
     assert whole["case0"] == ["    RAW: 00 SI: 01", "echo 0 ; version sync-*", "P3M3: +49"]
     assert whole["case0"] != other["case0"] and whole["case1"] == other["case1"]
+
+
+def test_killers_of_an_earlier_campaign_run_first_in_their_rank(tmp_path):
+    from types import SimpleNamespace
+
+    from buildhat_conformance.sil.mutant_run import killers, pytest_collection_modifyitems
+
+    summary = tmp_path / "mutation.json"
+    summary.write_text(json.dumps({"mutants": [
+        {"status": "killed", "cases": ["test_b::one", "test_a::late"]},
+        {"status": "killed", "cases": ["test_c::two[x]"]},
+        {"status": "killed", "cases": ["test_c::two[x]"]},
+        {"status": "survived", "cases": ["test_a::first"]},
+        {"status": "killed-by-fault", "cases": ["test_a::first"]}]}))
+    ranked = killers(summary)
+    assert ranked == ["test_c::two[x]", "test_b::one"]      # the first failing case of each killed mutant
+    order = tmp_path / "order.txt"
+    order.write_text("".join(c + "\n" for c in ranked))
+    items = [SimpleNamespace(fspath=f"/s/{m}.py", name=n)
+             for m, n in [("test_a", "first"), ("test_b", "one"), ("test_a", "late"), ("test_c", "two[x]")]]
+    pytest_collection_modifyitems(SimpleNamespace(getoption=lambda name: str(order)), items)
+    assert [f"{i.fspath[3:-3]}::{i.name}" for i in items] == \
+        ["test_c::two[x]", "test_b::one", "test_a::first", "test_a::late"]   # the rest as collected

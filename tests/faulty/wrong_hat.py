@@ -10,6 +10,8 @@ KIND:
 - ``first-command``: of a line of several commands separated by ``;`` only the first runs (the
   document's separator clause, SYN-SEMICOLON). Everything the host typed is still echoed.
 - ``no-echo``: ``echo 1`` leaves echo off (CMD-ECHO): nothing is ever echoed, no prompt.
+- ``portless-prompt``: the prompt is ``P>`` instead of ``P<port>>`` (LINK-PROMPT; the firmware's
+  decimal printer printing nothing does that, among other things). A rewrite of the output.
 
 The change is made on the host's bytes on their way in: each rewrite keeps the line's length and
 replaces bytes the firmware would have parsed with bytes that make it do the wrong thing. With echo
@@ -56,7 +58,28 @@ def no_echo(line: bytes) -> bytes:
 
 
 REWRITES: Dict[str, Callable[[bytes], bytes]] = {"port-error": port_error, "first-command": first_command,
-                                                 "no-echo": no_echo}
+                                                 "no-echo": no_echo, "portless-prompt": lambda line: line}
+
+
+class PortlessPrompt:
+    """``P0>`` ... ``P3>`` -> ``P>`` in the output; a ``P`` or ``P<digit>`` at the end of a read
+    waits for the next one (or a pause: ``flush``)."""
+
+    def __init__(self) -> None:
+        self.held = b""
+
+    def output(self, data: bytes) -> bytes:
+        out = re.sub(rb"P[0-3]>", b"P>", self.held + data)
+        tail = re.search(rb"P[0-3]?$", out)
+        self.held = out[tail.start():] if tail else b""
+        return out[:tail.start()] if tail else out
+
+    def flush(self) -> bytes:
+        out, self.held = self.held, b""
+        return out
+
+
+OUTPUT_REWRITES = {"portless-prompt": PortlessPrompt}
 
 
 class EchoRestorer:
@@ -113,17 +136,19 @@ def main(argv: list) -> int:
     assert child.stdin is not None and child.stdout is not None
     pending = b""              # host bytes of a line not yet ended by CR
     echo = EchoRestorer()
+    outer = OUTPUT_REWRITES.get(argv[0], EchoRestorer)()    # EchoRestorer with nothing to restore: as is
     try:
         while True:
-            ready, _, _ = select.select([child.stdout, 0], [], [], 0.05 if echo.held else 0.5)
-            if not ready and echo.held:
-                _write(echo.flush())       # output paused: what was held is no echo of ours
+            held = echo.held or outer.held
+            ready, _, _ = select.select([child.stdout, 0], [], [], 0.05 if held else 0.5)
+            if not ready and held:
+                _write(outer.output(echo.flush()) + outer.flush())   # output paused: nothing more is coming
             if child.stdout in ready:
                 data = os.read(child.stdout.fileno(), 65536)
                 if not data:
-                    _write(echo.flush())
+                    _write(outer.output(echo.flush()) + outer.flush())
                     return child.wait()
-                _write(echo.output(data))
+                _write(outer.output(echo.output(data)))
             if 0 in ready:
                 data = os.read(0, 65536)
                 if not data:
