@@ -15,7 +15,7 @@ import pytest
 
 from buildhat_conformance.emulator.api import Emulator
 from buildhat_conformance.emulator.physics import DEADBAND, TAU_S, MotorPhysics
-from buildhat_conformance.emulator.runners.script_runner import run_script
+from buildhat_conformance.emulator.runners.script_mode import run_script
 from buildhat_conformance.harness.transcript import read_transcript
 from buildhat_conformance.protocol.devices import active_device
 from buildhat_conformance.transcripts.script import parse_script
