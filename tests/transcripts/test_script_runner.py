@@ -9,8 +9,10 @@ from typing import List, Tuple
 import pytest
 from harness_fakehat import HERE as FAKEHAT  # noqa: E402
 from harness_fakehat import PtyResponder  # noqa: E402
+from target_kinds import make_target_of
 
 from buildhat_conformance.cli import main as cli
+from buildhat_conformance.emulator.inprocess_target import InProcessTarget
 from buildhat_conformance.harness.errors import NeedsCapability, TargetError
 from buildhat_conformance.harness.targets import make_target
 from buildhat_conformance.harness.transcript import read_transcript
@@ -171,11 +173,12 @@ def test_run_script_on_a_virtual_time_target_keeps_exact_times(tmp_path):
     assert [e["t"] for e in t.of("hat") if e.get("line") == "P3: connecting to active device"][0] > 50
 
 
-def test_a_layout_that_never_comes_up_is_reported():
+def test_a_layout_that_never_comes_up_is_reported(monkeypatch):
     # The target claims (its `layout`) to have been started with a P1 device that it was not:
     # the runner's `list` check catches it, within the HAT-time bound on a virtual-time target.
-    target = make_target("inprocess:R7")
-    target.layout = {0: ("active", 0x30), 1: ("active", 0x3E), 2: ("passive", 8), 3: None}
+    target = make_target_of(InProcessTarget, "inprocess:R7")
+    claimed = {0: ("active", 0x30), 1: ("active", 0x3E), 2: ("passive", 8), 3: None}
+    monkeypatch.setattr(target, "layout", claimed, raising=False)
     with pytest.raises(TargetError, match=r"did not bring up the script's layout within 1 s: "
                                           r"`list` shows P0 0x30, P1 0x40"):
         run_script(parse_script("@device 1 0x3E\n> vin\n"), target, layout_wait_s=1.0)
