@@ -29,9 +29,18 @@ test: $(STAMP)
 bench: $(STAMP)
 	$(VENV)/bin/buildhat-conformance bench
 
-## Static checks: ruff, and pyright (basedpyright, basic mode) over the package, imports included.
+## Static checks: ruff, and pyright (basedpyright, basic mode) over the package and the tests, imports
+## included. The tests import `buildhat_conformance.<folder>`, which only the editable install's import
+## hook maps to the top-level folders; pyright reads no hooks, so it gets the same mapping as a tree of
+## symlinks, build/pyright/buildhat_conformance/ (one per folder with an __init__.py, and the root
+## package's modules), on its extraPaths in pyrightconfig.json.
+PYRIGHT_TREE := build/pyright/buildhat_conformance
 lint: $(STAMP)
 	$(VENV)/bin/ruff check .
+	rm -rf $(PYRIGHT_TREE) && mkdir -p $(PYRIGHT_TREE)
+	for f in buildhat_conformance/*.py; do ln -s "$(CURDIR)/$$f" $(PYRIGHT_TREE)/; done
+	for d in $(patsubst %/__init__.py,%,$(filter-out buildhat_conformance/%,$(wildcard */__init__.py))); do \
+	  ln -s "$(CURDIR)/$$d" $(PYRIGHT_TREE)/$$d; done
 	$(VENV)/bin/basedpyright
 
 ## The package as a user gets it: build sdist + wheel, twine check, install the wheel in a fresh venv

@@ -149,7 +149,7 @@ def _lint(args: argparse.Namespace):
 def _run_script(args: argparse.Namespace, devices: Dict[int, Optional[tuple]]) -> int:
     from ..harness.version import __version__
     from ..transcripts.script import ScriptError, load_script
-    from .runners.script_runner import ScriptRunError, run_script
+    from .runners.script_mode import ScriptRunError, run_script
 
     try:
         script = load_script(args.script)

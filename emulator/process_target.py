@@ -4,19 +4,18 @@ emulator as a separate process on a pty, with its out-of-band control channel.
 The target spawns ``buildhat-emulator --pty --control <unix socket in a temp dir>
 --firmware ... [--speed N] [--device P=SPEC ...]`` with pexpect, reads the pty path from
 the emulator's first stdout line, opens it with pyserial and attaches an
-:class:`EmulatorControl`. The emulator's stderr goes to a file in the temp dir so that
-when it fails (to start, or later) the error carries the emulator's own words.
+:class:`EmulatorControl` (the one control client, emulator/control_client.py). The emulator's
+stderr goes to a file in the temp dir so that when it fails (to start, or later) the error carries
+the emulator's own words.
 """
 from __future__ import annotations
 
 import collections
-import json
 import os
 import select
 import shlex
 import shutil
 import signal
-import socket
 import sys
 import tempfile
 import threading
@@ -32,6 +31,7 @@ from ..harness.targets.base import Control, TargetError
 from ..harness.targets.pyserial_base import PyserialTarget, SerialPort
 from ..protocol.devices import DEFAULT_LAYOUT, format_device_spec, parse_device_spec
 from ..transcripts.script import WORLD_ACTIONS
+from .control_client import ControlClient, ControlError
 
 __all__ = ["EmulatorTarget", "EmulatorControl", "from_url", "emulator_command", "format_device_spec"]
 
@@ -62,58 +62,31 @@ def emulator_command(command: Union[str, Sequence[str], None] = None) -> List[st
 
 
 class EmulatorControl(Control):
-    """The emulator's control channel: one request line, one reply line (``ok [value]`` or
-    ``error <message>``, which raises TargetError)."""
+    """The emulator's control channel as a harness Control: the one client (emulator/control_client.py)
+    underneath, its failures and ``error`` replies raised as TargetError naming the request."""
 
-    def __init__(self, path: str, speed: float = 1.0):
-        self.path = path
+    def __init__(self, address: str, speed: float = 1.0, token: Optional[str] = None,
+                 timeout: float = _REPLY_TIMEOUT):
+        self.path = address
         self.capabilities = CONTROL_CAPABILITIES
-        self._sock: Optional[socket.socket] = None
-        self._buf = b""
-        self._lock = threading.Lock()
+        self.client = ControlClient(address, token=token, timeout=timeout)
         self._speed = float(speed)
 
     def connect(self, deadline: float) -> None:
-        last: Optional[BaseException] = None
-        while time.monotonic() < deadline:
-            s = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
-            try:
-                s.connect(self.path)
-                s.settimeout(_REPLY_TIMEOUT)
-                self._sock = s
-                return
-            except OSError as exc:
-                s.close()
-                last = exc
-                time.sleep(0.05)
-        raise TargetError(f"cannot connect to the emulator's control socket {self.path}: {last}")
+        """Connect, retrying until the monotonic ``deadline`` while the emulator is still starting."""
+        try:
+            self.client.connect(wait=max(0.0, deadline - time.monotonic()))
+        except ControlError as exc:
+            raise TargetError(str(exc)) from None
 
     def request(self, line: str) -> str:
         """Send one request; returns the reply's value (text after ``ok``)."""
-        if self._sock is None:
+        if not self.client.connected:
             raise TargetError("the emulator's control channel is not connected")
-        if "\n" in line:
-            raise ValueError("a control request is one line")
-        with self._lock:
-            try:
-                self._sock.sendall(line.encode("utf-8") + b"\n")
-                while b"\n" not in self._buf:
-                    chunk = self._sock.recv(4096)
-                    if not chunk:
-                        raise TargetError(f"the emulator closed its control channel (request {line!r})")
-                    self._buf += chunk
-            except socket.timeout:
-                raise TargetError(f"the emulator did not answer control request {line!r} within "
-                                  f"{_REPLY_TIMEOUT:g} s") from None
-            except OSError as exc:
-                raise TargetError(f"control channel to the emulator failed: {exc}") from exc
-            raw, self._buf = self._buf.split(b"\n", 1)
-        reply = raw.decode("utf-8", "replace").rstrip("\r")
-        if reply == "ok" or reply.startswith("ok "):
-            return reply[3:]
-        if reply.startswith("error"):
-            raise TargetError(f"emulator refused {line!r}: {reply[5:].strip()}")
-        raise TargetError(f"emulator sent an unexpected control reply to {line!r}: {reply!r}")
+        try:
+            return self.client.value(line)
+        except ControlError as exc:
+            raise TargetError(str(exc)) from None
 
     def action(self, line: str) -> str:
         reply = self.request(line)
@@ -123,16 +96,13 @@ class EmulatorControl(Control):
         return reply
 
     def drive_events_since(self, t: int) -> List[Dict[str, Any]]:
-        """The motor-drive changes after HAT ms ``t``, each port's level at ``t`` first
-        (``pwm``/``led`` events, as the in-process targets' ``drive_events``)."""
-        reply = self.request(f"@drive_events {int(t)}")
+        """The motor-drive changes after HAT ms ``t``, each port's level at ``t`` first."""
+        if not self.client.connected:
+            raise TargetError("the emulator's control channel is not connected")
         try:
-            events = json.loads(reply)
-        except ValueError:
-            events = None
-        if not isinstance(events, list):
-            raise TargetError(f"the emulator sent an unreadable @drive_events reply: {reply[:80]!r}")
-        return events
+            return self.client.drive_events_since(t)
+        except ControlError as exc:
+            raise TargetError(str(exc)) from None
 
     def refresh_speed(self) -> None:
         try:
@@ -148,11 +118,7 @@ class EmulatorControl(Control):
         self.request("@reset bootloader" if bootloader else "@reset")
 
     def close(self) -> None:
-        if self._sock is not None:
-            try:
-                self._sock.close()
-            finally:
-                self._sock = None
+        self.client.close()
 
 
 class EmulatorTarget(PyserialTarget):

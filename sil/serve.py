@@ -15,11 +15,14 @@ import argparse
 import os
 import signal
 import sys
-from typing import Optional, Sequence
+from typing import TYPE_CHECKING, Optional, Sequence
 
 from ..emulator.cli import device_options
 from ..harness.cli_options import OneLineParser
 from .process import FirmwareDied
+
+if TYPE_CHECKING:
+    from .hat import SilHat
 
 __all__ = ["main", "build_parser"]
 
@@ -45,7 +48,7 @@ def build_parser(prog: str = "buildhat-conformance sil serve") -> argparse.Argum
     return p
 
 
-def _hat(args: argparse.Namespace, parser: argparse.ArgumentParser):  # -> SilHat
+def _hat(args: argparse.Namespace, parser: argparse.ArgumentParser) -> SilHat:
     from ..harness.targets.base import TargetError
     from .target import SilTarget, program_for
     try:
@@ -53,9 +56,8 @@ def _hat(args: argparse.Namespace, parser: argparse.ArgumentParser):  # -> SilHa
         devices = device_options(args.device, parser)
         target = SilTarget(program, f"sil:{program}", devices=dict(devices), seed=args.seed, boot=False,
                            firmware=args.firmware)
-        hat = target._new()
-        hat.record_events = False    # served for as long as the host likes: memory stays flat
-        return hat
+        # served for as long as the host likes: no event list, so memory stays flat
+        return target.new_hat(target.firmware, target.devices, target.seed, record_events=False)
     except TargetError as exc:
         parser.error(str(exc))
 

@@ -16,12 +16,15 @@ from __future__ import annotations
 
 import atexit
 import os
-from typing import Any, Dict, List, Optional, Tuple
+from typing import TYPE_CHECKING, Any, Dict, List, Optional, Tuple
 from urllib.parse import parse_qs, unquote
 
 from ..emulator.inprocess_target import HatModel, InProcessControl, InProcessTarget, _parse_devices
 from ..harness.targets.base import TargetCrashed, TargetError
 from .process import FirmwareDied
+
+if TYPE_CHECKING:
+    from .hat import SilHat
 
 __all__ = ["SilTarget", "SilControl", "from_url", "program_for", "close_templates"]
 
@@ -110,6 +113,13 @@ class SilTarget(InProcessTarget):
 
     def _make(self, firmware: Optional[str] = None, devices: Optional[Dict[int, Any]] = None, seed: int = 0,
               baud: Optional[int] = None) -> HatModel:
+        return self.new_hat(firmware, devices, seed)  # type: ignore[return-value]
+
+    def new_hat(self, firmware: Optional[str] = None, devices: Optional[Dict[int, Any]] = None, seed: int = 0,
+                record_events: bool = True) -> SilHat:
+        """A new firmware process of this target's program, not yet booted: what every open starts
+        from, and what ``sil serve`` runs at wall-clock pace (with ``record_events=False``, so a
+        long serve keeps no event list)."""
         from pathlib import Path
 
         from ..protocol.profiles import get_profile
@@ -130,8 +140,8 @@ class SilTarget(InProcessTarget):
                 signature = known.signature if str(known.number) == built else None
             except KeyError:
                 pass
-        return SilHat(self.program, devices=devices, seed=seed, features=profile.features,  # type: ignore[return-value]
-                      signature=signature)
+        return SilHat(self.program, devices=devices, seed=seed, features=profile.features,
+                      signature=signature, record_events=record_events)
 
     def _booted_copy(self) -> HatModel:
         if not self.boot:

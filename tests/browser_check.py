@@ -11,7 +11,7 @@ import shutil
 import subprocess
 import sys
 import tempfile
-from typing import Dict, Optional
+from typing import List, Optional, TypedDict
 
 WIDTH, HEIGHT = 1400, 900
 
@@ -59,7 +59,17 @@ def screenshot(html_path: str, png_path: str, exe: str) -> None:
                    stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, timeout=120, check=True)
 
 
-def measure(html_path: str, exe: str) -> Dict[str, object]:
+class Layout(TypedDict):
+    """What the page script measures (JSON): the boxes that run off the page, where the failures start
+    and the first group ends (px from the top), and the window width."""
+
+    overflow: List[str]
+    failures_top: float
+    first_group_bottom: float
+    width: int
+
+
+def measure(html_path: str, exe: str) -> Layout:
     """Chromium's own layout of the report, every <details> open: what overflows and where
     the failures start."""
     with open(html_path, encoding="utf-8") as fh:

@@ -15,6 +15,7 @@ Run as a program:
 from __future__ import annotations
 
 import argparse
+import io
 import os
 import random
 import select
@@ -138,7 +139,9 @@ def serve_stdio(mode: str, stream: int, wrote: Optional[str], die_after: Optiona
             log.write(data)   # after the write: the log never holds a byte that was not sent
 
     n = 0
-    stdin = sys.stdin.buffer.raw
+    buffered = sys.stdin.buffer
+    assert isinstance(buffered, io.BufferedReader)
+    stdin = buffered.raw                # unbuffered: select() sees what is really waiting
     while True:
         ready, _, _ = select.select([stdin], [], [], 0.01)
         if ready:

@@ -10,6 +10,7 @@ line was out before the first answer" a property of the host, not of timing luck
 """
 from __future__ import annotations
 
+import io
 import os
 import select
 import subprocess
@@ -26,7 +27,9 @@ def main(argv: list) -> int:
     exe = os.path.join(os.path.dirname(sys.executable), "buildhat-emulator")
     child = subprocess.Popen([exe, "--stdio", *argv[1:]], stdin=subprocess.PIPE, stdout=subprocess.PIPE)
     assert child.stdin is not None and child.stdout is not None
-    host_in = sys.stdin.buffer.raw
+    buffered = sys.stdin.buffer
+    assert isinstance(buffered, io.BufferedReader)
+    host_in = buffered.raw              # unbuffered: select() sees what is really waiting
     held = b""
     last_host = time.monotonic()
     try:

@@ -1,4 +1,6 @@
-"""The one script runner: ``script``, ``record`` and ``replay`` all run scenarios through it.
+"""The one script runner: ``script``, ``record`` and ``replay`` all run scenarios through it, and
+the emulator's ``--script`` mode walks its actions with :func:`walk_actions` too (through a driver
+that records what only an in-process emulator sees), so one place times a script's actions.
 
 A scenario (a parsed script, transcripts/script.py, or a replay plan turned into one) runs on any
 target through a :class:`Session`: in virtual time on a virtual-time target (``inprocess``),
@@ -18,7 +20,7 @@ from __future__ import annotations
 import os
 import time
 from dataclasses import dataclass, field
-from typing import IO, Dict, List, Optional, Union
+from typing import IO, Dict, List, Optional, Protocol, Union
 
 from ..harness.errors import NeedsCapability, TargetError
 from ..harness.events import Event
@@ -27,10 +29,10 @@ from ..harness.targets.base import Target
 from ..harness.transcript import TranscriptWriter
 from ..harness.version import __version__
 from ..protocol.devices import DEFAULT_LAYOUT, format_device_spec
-from .script import Script
+from .script import Action, Script
 
-__all__ = ["ScriptResult", "run_script", "check_capabilities", "target_layout", "format_layout",
-           "layout_meta", "TAIL_MS"]
+__all__ = ["ScriptResult", "run_script", "walk_actions", "Walk", "ActionDriver", "check_capabilities",
+           "target_layout", "format_layout", "layout_meta", "TAIL_MS"]
 
 TAIL_MS = 20            # SCENARIO-SCRIPT.md: after the last action a run continues for 20 ms
 _LAYOUT_WAIT_S = 10.0   # HAT seconds for devices to connect before the live layout is judged
@@ -211,38 +213,88 @@ def _open_and_wait_for_layout(session: Session, script: Script, result: ScriptRe
     session.drain(quiet=0.05, limit=0.5)
 
 
-def _run_actions(script: Script, session: Session, result: ScriptResult, end_ms: Optional[float]) -> None:
-    """Each action at its scripted time (HAT ms since the origin), then on until ``end_ms``."""
+class ActionDriver(Protocol):
+    """What :func:`walk_actions` needs of whatever runs the script: a session on a target here, the
+    emulator's script mode (emulator/runners/script_mode.py) where only an in-process emulator can
+    record its own events. Times are HAT ms since t = 0."""
+
+    def now(self) -> float: ...
+    def wait_until(self, t_ms: float) -> None: ...
+    def send(self, data: bytes) -> None: ...
+    def world(self, text: str) -> None: ...
+
+
+@dataclass
+class Walk:
+    """Where a walk is (for the message of a run that stops early) and how late it went."""
+
+    where: str = "before the first action"
+    action: Optional[Action] = None
+    late_ms: float = 0.0
+
+
+def walk_actions(script: Script, driver: ActionDriver, end_ms: Optional[float] = None,
+                 walk: Optional[Walk] = None) -> Walk:
+    """The one walk over a script: each action at its scripted time (the sum of the ``@wait``s before
+    it), then on until ``end_ms`` or TAIL_MS after the scripted end, whichever is later. ``walk``
+    is updated as it goes, so a caller whose driver raised knows where."""
+    walk = walk if walk is not None else Walk()
     scripted = 0.0
-    where = "before the first action"
+    for action in script.actions:
+        if action.kind == "wait":
+            scripted += action.args[0]
+            continue
+        walk.action = action
+        walk.where = f"at line {action.lineno} ({action.text.strip()})" if action.lineno \
+            else f"at t={scripted:g} ms ({action.text.strip()})"
+        driver.wait_until(scripted)
+        walk.late_ms = max(walk.late_ms, driver.now() - scripted)
+        if action.kind == "send":
+            driver.send(action.data)
+        else:
+            driver.world(action.text.strip())
+    walk.action, walk.where = None, "after the last action"
+    driver.wait_until(max(scripted + TAIL_MS, end_ms or 0.0))
+    return walk
 
-    def until(t_ms: float) -> None:
-        left = t_ms - session.transcript_now()
+
+class _SessionDriver:
+    """A session as the walk's driver: waits on the session's clock (HAT time), world actions
+    through the target's control."""
+
+    def __init__(self, session: Session):
+        self.session = session
+
+    def now(self) -> float:
+        return self.session.transcript_now()
+
+    def wait_until(self, t_ms: float) -> None:
+        left = t_ms - self.session.transcript_now()
         if left > 0:
-            session.wait_ms(left)
+            self.session.wait_ms(left)
 
+    def send(self, data: bytes) -> None:
+        self.session.send_raw(data)
+        self.session.poll()   # a virtual-time target's answer in the same millisecond, in order
+
+    def world(self, text: str) -> None:
+        self.session.world(text)
+        self.session.poll()
+
+
+def _run_actions(script: Script, session: Session, result: ScriptResult, end_ms: Optional[float]) -> None:
+    """The script's actions on the session; a target failure stops the run with where it happened."""
+    walk = Walk()
     try:
-        for action in script.actions:
-            if action.kind == "wait":
-                scripted += action.args[0]
-                continue
-            where = f"at line {action.lineno} ({action.text.strip()})" if action.lineno \
-                else f"at t={scripted:g} ms ({action.text.strip()})"
-            until(scripted)
-            result.late_ms = max(result.late_ms, session.transcript_now() - scripted)
-            if action.kind == "send":
-                session.send_raw(action.data)
-            else:
-                session.world(action.text.strip())
-            session.poll()   # a virtual-time target's answer in the same millisecond, in order
-        where = "after the last action"
-        until(max(scripted + TAIL_MS, end_ms or 0.0))
+        walk_actions(script, _SessionDriver(session), end_ms, walk)
         if not session.virtual:
             # On a sped-up target 20 HAT-ms are a few wall-ms, shorter than the link's own
             # latency: also wait for the answers already on their way to go quiet.
             session.drain(quiet=0.05, limit=0.5)
     except (TargetError, OSError) as exc:
-        result.ok, result.reason = False, f"stopped {where}: {exc}"
+        result.ok, result.reason = False, f"stopped {walk.where}: {exc}"
+    finally:
+        result.late_ms = walk.late_ms
 
 
 def _meta(script: Script, target: Target, session: Session, result: ScriptResult,

@@ -97,10 +97,16 @@ def _run(firmware: str, devices: Optional[dict], plan: Plan, total_ms: int, refe
     emu.uart._deliver = stamped            # type: ignore[method-assign]
     emu.boot()
     start = emu.now
+
+    def running_hat() -> Hat:                 # the running firmware (a world @reset starts a new one)
+        hat = emu.hat
+        assert hat is not None             # built without the bootloader
+        return hat
+
     for t, action in sorted(plan, key=lambda a: a[0]) + [(total_ms, "")]:
         while emu.now < start + t:
             if reference:
-                _tick_everything(emu.hat)
+                _tick_everything(running_hat())
                 emu.step()
             elif until_output:                 # as the in-process target reads
                 emu.advance_until_output(min(7, start + t - emu.now))
@@ -108,7 +114,8 @@ def _run(firmware: str, devices: Optional[dict], plan: Plan, total_ms: int, refe
             else:
                 emu.advance(min(7, start + t - emu.now))   # uneven chunks: jumps cross them
         if action.startswith("!mute"):       # the device stops talking for good (dead)
-            port = emu.hat.ports[int(action.split()[1])]
+            port = running_hat().ports[int(action.split()[1])]
+            assert isinstance(port.device, ActiveDevice), action
             port.device.dead = True
             port.wake()
             log.append(("world", emu.now, action))

@@ -14,8 +14,9 @@ import re
 import pytest
 
 from buildhat_conformance.emulator.api import Emulator
+from buildhat_conformance.emulator.devices.motor import MotorDevice
 from buildhat_conformance.emulator.physics import DEADBAND, TAU_S, MotorPhysics
-from buildhat_conformance.emulator.runners.script_runner import run_script
+from buildhat_conformance.emulator.runners.script_mode import run_script
 from buildhat_conformance.harness.transcript import read_transcript
 from buildhat_conformance.protocol.devices import active_device
 from buildhat_conformance.transcripts.script import parse_script
@@ -178,10 +179,17 @@ def booted(release: str) -> Emulator:
     return emu
 
 
+def motor_on_port_0(emu: Emulator) -> MotorDevice:
+    assert emu.hat is not None
+    device = emu.hat.ports[0].device
+    assert isinstance(device, MotorDevice), device
+    return device
+
+
 @pytest.mark.parametrize("release", ["R6", "R7"])
 def test_python_build_hat_style_position_pid_converges(release):
     emu = booted(release)
-    shaft = emu.hat.ports[0].device.physics
+    shaft = motor_on_port_0(emu).physics
     # POS (s4 at offset 1 of combi 0) in revolutions, no unwrap; 11 numbers with a deadzone.
     emu.write(b"port 0 ; combi 0 1 0 2 0 3 0 ; select 0 ; selrate 10 ; plimit 1 ; "
               b"pid 0 0 1 s4 0.0027777778 0 5 0 .1 3 0.01 ; set 0.5\r")
@@ -194,7 +202,7 @@ def test_python_build_hat_style_position_pid_converges(release):
 
 def test_speed_pid_tracks_its_set_point():
     emu = booted("R7")
-    shaft = emu.hat.ports[0].device.physics
+    shaft = motor_on_port_0(emu).physics
     # PV = SPEED (percent, s1 at offset 0 of combi 0); PI control towards 40 %.
     emu.write(b"port 0 ; combi 0 1 0 2 0 3 0 ; select 0 ; selrate 10 ; plimit 1 ; "
               b"pid 0 0 0 s1 1 0 0.01 0.5 0 5 0 ; set 40\r")
@@ -208,7 +216,7 @@ def test_speed_pid_tracks_its_set_point():
 @pytest.mark.parametrize("release", ["R6", "R7"])
 def test_pid_diff_speed_loop_on_pos_tracks_revolutions_per_second(release):
     emu = booted(release)
-    shaft = emu.hat.ports[0].device.physics
+    shaft = motor_on_port_0(emu).physics
     # PV = d(POS/360) x 100 per 10 ms tick = revolutions per second; PI towards 1 rev/s.
     emu.write(b"port 0 ; combi 0 1 0 2 0 3 0 ; select 0 ; selrate 10 ; plimit 1 ; "
               b"pid_diff 0 0 1 s4 0.0027777778 0 0.2 1 0 1 0.01 ; set 1\r")

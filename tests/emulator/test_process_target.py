@@ -6,7 +6,9 @@ import os
 import signal
 
 import pytest
+from target_kinds import make_target_of
 
+from buildhat_conformance.emulator.process_target import EmulatorTarget
 from buildhat_conformance.harness.errors import TargetError
 from buildhat_conformance.harness.session import Session
 from buildhat_conformance.harness.targets import make_target
@@ -17,7 +19,7 @@ from buildhat_conformance.transcripts.script_runner import run_script
 
 
 def test_emulator_open_detect_and_world_actions():
-    target = make_target("emulator:R5?speed=5&device=1=none&device=2=none")
+    target = make_target_of(EmulatorTarget, "emulator:R5?speed=5&device=1=none&device=2=none")
     with Session(target) as s:
         assert s.profile == get_profile("R5") and s.profile_exact and not s.in_bootloader
         assert s.time_scale == 5.0
@@ -30,6 +32,7 @@ def test_emulator_open_detect_and_world_actions():
         assert int(target.control.request("@time")) > 0
         with pytest.raises(TargetError, match="emulator refused '@plug 9 0x30'"):
             s.world("@plug 9 0x30")
+        assert target.child is not None and target.child.pid is not None
         pid = target.child.pid
     with pytest.raises(ProcessLookupError):
         os.killpg(pid, 0)   # close() ended the emulator's whole process group
@@ -53,7 +56,7 @@ def test_served_emulator_shows_the_motor_drive():
     """The drive a port puts out comes over the control channel (``@drive_events``), as the
     in-process targets' ``drive_events``: with plimit 1, direct PWM at 0.4 drives 0.4 x 255 = 102
     (docs/FIRMWARE-BEHAVIOUR.md#fb-pwm-path), and a coasting port coasts."""
-    target = make_target("emulator:R7?booted=1&speed=5")
+    target = make_target_of(EmulatorTarget, "emulator:R7?booted=1&speed=5")
     with Session(target) as s:
         assert target.has("drive_events")
         start = target.now
@@ -81,9 +84,10 @@ def test_emulator_failing_to_start_carries_its_error():
 
 
 def test_emulator_dying_mid_session_is_reported():
-    target = make_target("emulator?speed=5")
+    target = make_target_of(EmulatorTarget, "emulator?speed=5")
     s = Session(target).open()
     try:
+        assert target.child is not None and target.child.pid is not None
         os.killpg(target.child.pid, signal.SIGKILL)
         with pytest.raises(TargetError, match="the emulator went away"):
             s.expect("error", 20)
@@ -120,5 +124,5 @@ def test_reset_into_the_bootloader_and_back():
         s.reset(bootloader=True)
         assert s.in_bootloader and s.profile is None
         restart = s.reset()
-        assert not s.in_bootloader and s.profile.name == "R7"
+        assert not s.in_bootloader and s.profile == get_profile("R7")
         assert any(e.kind == "banner" for e in restart)

@@ -14,7 +14,7 @@ from buildhat_conformance.emulator.drive import Duty
 from buildhat_conformance.emulator.faults import FaultMonitor
 from buildhat_conformance.emulator.port_uart import PortUart
 from buildhat_conformance.emulator.ports import Port
-from buildhat_conformance.emulator.services import FaultServices, PortServices, UartServices, Wakeable
+from buildhat_conformance.emulator.services import FaultServices, PortServices, UartServices
 from buildhat_conformance.protocol.profiles import Profile, get_profile
 
 CRLF = b"\r\n"
@@ -86,7 +86,7 @@ class FakeFaultServices(_Output):
     def __init__(self, profile: Profile) -> None:
         super().__init__()
         self.profile = profile
-        self.ports: List[Wakeable] = [_Wakeable() for _ in range(4)]
+        self.ports: List[_Wakeable] = [_Wakeable() for _ in range(4)]   # Wakeables that count
         self.wakes = 0
 
     def wake(self) -> None:
@@ -101,6 +101,9 @@ class FakeUartServices(_Output):
 
     def event(self, kind: str, **fields: Any) -> None:
         self.events.append((kind, fields))
+
+    def note(self, text: str) -> None:
+        self.events.append(("note", {"text": text}))
 
 
 def _run(services: _Output, part: Any, until: int) -> None:

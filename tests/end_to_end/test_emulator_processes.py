@@ -4,6 +4,7 @@ Real child processes, a real pty and real sockets. Waits are generous deadlines,
 """
 from __future__ import annotations
 
+import io
 import json
 import os
 import socket
@@ -166,16 +167,18 @@ def test_help_documents_the_control_protocol():
 def test_stdio_mode_answers_and_exits_on_eof():
     proc = subprocess.Popen(CLI + ["--stdio", "--speed", "20"] + EMPTY_ARGS, stdin=subprocess.PIPE,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    stdout = proc.stdout
+    assert isinstance(stdout, io.BufferedReader)      # read1: what has come, without waiting for more
     try:
         out = b""
         while b"Done initialising ports\r\n" not in out:
-            chunk = proc.stdout.read1(4096)
+            chunk = stdout.read1(4096)
             assert chunk, proc.stderr.read()
             out += chunk
         proc.stdin.write(b"version\r")
         proc.stdin.flush()
         while VERSION_R7 not in out:
-            chunk = proc.stdout.read1(4096)
+            chunk = stdout.read1(4096)
             assert chunk, proc.stderr.read()
             out += chunk
         assert out.endswith(b"Done initialising ports\r\n\r\n" + VERSION_R7)

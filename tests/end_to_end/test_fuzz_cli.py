@@ -110,6 +110,7 @@ def test_a_finding_is_confirmed_shell_quoted_and_saved_to_the_database_with_a_se
     from buildhat_conformance.fuzz import cli, command
 
     spec = importlib.util.spec_from_file_location("planted_faults", HERE / "planted" / "faults.py")
+    assert spec is not None and spec.loader is not None
     faults = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(faults)
     empty = {0: None, 1: None, 2: None, 3: None}

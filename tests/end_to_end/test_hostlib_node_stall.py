@@ -27,6 +27,7 @@ pytestmark = [pytest.mark.timeout(120),
 
 @pytest.mark.parametrize("firmware", profile_numbers())
 def test_node_client_waiting_for_deltat_after_list_connects(firmware):
+    assert NODE is not None                   # the skipif above
     with EmulatorProcess(firmware=str(firmware), devices=THREE, extra=["--booted"]) as emu:
         done = subprocess.run([NODE, str(CLIENT), emu.pty, "10000"], capture_output=True,
                               text=True, timeout=60)

@@ -50,9 +50,10 @@ def test_merge_prefixes_each_case_with_its_target(tmp_path) -> None:
     n = merge_junit([("a", "emulator:R1", part("a", "pass")), ("b", "emulator:R7", part("b", "fail")),
                      ("c", "emulator:R5", str(tmp_path / "missing.xml"))], str(out))
     suite = ET.parse(out).getroot().find("testsuite")
+    assert suite is not None
     assert n == 2 and suite.get("tests") == "2" and suite.get("failures") == "1"
     assert [tc.get("classname") for tc in suite.iter("testcase")] == ["a.test_a", "b.test_a"]
-    props = {p.get("name"): p.get("value") for p in suite.find("properties")}
+    props = {p.get("name", ""): p.get("value", "") for p in suite.findall("properties/property")}
     assert props["a:firmware"] == "fw-a" and props["missing:c"] == "emulator:R5"
 
 
@@ -70,11 +71,12 @@ def test_three_emulator_targets_merge_into_one_report(tmp_path) -> None:
     assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-2000:]
     assert "conformance per target" in proc.stdout
     suite = ET.parse(junit).getroot().find("testsuite")
+    assert suite is not None
     cases = list(suite.iter("testcase"))
     by_target = {}
     for tc in cases:
-        props = {p.get("name"): p.get("value") for p in tc.iter("property")}
-        assert tc.get("classname").startswith(props["target_name"] + ".")
+        props = {p.get("name", ""): p.get("value", "") for p in tc.iter("property")}
+        assert tc.get("classname", "").startswith(props["target_name"] + ".")
         by_target.setdefault(props["target_name"], set()).add(props["profile"])
     # Every target ran every selected case, against its own firmware.
     assert by_target == {"old": {"R1"}, "mid": {"R5"}, "new": {"R7"}}

@@ -39,10 +39,10 @@ def run(tmp_path, name: str, target: str, *extra: str, env=None, keyword: str = 
                            "--max-target-faults", str(MAX_FAULTS), "--junit", str(junit), *extra],
                           capture_output=True, text=True, timeout=300, env=env)
     root = ET.parse(junit).getroot()
-    suite = {p.get("name"): p.get("value") for p in root.find("testsuite").find("properties")}
+    suite = {p.get("name", ""): p.get("value", "") for p in root.findall("testsuite/properties/property")}
     verdicts = {}
     for case in root.iter("testcase"):
-        props = {p.get("name"): p.get("value") for p in case.iter("property")}
+        props = {p.get("name", ""): p.get("value", "") for p in case.iter("property")}
         verdicts[case.get("name")] = props.get("verdict")
     return proc.returncode, proc.stdout + proc.stderr, suite, verdicts
 

@@ -11,13 +11,14 @@ from __future__ import annotations
 
 import pathlib
 import re
+from typing import Tuple
 
 import pytest
 from repo_paths import REPO
 
 from buildhat_conformance.harness.targets import make_target
 from buildhat_conformance.harness.transcript import read_transcript
-from buildhat_conformance.transcripts.compare import RuleSet
+from buildhat_conformance.transcripts.compare import Difference, RuleSet
 from buildhat_conformance.transcripts.replay import compare_transcripts, plan_replay, replay
 
 GOLDEN = REPO / "transcripts" / "data"
@@ -152,7 +153,7 @@ def test_pid_debug16_follows_the_control_law():
     for pv, sp, e, ie, de, cv in rows:
         want_e = 0.0 if abs(pv - sp) < 0.01 else pv - sp
         assert e == pytest.approx(want_e, rel=1e-4, abs=2e-6)
-        if prev_e is not None:
+        if prev_e is not None and prev_ie is not None:
             assert ie == pytest.approx(max(-3, min(3, prev_ie + e * 0.01)), rel=1e-4, abs=2e-6)
             assert de == pytest.approx((e - prev_e) / 0.01, rel=1e-3, abs=1e-3)
         assert cv == pytest.approx(-(5 * e + 0.5 * ie + 0.1 * de), rel=1e-4, abs=2e-5)
@@ -207,6 +208,13 @@ def test_golden_replays_exactly_on_its_release(path):
 
 
 # -- 3. the documented differences on another release ------------------------------------------
+def seen(d: Difference) -> Tuple[str, bytes]:
+    """A difference as its line's text and the host line it answered (every one here follows one)."""
+    unit = d.expected or d.actual
+    assert unit is not None and unit.after is not None, d
+    return unit.text, unit.after[1]
+
+
 def diff_on(name: str, release: str, rules: RuleSet):
     recorded = load(name)
     plan = plan_replay(recorded, str(GOLDEN / name))
@@ -216,7 +224,7 @@ def diff_on(name: str, release: str, rules: RuleSet):
 
 def test_abbreviation_on_r4_differs_exactly_as_documented():
     c = diff_on("abbreviation.jsonl", R4, RuleSet())
-    got = [(d.kind, (d.expected or d.actual).text, (d.expected or d.actual).after[1]) for d in c.differences]
+    got = [(d.kind, *seen(d)) for d in c.differences]
     # FIRMWARE-FACTS §0/§11: R4 has bias, no selrate / pwmparams / port_plimit, and its own version.
     assert got == [
         ("changed", R7_VERSION, b"ve\r"),
@@ -231,8 +239,7 @@ def test_abbreviation_on_r4_differs_exactly_as_documented():
 def test_appendix_a_motor_on_r4_differs_by_the_two_documented_errors():
     # the motor moves differently once R4 accepts the pid, so data lines are left out here
     c = diff_on("appendix-a-motor.jsonl", R4, RuleSet.from_options(["data=ignore"]))
-    got = [(d.kind, d.expected.text if d.expected else d.actual.text, (d.expected or d.actual).after[1])
-           for d in c.differences]
+    got = [(d.kind, *seen(d)) for d in c.differences]
     assert got == [("missing", "Error", b"plimit 1; bias .4\r"),
                    ("missing", "Error", b"pid 0 0 5 s2 0.0027777778 1 5 0 .1 3\r")], c.render()
 

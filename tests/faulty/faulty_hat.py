@@ -85,6 +85,7 @@ def main(argv: list) -> int:
         while True:
             if fault.done and kinds:
                 fault = LinkFault(kinds.pop(0), opts.gap, on=on)
+            assert child.stdout is not None     # each child has stdout=PIPE (a reboot starts a new one)
             reading = [child.stdout] + ([] if fault.fired and fault.kind == "deaf" else [stdin])
             flooding = fault.fired and not fault.done and fault.kind == "flood"
             ready, _, _ = select.select(reading, [], [], 0.001 if flooding else 0.5)

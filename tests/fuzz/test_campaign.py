@@ -28,6 +28,7 @@ EMPTY = {0: None, 1: None, 2: None, 3: None}   # the planted faults are in the c
 
 def _faults():
     spec = importlib.util.spec_from_file_location("planted_faults", HERE / "planted" / "faults.py")
+    assert spec is not None and spec.loader is not None
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module
@@ -49,7 +50,7 @@ def _opener(factory=None, devices=None):
 def test_short_campaign_against_the_emulator_has_no_findings(tmp_path):
     args = _args(tmp_path, "--budget", "12x", "--seed", "7", "--steps", "15")
     result, files = command.run(args, primary=_opener())
-    assert not result.findings, "\n".join(f"{f.oracle}: {f.message}" for f in result.findings)
+    assert not result.findings, "\n".join(f"{f.oracle}: {f.finding.message}" for f in result.findings)
     junit = ET.parse(tmp_path / "junit.xml").getroot()
     names = {c.get("name") for c in junit.iter("testcase")}
     assert names == {"liveness", "fate", "state", "hygiene"}
@@ -69,7 +70,7 @@ def test_planted_fault_gives_a_shrunk_replayable_finding(tmp_path, kind, oracles
     result, files = command.run(args, primary=_opener(factory, EMPTY))
     assert result.findings, f"the planted '{kind}' fault was not found"
     finding = result.findings[0]
-    assert finding.oracle in oracles, finding.message
+    assert finding.oracle in oracles, finding.finding.message
     script = load_script(files[finding.oracle]["script"])        # the scenario-script format
     steps = steps_of(script)
     # Shrunk: the prelude, the failing step and at most one step that sets the scene (echo on).
@@ -82,7 +83,8 @@ def test_planted_fault_gives_a_shrunk_replayable_finding(tmp_path, kind, oracles
     assert again is not None and again.oracle == finding.oracle
     # ... and passes on the emulator without it: the finding is the fault's, not the fuzzer's.
     assert replay_script(script, _opener(None, EMPTY), get_profile("R7"), fence_s=0.3) is None
-    junit = ET.parse(files and tmp_path / "junit.xml").getroot()
+    assert files, "a finding writes its files"
+    junit = ET.parse(tmp_path / "junit.xml").getroot()
     failed = {c.get("name") for c in junit.iter("testcase") if c.find("failure") is not None}
     assert finding.oracle in failed and failed <= oracles
     assert (tmp_path / f"{finding.oracle}.target.jsonl").exists()

@@ -42,7 +42,7 @@ def test_two_copies_of_one_release_agree(tmp_path):
     args = _args(tmp_path, "--target", "inprocess:R7", "--against", "inprocess:R7", "--budget", "4x",
                  "--seed", "5", "--steps", "8")
     result, _files = command.run(args, primary=_opener("R7"), secondary=_opener("R7"))
-    assert not result.findings, [f.message for f in result.findings]
+    assert not result.findings, [f.finding.message for f in result.findings]
 
 
 def test_two_releases_differ_and_the_difference_replays(tmp_path):
@@ -51,7 +51,7 @@ def test_two_releases_differ_and_the_difference_replays(tmp_path):
                  "--seed", "5", "--steps", "8", "--families", "valid", "--shrink-time", "60")
     result, files = command.run(args, primary=_opener("R7"), secondary=_opener("R5"))
     finding = result.finding("differential")
-    assert finding is not None, [f.message for f in result.findings]
+    assert finding is not None, [f.finding.message for f in result.findings]
     script = load_script(files["differential"]["script"])
     assert len(steps_of(script)) == 2, [a.text for a in script.actions]
     again = replay_script(script, _opener("R7"), get_profile("R7"), fence_s=0.3,

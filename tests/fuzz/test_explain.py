@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 import importlib.util
 import pathlib
+from typing import Dict, Optional
 
 from repo_paths import TESTS
 
@@ -16,11 +17,12 @@ from buildhat_conformance.fuzz.runner import Runner
 from buildhat_conformance.protocol.profiles import get_profile
 
 HERE = TESTS
-EMPTY = {0: None, 1: None, 2: None, 3: None}
+EMPTY: Dict[int, Optional[tuple]] = {0: None, 1: None, 2: None, 3: None}
 
 
 def _wrong_coast():
     spec = importlib.util.spec_from_file_location("planted_faults", HERE / "planted" / "faults.py")
+    assert spec is not None and spec.loader is not None
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module.FAULTS["wrong"]      # `coast` also prints Error
@@ -36,7 +38,7 @@ def test_a_finding_line_and_its_script_name_the_step_and_the_differing_lines(tmp
     wrong = _wrong_coast()
     result, files = command.run(args, primary=lambda: InProcessTarget("R7", devices=EMPTY, factory=wrong))
     finding = result.finding("fate")
-    assert finding is not None, [f.message for f in result.findings]
+    assert finding is not None, [f.finding.message for f in result.findings]
     line = next(x for x in capsys.readouterr().out.splitlines() if x.startswith("  FINDING [fate]"))
     # the line sent (a `coast` abbreviation) in its step, and expected vs got
     assert "line b'co" in line and " of step b'" in line, line

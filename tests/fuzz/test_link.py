@@ -2,6 +2,7 @@
 pace splits from its fence answer still completes that answer."""
 from __future__ import annotations
 
+from buildhat_conformance.emulator.api import Emulator
 from buildhat_conformance.emulator.inprocess_target import InProcessTarget
 from buildhat_conformance.fuzz.link import FENCE, Link
 
@@ -15,6 +16,7 @@ def test_fuzz_link_completes_a_prompt_split_by_the_wire() -> None:
     target.open()
     link = Link(target, "paced")
     link.drain()
+    assert isinstance(target.emulator, Emulator) and target.emulator.hat is not None
     fence_line = b"Firmware version: " + target.emulator.hat.version_string.encode() + b"\r\n"
     link.exchange(b"echo 1\r", fence_line, 1)
     answers = link.exchange_batch([b"vin\r", b"port 1\r"], fence_line, [1, 1])

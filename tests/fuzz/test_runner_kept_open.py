@@ -6,7 +6,7 @@ on the same HAT must not assume that the table is empty. All in virtual time (in
 """
 from __future__ import annotations
 
-from typing import List, Optional
+from typing import Dict, List, Optional
 
 import pytest
 from repo_paths import TESTS
@@ -68,9 +68,10 @@ def test_a_finding_says_whether_its_run_began_on_a_fresh_target(fresh):
     import importlib.util
     spec = importlib.util.spec_from_file_location(
         "planted_faults", TESTS / "planted" / "faults.py")
+    assert spec is not None and spec.loader is not None
     faults = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(faults)
-    empty = {0: None, 1: None, 2: None, 3: None}
+    empty: Dict[int, Optional[tuple]] = {0: None, 1: None, 2: None, 3: None}
     target = InProcessTarget("R7", devices=empty, factory=faults.FAULTS["wrong"])
     runner = Runner([("target", lambda: target, get_profile("R7"))], 0.3, fresh, devices=empty)
     with pytest.raises(Finding) as caught:

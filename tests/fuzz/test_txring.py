@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import importlib.util
 import re
-from typing import Optional
+from typing import Dict, Optional
 
 import pytest
 from repo_paths import TESTS
@@ -29,7 +29,7 @@ from buildhat_conformance.protocol.profiles import get_profile
 from buildhat_conformance.transcripts.script import parse_script
 
 HERE = TESTS
-MOTORS = {p: ("active", 0x30) for p in range(4)}
+MOTORS: Dict[int, Optional[tuple]] = {p: ("active", 0x30) for p in range(4)}
 R7 = get_profile("R7")
 FENCE_ANSWER = f"\r\nFirmware version: {R7.version_string}\r\n".encode()
 
@@ -51,6 +51,7 @@ class CorruptsQuestionMark:
 
 def _drops_bytes():
     spec = importlib.util.spec_from_file_location("planted_faults", HERE / "planted" / "faults.py")
+    assert spec is not None and spec.loader is not None
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module.DropsBytes
@@ -62,7 +63,9 @@ def _help_while_streaming(factory=None, stream: bool = True) -> tuple:
     runner = Runner([("target", lambda: target, R7)], 0.3, True, devices=MOTORS, tx_ring=True)
     finding: Optional[Finding] = None
     emu = target.emulator
-    uart = getattr(emu, "uart", None) or emu.emu.uart     # (a planted wrapper holds the emulator)
+    inner = getattr(emu, "emu", emu)                      # (a planted wrapper holds the emulator)
+    assert isinstance(inner, Emulator)
+    uart = inner.uart
     try:
         runner.start()
         if stream:
@@ -118,6 +121,7 @@ def test_the_ring_is_at_risk_only_while_something_streams():
 
 def test_lossy_match_allows_only_what_a_full_ring_drops():
     plan, keep = _help_plan(streaming=True)
+    assert keep is not None                                  # streaming: the ring fills
     allowed = allowed_kinds(R7, 0)
     text = b"\r\n" + R7.help_bytes
     assert FENCE_ANSWER == b"".join(it.data for it in plan.expected[-2:])
@@ -143,6 +147,7 @@ def test_a_step_longer_than_the_whole_ring_loses_only_its_tail(step):
     drops the rest of the second (the list dump cut mid-line, then its stall line): no finding."""
     target = InProcessTarget("R7", devices=MOTORS, baud=115200)
     runner = Runner([("target", lambda: target, R7)], 0.3, True, devices=MOTORS, tx_ring=True)
+    assert isinstance(target.emulator, Emulator)
     uart = target.emulator.uart
     try:
         runner.start()
@@ -161,6 +166,7 @@ def test_what_survives_a_full_ring_is_matched_against_the_later_output():
     model.feed(b"select 0\r")
     plan = plan_step(model, [b"help\r", b"vin\r"])
     keep = headroom(backlog(plan.states, 0, model.selrate_engine, True), plan.size)
+    assert keep is not None                                  # help and vin overflow the ring
     allowed = allowed_kinds(R7, 0)
     text = b"\r\n" + R7.help_bytes
     head = text[:keep + 40]

@@ -7,7 +7,9 @@ import threading
 
 import pytest
 from harness_fakehat import FakeHat, PtyResponder  # noqa: E402
+from target_kinds import make_target_of
 
+from buildhat_conformance.emulator.inprocess_target import InProcessTarget
 from buildhat_conformance.harness.errors import ExpectTimeout, SessionError, TargetError
 from buildhat_conformance.harness.session import Session
 from buildhat_conformance.harness.targets import Target, make_target, open_target
@@ -288,7 +290,7 @@ class _ClockHidingWrapper(Target):
 
 
 def test_virtual_time_target_is_read_in_hat_time():
-    inner = make_target("inprocess:R7")
+    inner = make_target_of(InProcessTarget, "inprocess:R7")
     with Session(inner) as s:
         assert s.virtual
         before = inner.now
@@ -299,7 +301,7 @@ def test_virtual_time_target_is_read_in_hat_time():
 
 def test_virtual_time_target_behind_a_wrapper_is_paced_to_real_time():
     import time
-    inner = make_target("inprocess:R7")
+    inner = make_target_of(InProcessTarget, "inprocess:R7")
     with Session(_ClockHidingWrapper(inner)) as s:
         assert not s.virtual                      # no clock to read: a reader thread runs
         began, hat_began = time.monotonic(), inner.now

@@ -11,10 +11,11 @@ import time
 
 import pytest
 from harness_fakehat import HERE as FAKEHAT  # noqa: E402
+from target_kinds import make_target_of
 
 from buildhat_conformance.harness.errors import TargetError
 from buildhat_conformance.harness.session import Session
-from buildhat_conformance.harness.targets import make_target
+from buildhat_conformance.harness.targets.cmd import CommandTarget
 from buildhat_conformance.harness.transcript import hat_stream, read_transcript
 
 STREAM = 60
@@ -39,10 +40,11 @@ def _cmd(wrote: str) -> str:
 
 def test_killing_the_target_mid_run_keeps_every_byte(tmp_path):
     wrote, path = tmp_path / "wrote.bin", tmp_path / "t.jsonl"
-    target = make_target(_cmd(str(wrote)))
+    target = make_target_of(CommandTarget, _cmd(str(wrote)))
     s = Session(target, transcript=str(path)).open()
     try:
         s.expect(lambda e: e.kind == "mode_data" and e.fields["values"] == [STREAM // 2], 10)
+        assert target.proc is not None
         os.killpg(target.proc.pid, signal.SIGKILL)   # mid-stream
         with pytest.raises(TargetError) as info:
             s.expect("error", 10)                     # nothing more will come: the target is gone
@@ -61,12 +63,13 @@ def test_killing_the_target_mid_run_keeps_every_byte(tmp_path):
 
 def test_a_partial_line_is_kept_when_the_target_dies(tmp_path):
     wrote, path = tmp_path / "wrote.bin", tmp_path / "t.jsonl"
-    target = make_target(_cmd(str(wrote)))
+    target = make_target_of(CommandTarget, _cmd(str(wrote)))
     s = Session(target, transcript=str(path)).open()
     try:
         s.expect(lambda e: e.kind == "mode_data" and e.fields["values"] == [STREAM], 10)
         s.expect("prompt", 10)               # the stream ends with P0> and no CRLF
         _logged(wrote)
+        assert target.proc is not None
         os.killpg(target.proc.pid, signal.SIGKILL)
         with pytest.raises(TargetError):
             s.expect("error", 10)

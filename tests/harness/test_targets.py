@@ -14,6 +14,7 @@ import tempfile
 import pytest
 from harness_fakehat import HERE as FAKEHAT  # noqa: E402
 from harness_fakehat import PtyResponder
+from target_kinds import make_target_of
 
 from buildhat_conformance.emulator.process_target import EmulatorTarget
 from buildhat_conformance.harness.errors import TargetError
@@ -204,7 +205,7 @@ def test_emulator_target_runs_process_pty_and_control():
     assert args[-11:] == ["--pty", "--control", "/tmp/ctl", "--firmware", "R7", "--speed", "4",
                           "--device", "2=passive 8", "--device", "3=0x30"]
     with Session(target) as s:
-        assert os.path.exists(target.pty_path)
+        assert target.pty_path is not None and os.path.exists(target.pty_path)
         assert s.time_scale == 4.0            # from the control channel's @speed
         assert s.profile.name == "R7"
         assert s.world("@plug 1 0x30") == ""
@@ -213,13 +214,14 @@ def test_emulator_target_runs_process_pty_and_control():
         with pytest.raises(TargetError, match="emulator refused '@explode': no such action"):
             target.control.action("@explode")
         pid = target.child.pid
-    assert target.child is None
+    assert target.child is None and pid is not None
     with pytest.raises(ProcessLookupError):
         os.kill(pid, 0)
 
 
 def test_emulator_failing_to_start_shows_its_own_error():
-    target = make_target("emulator:R99", command=_standin("--fail 'unknown firmware R99; known: R1..R7'"))
+    target = make_target_of(EmulatorTarget, "emulator:R99",
+                            command=_standin("--fail 'unknown firmware R99; known: R1..R7'"))
     with pytest.raises(TargetError) as info:
         target.open()
     msg = str(info.value)
@@ -245,7 +247,7 @@ def test_emulator_url_errors():
         make_target("emulator:latest?colour=red")
     with pytest.raises(TargetError, match="did you mean emulator:R5"):
         make_target("emulatorR5")
-    t = make_target("emulator:R5?device=1=0x30", devices={2: None})
+    t = make_target_of(EmulatorTarget, "emulator:R5?device=1=0x30", devices={2: None})
     assert t.devices == {1: ("active", 0x30), 2: None} and t.firmware == "R5"
 
 

@@ -101,8 +101,8 @@ class EmulatorProcess:
         if self.proc.stdout is not None:
             self.proc.stdout.close()
         self._stderr.close()
-        self.returncode = self.proc.returncode
-        return self.returncode
+        self.returncode = returncode = self.proc.wait()    # already ended: its status at once
+        return returncode
 
     def wait(self, timeout: float) -> Optional[int]:
         """Wait for the emulator to exit by itself (e.g. ``--strict-host``); None if it did not."""

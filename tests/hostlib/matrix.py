@@ -12,7 +12,7 @@ import concurrent.futures
 import json
 import time
 from dataclasses import dataclass, field
-from typing import Any, Dict, List, Optional, Tuple
+from typing import Any, Dict, List, Optional, Tuple, TypedDict
 
 from .emulator_proc import EmulatorFailed, EmulatorProcess
 from .lpf2data import data_line
@@ -25,11 +25,30 @@ __all__ = ["Plan", "Outcome", "plans", "run_all", "ADC", "MOTOR", "COLOR", "DIST
 ADC = 1650                      # raw Vin ADC; FIRMWARE-FACTS §4.4 turns it into 7.58 V
 MOTOR = dict(pos=90, degrees=180, rotations=1, target=-90, target2=0, ramp_speed=25, seconds=1, speed=40,
              rpm=60, pair_degrees=180)
-COLOR = dict(reflected=42, ambient=17, rgbi=[1000, 40, 40, 900], hsv=[200, 512, 768])
+
+
+class Colour(TypedDict):        # typed: which values are one number and which a list, for the checker too
+    reflected: int
+    ambient: int
+    rgbi: List[int]
+    hsv: List[int]
+
+
+class Classic(TypedDict):
+    reflected: int
+    ambient: int
+    rgb: List[int]
+    proximity: int
+    tilt: List[int]
+    motion: int
+    count: int
+
+
+COLOR: Colour = {"reflected": 42, "ambient": 17, "rgbi": [1000, 40, 40, 900], "hsv": [200, 512, 768]}
 DISTANCE = dict(far=250, near=60)
 FORCE = dict(force=55, touch=1, peak=70, again=80)
-CLASSIC = dict(reflected=33, ambient=21, rgb=[200, 100, 400], proximity=4, tilt=[10, -20], motion=7,
-               count=12345)
+CLASSIC: Classic = {"reflected": 33, "ambient": 21, "rgb": [200, 100, 400], "proximity": 4, "tilt": [10, -20],
+                    "motion": 7, "count": 12345}
 
 # While the emulator waits for devices to finish their LPF2 handshakes (no host attached yet) it may run
 # fast; the library itself then always talks to it in real time.

@@ -31,12 +31,13 @@ class CaseResult:
 def read_junit(path: str) -> Dict[str, CaseResult]:
     out = {}
     for case in ET.parse(path).getroot().iter("testcase"):
-        props = {p.get("name"): p.get("value") for p in case.iter("property")}
+        props = {p.get("name", ""): p.get("value", "") for p in case.iter("property")}
         devs = [d for d in props.get("deviations", "").split(",") if d]
         found = (case.find(tag) for tag in ("failure", "error", "skipped"))
         problem = next((e for e in found if e is not None), None)
         message = "" if problem is None else problem.get("message", "") + "\n" + (problem.text or "")[-1500:]
-        out[case.get("name")] = CaseResult(case.get("name"), props.get("verdict", ""), devs, props, message)
+        name = case.get("name", "")
+        out[name] = CaseResult(name, props.get("verdict", ""), devs, props, message)
     return out
 
 

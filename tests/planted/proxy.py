@@ -8,6 +8,7 @@ as the in-process wrappers (faults.py), so a finding's script can be replayed wi
 """
 from __future__ import annotations
 
+import io
 import os
 import select
 import subprocess
@@ -25,7 +26,9 @@ def main(argv: list) -> int:
     fault = FaultFilter(argv[0])
     exe = os.path.join(os.path.dirname(sys.executable), "buildhat-emulator")
     child = subprocess.Popen([exe, "--stdio", *argv[1:]], stdin=subprocess.PIPE, stdout=subprocess.PIPE)
-    host_in, host_out = sys.stdin.buffer.raw, sys.stdout.buffer
+    buffered = sys.stdin.buffer
+    assert isinstance(buffered, io.BufferedReader) and child.stdout is not None
+    host_in, host_out = buffered.raw, sys.stdout.buffer    # unbuffered: select() sees what waits
     wrong_next = False
     try:
         while True:

@@ -51,6 +51,8 @@ def imported_folders(path: Path, source: Optional[str] = None) -> Set[Tuple[str,
                 for i, item in enumerate(seq.elts[:-1])
                 if isinstance(item, ast.Constant) and item.value == "-m"}
     for node in ast.walk(tree):
+        if not isinstance(node, (ast.stmt, ast.expr)):    # imports and names are these: they have a line
+            continue
         names: List[str] = []
         if isinstance(node, ast.ImportFrom):
             if node.level:

@@ -15,6 +15,11 @@ from buildhat_conformance.sil.float_convert import rewrite_conversions
 CC = shutil.which("cc") or shutil.which("gcc") or shutil.which("clang")
 pytestmark = pytest.mark.skipif(CC is None, reason="no C compiler on this machine")
 
+
+def cc() -> str:
+    assert CC is not None               # the skipif above
+    return CC
+
 VALUES = [-100.0, -0.5, 0.0, 3.7, 99.99, 2147483520.0, 3e9, 4294967040.0, 5e9, 1e20, -1e20, -3.7]
 
 PROGRAM = r"""
@@ -53,12 +58,12 @@ def test_rewritten_conversions_saturate_like_the_chip(tmp_path, opt):
     src = tmp_path / "conv.c"
     src.write_text(PROGRAM % ", ".join(repr(v) for v in VALUES))
     asm = tmp_path / "conv.s"
-    subprocess.run([CC, opt, "-mno-red-zone", "-S", str(src), "-o", str(asm)], check=True)
+    subprocess.run([cc(), opt, "-mno-red-zone", "-S", str(src), "-o", str(asm)], check=True)
     text, count = rewrite_conversions(asm.read_text(), "t")
     assert count >= 6, "the program's conversions were not all found"
     asm.write_text(text)
     exe = tmp_path / "conv"
-    subprocess.run([CC, str(asm), "-o", str(exe)], check=True)
+    subprocess.run([cc(), str(asm), "-o", str(exe)], check=True)
     rows = subprocess.run([str(exe)], capture_output=True, text=True, check=True).stdout.split("\n")
     for value, row in zip(VALUES, rows):
         f = float(value)
@@ -72,6 +77,6 @@ def test_unrewritten_host_code_differs_so_the_test_can_fail(tmp_path):
     src = tmp_path / "conv.c"
     src.write_text(PROGRAM % "-100.0")
     exe = tmp_path / "conv"
-    subprocess.run([CC, "-O1", str(src), "-o", str(exe)], check=True)
+    subprocess.run([cc(), "-O1", str(src), "-o", str(exe)], check=True)
     row = subprocess.run([str(exe)], capture_output=True, text=True, check=True).stdout.split()
     assert int(row[0]) != chip_u32(-100.0)

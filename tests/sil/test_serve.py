@@ -50,3 +50,23 @@ def test_serve_needs_one_link_mode():
     with pytest.raises(SystemExit) as exc:
         parser.parse_args(["tree", "--pty", "--stdio"])
     assert exc.value.code == 2
+
+
+def test_the_served_firmware_keeps_no_event_list(cache, monkeypatch):
+    # A serve runs for as long as the host likes: its HAT passes events on but never stores them.
+    from buildhat_conformance.sil.hat import SilHat
+    from buildhat_conformance.sil.serve import _hat
+    tree = firmware_tree()
+    assert cli("sil", "build", str(tree), cache=cache).returncode == 0
+    monkeypatch.setenv("BUILDHAT_SIL_CACHE", str(cache))
+    parser = build_parser()
+    hat = _hat(parser.parse_args([str(tree), "--stdio", "--device", "1=0x30"]), parser)
+    try:
+        assert isinstance(hat, SilHat) and hat.devices[1] is not None
+        seen = []
+        hat.on_event(seen.append)
+        hat.boot()
+        assert seen, "the start-up of a motor on port 1 gives device events"
+        assert hat.events == []
+    finally:
+        hat.close()

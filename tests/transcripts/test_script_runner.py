@@ -4,17 +4,20 @@ from __future__ import annotations
 
 import os
 import sys
+from typing import List, Tuple
 
 import pytest
 from harness_fakehat import HERE as FAKEHAT  # noqa: E402
 from harness_fakehat import PtyResponder  # noqa: E402
+from target_kinds import make_target_of
 
 from buildhat_conformance.cli import main as cli
+from buildhat_conformance.emulator.inprocess_target import InProcessTarget
 from buildhat_conformance.harness.errors import NeedsCapability, TargetError
 from buildhat_conformance.harness.targets import make_target
 from buildhat_conformance.harness.transcript import read_transcript
 from buildhat_conformance.transcripts.script import parse_script
-from buildhat_conformance.transcripts.script_runner import check_capabilities, run_script
+from buildhat_conformance.transcripts.script_runner import Walk, check_capabilities, run_script, walk_actions
 
 CMD = f"cmd:{sys.executable} -u {FAKEHAT} --stdio"
 
@@ -170,11 +173,69 @@ def test_run_script_on_a_virtual_time_target_keeps_exact_times(tmp_path):
     assert [e["t"] for e in t.of("hat") if e.get("line") == "P3: connecting to active device"][0] > 50
 
 
-def test_a_layout_that_never_comes_up_is_reported():
+def test_a_layout_that_never_comes_up_is_reported(monkeypatch):
     # The target claims (its `layout`) to have been started with a P1 device that it was not:
     # the runner's `list` check catches it, within the HAT-time bound on a virtual-time target.
-    target = make_target("inprocess:R7")
-    target.layout = {0: ("active", 0x30), 1: ("active", 0x3E), 2: ("passive", 8), 3: None}
+    target = make_target_of(InProcessTarget, "inprocess:R7")
+    claimed = {0: ("active", 0x30), 1: ("active", 0x3E), 2: ("passive", 8), 3: None}
+    monkeypatch.setattr(target, "layout", claimed, raising=False)
     with pytest.raises(TargetError, match=r"did not bring up the script's layout within 1 s: "
                                           r"`list` shows P0 0x30, P1 0x40"):
         run_script(parse_script("@device 1 0x3E\n> vin\n"), target, layout_wait_s=1.0)
+
+
+# -- the one walk over a script's actions (emulator's --script mode walks with it too), with a driver
+# that only logs: SCENARIO-SCRIPT.md's timing without any target in the way --------------------------
+
+class LogDriver:
+    """A clock that moves only when waited on, plus an optional fixed delay per action."""
+
+    def __init__(self, delay_ms: float = 0.0, refuse: str = ""):
+        self.t = 0.0
+        self.delay_ms, self.refuse = delay_ms, refuse
+        self.log: List[Tuple[float, str]] = []
+
+    def now(self) -> float:
+        return self.t
+
+    def wait_until(self, t_ms: float) -> None:
+        self.t = max(self.t, t_ms)
+
+    def send(self, data: bytes) -> None:
+        self.log.append((self.t, data.decode()))
+        self.t += self.delay_ms
+
+    def world(self, text: str) -> None:
+        if text == self.refuse:
+            raise RuntimeError("no such action")
+        self.log.append((self.t, text))
+        self.t += self.delay_ms
+
+
+WALKED = parse_script("> vin\n@wait 30\n@plug 1 0x30\n@wait 12.5\n@wait 7\n> list\n@wait 100\n", "w.script")
+
+
+def test_each_action_at_the_sum_of_the_waits_before_it_then_a_20_ms_tail():
+    driver = LogDriver()
+    walk = walk_actions(WALKED, driver)
+    assert driver.log == [(0.0, "vin\r"), (30.0, "@plug 1 0x30"), (49.5, "list\r")]
+    assert driver.t == 149.5 + 20
+    assert walk.late_ms == 0 and walk.where == "after the last action"
+
+
+def test_late_actions_do_not_push_the_later_ones_and_lateness_is_kept():
+    driver = LogDriver(delay_ms=40)      # each action takes 40 ms: the plug goes out 10 ms late
+    walk = walk_actions(WALKED, driver)
+    assert [t for t, _ in driver.log] == [0.0, 40.0, 80.0]
+    assert walk.late_ms == pytest.approx(30.5)
+
+
+def test_end_ms_extends_the_run_and_a_failure_says_where():
+    driver = LogDriver()
+    walk_actions(WALKED, driver, end_ms=500)
+    assert driver.t == 500
+    walk = Walk()
+    with pytest.raises(RuntimeError):
+        walk_actions(WALKED, LogDriver(refuse="@plug 1 0x30"), walk=walk)
+    assert walk.where == "at line 3 (@plug 1 0x30)"
+    assert walk.action is not None and walk.action.lineno == 3

@@ -7,7 +7,8 @@ from buildhat_conformance.conformance.oracles.numbers import parse_float, parse_
 
 
 def test_number_parser_examples() -> None:
-    assert f32_bits(parse_float("0.0027777778")[0]) == 0x3B360B61          # §3
+    value = parse_float("0.0027777778")[0]
+    assert value is not None and f32_bits(value) == 0x3B360B61           # §3
     assert parse_float("1e3") == (1.0, 1)                                    # no exponent
     assert parse_float(".")[0] is None and parse_float("-.")[0] is None and parse_float("+")[0] is None
     assert str(parse_float("-0")[0]) == "-0.0"

@@ -113,6 +113,7 @@ class _PipeLink:
         return [self.rd] if data and self.rd is not None else []
 
     def on_readable(self, obj: Any, limit: int) -> bytes:
+        assert self.rd is not None            # readables() offers it only while open
         data = os.read(self.rd, limit)
         if not data:                          # everything read: nothing more to watch
             os.close(self.rd)

@@ -13,12 +13,14 @@ import gpiod
 import pytest
 from firmware_images import image_of  # noqa: E402
 from gpiod.line import Direction, Value
+from target_kinds import make_target_of
 
 from buildhat_conformance.emulator.process_target import EmulatorControl
 from buildhat_conformance.harness.firmware import load_firmware
 from buildhat_conformance.harness.firmware.gpio_reset import BOOT0_LINE, RESET_LINE, GpioReset
 from buildhat_conformance.harness.firmware.image import FirmwareImage
 from buildhat_conformance.harness.targets import TargetError, make_target
+from buildhat_conformance.harness.targets.serial import SerialTarget
 from buildhat_conformance.protocol.profiles import get_profile
 
 EMULATOR = str(pathlib.Path(sys.executable).parent / "buildhat-emulator")
@@ -82,11 +84,13 @@ def test_lines_and_chip_come_from_the_url():
     t = make_target("serial:///dev/ttyAMA0?reset=gpio&chip=gpiochip4&reset_line=5&boot0_line=6",
                     request_lines=chip)
     assert t.has("reset") and t.has("bootloader") and not t.has("plug")
+    assert isinstance(t.control, GpioReset)
     t.control.sleep = lambda s: None
     t.control.reset()
     assert chip.log[0][1] == "/dev/gpiochip4" and set(chip.log[0][2]) == {5, 6}
     assert ("set", 5, Value.INACTIVE) in chip.log
-    plain = make_target("/dev/ttyAMA0?reset=gpio", request_lines=chip)
+    plain = make_target_of(SerialTarget, "/dev/ttyAMA0?reset=gpio", request_lines=chip)
+    assert isinstance(plain.control, GpioReset)
     assert plain.path == "/dev/ttyAMA0" and plain.control.chip == "/dev/gpiochip0"
 
 
@@ -127,6 +131,7 @@ def test_load_resets_a_running_hat_through_gpio(tmp_path):
                 control.reset(bootloader=True)
         chip = FakeChip(on_set=wire)
         target = make_target(f"{pty}?reset=gpio", request_lines=chip)
+        assert isinstance(target.control, GpioReset)
         target.control.sleep = lambda s: None if s < 0.1 else time.sleep(0.1)
         fw = FirmwareImage(image_of("R4"), bytes(64))
         with target:

@@ -11,10 +11,12 @@ import sys
 import time
 
 import pytest
+from target_kinds import make_target_of
 
 from buildhat_conformance.conformance.target_fault import NOT_READING, target_fault_of
 from buildhat_conformance.harness.targets import make_target
 from buildhat_conformance.harness.targets.base import WRITE_DEADLINE_S, NotReading
+from buildhat_conformance.harness.targets.cmd import CommandTarget
 from buildhat_conformance.harness.targets.serial import SerialTarget
 
 pytestmark = pytest.mark.timeout(60)
@@ -28,7 +30,7 @@ def test_the_default_deadline_is_seconds_not_minutes() -> None:
 
 
 def test_a_command_that_stops_reading_is_found_out_at_the_deadline() -> None:
-    target = make_target(f"cmd:{sys.executable} -c 'import time; time.sleep(60)'")
+    target = make_target_of(CommandTarget, f"cmd:{sys.executable} -c 'import time; time.sleep(60)'")
     target.write_deadline = DEADLINE
     target.open()
     try:
@@ -53,11 +55,12 @@ def test_a_command_that_reads_gets_everything(tmp_path) -> None:
     script.write_text("import sys, time\nn = 0\nwhile True:\n    b = sys.stdin.buffer.read1(4096)\n"
                       "    n += len(b)\n    time.sleep(0.001)\n    if not b:\n        break\n"
                       "print(n, flush=True)\n")
-    target = make_target(f"cmd:{sys.executable} {script}")
+    target = make_target_of(CommandTarget, f"cmd:{sys.executable} {script}")
     target.write_deadline = 5.0
     target.open()
     try:
         target.write(MUCH[: 1 << 20])
+        assert target.proc is not None and target.proc.stdin is not None
         target.proc.stdin.close()          # EOF: the child prints how much it read
         out = b""
         deadline = time.monotonic() + 20

@@ -8,7 +8,7 @@ import json
 import os
 import time
 
-import buildhat
+import buildhat  # pyright: ignore[reportMissingImports] - in the library's own venv (hostlib/venvs.py)
 import pytest
 
 CASE = json.loads(os.environ["BUILDHAT_CASE"])

@@ -5,7 +5,7 @@ from _harness import connect, run, step
 
 
 def main() -> None:
-    import buildhat
+    import buildhat  # pyright: ignore[reportMissingImports] - in the library's own venv (hostlib/venvs.py)
 
     connect(buildhat)
     sensor = buildhat.DistanceSensor("A")

@@ -23,7 +23,7 @@ def given(name: str) -> None:
 
 
 def main() -> None:
-    import buildhat
+    import buildhat  # pyright: ignore[reportMissingImports] - in the library's own venv (hostlib/venvs.py)
 
     emit("pin_factory", os.environ.get("GPIOZERO_PIN_FACTORY"))
     emit("firmware_before", ctl("@firmware"))

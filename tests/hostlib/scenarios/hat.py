@@ -8,7 +8,7 @@ from _harness import PARAMS, connect, ctl, emit, run, step
 
 
 def main() -> None:
-    import buildhat
+    import buildhat  # pyright: ignore[reportMissingImports] - in the library's own venv (hostlib/venvs.py)
 
     started = time.monotonic()
     hat = connect(buildhat)

@@ -87,7 +87,7 @@ def passive_motor(buildhat) -> None:
 
 
 def main() -> None:
-    import buildhat
+    import buildhat  # pyright: ignore[reportMissingImports] - in the library's own venv (hostlib/venvs.py)
 
     connect(buildhat)
     single_motor(buildhat)

@@ -58,7 +58,7 @@ def wedo(buildhat, hat) -> None:
 
 
 def main() -> None:
-    import buildhat
+    import buildhat  # pyright: ignore[reportMissingImports] - in the library's own venv (hostlib/venvs.py)
 
     hat = connect(buildhat)
     color_distance(buildhat)

@@ -47,7 +47,7 @@ def distance(buildhat) -> None:
     hits = []
     d.when_in_range = lambda dist: hits.append(dist)
     given("distance.near")
-    emit("distance.in_range_callback", hits[:1] if wait_for(lambda: hits, 3.0) else None)
+    emit("distance.in_range_callback", hits[:1] if wait_for(lambda: bool(hits), 3.0) else None)
     d.when_in_range = None
     if hasattr(d, "eyes"):
         step("distance.eyes", lambda: d.eyes(10, 20, 30, 40))
@@ -65,7 +65,7 @@ def force(buildhat) -> None:
     presses = []
     f.when_pressed = lambda value: presses.append(value)
     given("force.pressed_again")
-    emit("force.pressed_callback", presses[:1] if wait_for(lambda: presses, 3.0) else None)
+    emit("force.pressed_callback", presses[:1] if wait_for(lambda: bool(presses), 3.0) else None)
     f.when_pressed = None
 
 
@@ -82,7 +82,7 @@ def matrix(buildhat, hat) -> None:
 
 
 def main() -> None:
-    import buildhat
+    import buildhat  # pyright: ignore[reportMissingImports] - in the library's own venv (hostlib/venvs.py)
 
     hat = connect(buildhat)
     ctl(PARAMS["plug_matrix"])   # its LPF2 handshake runs while the other sensors are tested

@@ -12,7 +12,7 @@ from _harness import PARAMS, connect, emit, run
 
 
 def main() -> None:
-    import buildhat
+    import buildhat  # pyright: ignore[reportMissingImports] - in the library's own venv (hostlib/venvs.py)
 
     connect(buildhat)
     m = buildhat.Motor("A")

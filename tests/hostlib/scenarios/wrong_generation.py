@@ -10,7 +10,7 @@ from _harness import connect, ctl, emit, run, step
 
 
 def main() -> None:
-    import buildhat
+    import buildhat  # pyright: ignore[reportMissingImports] - in the library's own venv (hostlib/venvs.py)
 
     connect(buildhat)
     motor = buildhat.Motor("A")

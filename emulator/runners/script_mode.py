@@ -1,5 +1,7 @@
 """Script mode: run a scenario script (docs/formats/SCENARIO-SCRIPT.md) in virtual time and
-write its transcript (docs/formats/TRANSCRIPT.md).
+write its transcript (docs/formats/TRANSCRIPT.md). The one script runner's walk
+(transcripts/script_runner.py ``walk_actions``) times the actions; this module is its driver for an
+in-process emulator, which records what only it can see (device frames, drive and LED events).
 
 The start-up runs before the script and is recorded at t < 0: the banner and the layout's
 devices connecting. t = 0 is the moment every device of the layout is established. Host
@@ -15,12 +17,11 @@ from typing import IO, Any, Dict, List, Optional, Tuple
 from ...harness.transcript import TranscriptWriter
 from ...protocol.devices import format_device_spec
 from ...transcripts.script import Script
+from ...transcripts.script_runner import Walk, walk_actions
 from ..api import Emulator
 from ..world import WorldError
 
-__all__ = ["run_script", "TAIL_MS", "ScriptRunError"]
-
-TAIL_MS = 20
+__all__ = ["run_script", "ScriptRunError"]
 
 
 class ScriptRunError(RuntimeError):
@@ -72,6 +73,38 @@ class _Recorder:
         self.backlog.clear()
 
 
+class _ScriptModeDriver:
+    """The in-process emulator as the one runner's driver (transcripts/script_runner.py): every
+    millisecond stepped and pumped into the recorder (output before the events it caused), host
+    bytes written into the transcript as they go in, and the lint fed with them."""
+
+    def __init__(self, emu: Emulator, rec: _Recorder, writer: TranscriptWriter, prelude: int, lint: Any):
+        self.emu, self.rec, self.writer, self.prelude, self.lint = emu, rec, writer, prelude, lint
+
+    def now(self) -> float:
+        return self.emu.now - self.prelude
+
+    def wait_until(self, t_ms: float) -> None:
+        while self.emu.now - self.prelude < math.ceil(t_ms - 1e-9):
+            self.emu.step()
+            self.rec.pump()
+            if self.lint is not None:
+                self.lint.follow(self.emu)
+
+    def send(self, data: bytes) -> None:
+        self.rec.pump()
+        self.writer.flush_partial()           # a prompt keeps the time it was printed
+        self.writer.host(self.emu.now - self.prelude, data)
+        if self.lint is not None:
+            self.lint.feed_input(data)
+        self.emu.write(data)
+        self.rec.pump()
+
+    def world(self, text: str) -> None:
+        self.emu.world(text)
+        self.rec.pump()
+
+
 def run_script(script: Script, out: IO[str], *, firmware: Any = None,
                devices: Optional[Dict[int, Optional[tuple]]] = None, version_string: Optional[str] = None,
                seed: int = 0, baud: Optional[int] = None, lint: Any = None,
@@ -106,35 +139,13 @@ def run_script(script: Script, out: IO[str], *, firmware: Any = None,
             writer.flush_partial()
             writer.note(emu.now - prelude, f"host lint: {finding.describe()}")
         lint.on_finding.append(lint_note)
-    target = 0.0                                 # scripted time (ms since t = 0)
-
-    def run_until(ms: float) -> None:
-        while emu.now - prelude < math.ceil(ms - 1e-9):
-            emu.step()
-            rec.pump()
-            if lint is not None:
-                lint.follow(emu)
-
-    for action in script.actions:
-        if action.kind == "wait":
-            target += action.args[0]
-            run_until(target)
-        elif action.kind == "send":
-            rec.pump()
-            writer.flush_partial()           # a prompt keeps the time it was printed
-            writer.host(emu.now - prelude, action.data)
-            if lint is not None:
-                lint.feed_input(action.data)
-            emu.write(action.data)
-            rec.pump()
-        else:
-            try:
-                emu.world(action.text)
-            except WorldError as exc:
-                writer.end(emu.now - prelude)
-                raise ScriptRunError(f"{script.source}:{action.lineno}: {exc}") from None
-            rec.pump()
-    run_until(emu.now - prelude + TAIL_MS)
+    walk = Walk()
+    try:
+        walk_actions(script, _ScriptModeDriver(emu, rec, writer, prelude, lint), walk=walk)
+    except WorldError as exc:
+        writer.end(emu.now - prelude)
+        lineno = walk.action.lineno if walk.action is not None else 0
+        raise ScriptRunError(f"{script.source}:{lineno}: {exc}") from None
     rec.pump()
     writer.end(emu.now - prelude)
     return 0
