@@ -9,8 +9,9 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any, List, Optional
 
 from ..protocol.profiles import Profile, get_profile, resolve_version
-from .errors import ExpectTimeout, NeedsCapability, TargetError
+from .errors import BrokenClause, ExpectTimeout, NeedsCapability, TargetError
 from .events import Event
+from .hat_evidence import broken_version
 from .matching import describe_events
 
 __all__ = ["Identification", "OPEN_ATTEMPTS"]
@@ -105,6 +106,10 @@ class Identification:
                 return
             except ExpectTimeout:
                 continue
+        finding = broken_version(bytes(self.received), OPEN_ATTEMPTS)
+        if finding is not None:
+            raise BrokenClause(f"{self.target.url} answers like a Build HAT but breaks the version clause: "
+                               f"{finding}", "version", "CMD-VERSION", finding)
         raise TargetError(self._diagnosis(timeout))
 
     def _diagnosis(self, timeout: float) -> str:
