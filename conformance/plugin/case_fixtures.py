@@ -58,9 +58,11 @@ def _conformance_case(request: Any, _run: Run) -> Any:
             _run.open()
         except CannotJudge:
             pass                # stopped: said below, as for every later case
+    broken = _run.broken
     clause = item.get_closest_marker(CLAUSE_MARKER)
-    if _run.broken is not None and clause is not None and clause.args[0] == _run.broken.clause:
-        pytest.fail(_run.broken.finding, pytrace=False)    # the clause's own case: a finding
+    if broken is not None and (clause.args[0] == broken.clause if broken.clause and clause is not None
+                               else not broken.clause and broken.requirement in ids):
+        pytest.fail(broken.finding, pytrace=False)    # a case of the broken clause: a finding
     if _run.stopped is not None:
         item.stash[_not_run_key] = _run.stopped
         pytest.skip(f"not run: {_run.stopped}")
