@@ -19,8 +19,6 @@ import pytest
 from faulty.wrong_hat import PortlessPrompt, first_command, no_echo, port_error, version_error
 from mutants.suite_run import REPO
 
-from buildhat_conformance.harness.hat_evidence import broken_version
-
 pytestmark = pytest.mark.timeout(300)
 
 WRONG_HAT = os.path.join(REPO, "tests", "faulty", "wrong_hat.py")
@@ -176,24 +174,6 @@ def test_the_banner_says_how_much_was_skipped_and_why() -> None:
     assert nothing_done(skipped, {"c0": "needs x", "c1": "needs y"}, False) == \
         "no case could run (2 of 2 cases skipped: no control channel)"
 
-
-
-def test_the_hat_s_own_lines_after_each_crlf_are_a_build_hat() -> None:
-    assert "b'\\r\\nError\\r\\n'" in (broken_version(b"\r\nError\r\n" * 3, 3) or "")
-    assert broken_version(b"\r\n8.00 V\r\nError\r\n" * 3, 3) is not None
-
-
-@pytest.mark.parametrize("received", [
-    b"",                                            # silence
-    b"\r\nERROR\r\n" * 3, b"\r\nOK\r\n" * 3,        # a modem
-    b"Error\r\n" * 3,                               # no CRLF for the CR first
-    b"\r\nError\r\n" * 2,                           # not every `version` answered
-    b"\r\nError\r\n\r\nError\r\n\r\n8.00 V\r\n",    # answers that differ
-    b"\r\nError\r\n\r\nError\r\n\r\nError\r\nP",    # anything else besides
-    bytes(range(256)) * 3,                          # garbage
-])
-def test_anything_else_is_not_evidence_of_a_build_hat(received: bytes) -> None:
-    assert broken_version(received, 3) is None
 
 
 def test_the_wrapper_changes_only_version() -> None:
