@@ -198,8 +198,8 @@ def test_write_delivers_the_framed_message(hat: Hat, world: World, motor_port: i
     reply, frames = world.frames_to_device(motor_port, f"port {motor_port} ; {line}")
     assert reply.raw == b"\r\n", f"`{line}`: {reply.raw!r}"
     expected = bytes.fromhex(FRAMES[line])
-    assert expected in frames, \
-        f"`{line}` must reach the device as {FRAMES[line]}; it received {[f.hex(' ').upper() for f in frames]}"
+    got = [f.hex(" ").upper() for f in frames]
+    assert expected in frames, f"`{line}` must reach the device as {FRAMES[line]}; it received {got}"
 
 
 @pytest.mark.req("CMD-WRITE1", "FW-ERROR")

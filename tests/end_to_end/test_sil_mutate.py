@@ -79,14 +79,16 @@ def test_a_build_hat_breaking_a_clause_at_open_is_killed_not_refused(tmp_path):
     `version` with `Error`, one floods `Port power fault`; each shows a Build HAT (the CRLF and
     `Error`; its start-up after a reset) and fails the clause it breaks. A silent one stays no-boot."""
     out = tmp_path / "mut"
-    done = cli("sil", "mutate", str(firmware_tree()), "--count", "0", "--jobs", "1", "--killers-first", "none",
+    done = cli("sil", "mutate", str(firmware_tree()), "--count", "0", "--jobs", "1",
+               "--killers-first", "none",
                "-k", "test_clause or power_fault",
                "--plant", "control.c:cmdbuf[cbrptr]==' '||cmdbuf:cmdbuf[cbrptr]!=' '||cmdbuf",
                "--plant", "main.c:gtimers[0]>10&&:gtimers[0]>10||",
                "--plant", "control.c:if(u==0x0d):if(u==0x0e)",
                "-o", str(out), cache=tmp_path / "cache")
     assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-2000:]
-    mutants = {m["file"] + ":" + str(m["line"]): m for m in json.loads((out / "mutation.json").read_text())["mutants"]}
+    summary = json.loads((out / "mutation.json").read_text())
+    mutants = {m["file"] + ":" + str(m["line"]): m for m in summary["mutants"]}
     version, flood = mutants["control.c:123"], mutants["main.c:136"]
     assert version["status"] == "killed" and version["cases"] == [
         "test_link_clauses::test_clause_version_answers_one_line"], version
