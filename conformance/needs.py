@@ -170,11 +170,13 @@ class World:
         them; a target whose world sees them (``device_frames``: inprocess, sil) shows them."""
         self.require("device_frames", "seeing the messages a device on a port receives")
         inner = self._inner()
-        start = len(inner.device_frames)
+        # A served HAT (the emulator or the firmware on a pty) answers over its control channel.
+        since = getattr(inner, "device_frames_since", None)
+        start = int(inner.now) if since is not None else len(inner.device_frames)
         reply = self.hat.exchange(line)
         self.hat.wait_ms(settle_ms)
-        return reply, [bytes.fromhex(e["hex"]) for e in inner.device_frames[start:]
-                       if int(e.get("port", -1)) == port]
+        events = since(start) if since is not None else inner.device_frames[start:]
+        return reply, [bytes.fromhex(e["hex"]) for e in events if int(e.get("port", -1)) == port]
 
     # -- changing the world --------------------------------------------------------------
     def can(self, capability: str) -> bool:

@@ -37,7 +37,7 @@ __all__ = ["EmulatorTarget", "EmulatorControl", "from_url", "emulator_command", 
 
 # The world actions, plus the control requests of DEVELOPING.md (@reset, @time, @speed, @drive_events, ...).
 CONTROL_CAPABILITIES: FrozenSet[str] = frozenset(WORLD_ACTIONS) | {
-    "reset", "bootloader", "layout", "time", "lint", "speed", "firmware", "drive_events"}
+    "reset", "bootloader", "layout", "time", "lint", "speed", "firmware", "drive_events", "device_frames"}
 _STARTUP_TIMEOUT = 20.0     # generous: two shared noisy cores, and a Python start-up
 _REPLY_TIMEOUT = 10.0
 
@@ -132,6 +132,18 @@ class EmulatorControl(Control):
             events = None
         if not isinstance(events, list):
             raise TargetError(f"the emulator sent an unreadable @drive_events reply: {reply[:80]!r}")
+        return events
+
+    def device_frames_since(self, t: int) -> List[Dict[str, Any]]:
+        """The frames the devices received from HAT ms ``t`` on (``dev`` events, as the in-process
+        targets' ``device_frames``)."""
+        reply = self.request(f"@device_frames {int(t)}")
+        try:
+            events = json.loads(reply)
+        except ValueError:
+            events = None
+        if not isinstance(events, list):
+            raise TargetError(f"the emulator sent an unreadable @device_frames reply: {reply[:80]!r}")
         return events
 
     def refresh_speed(self) -> None:
@@ -364,6 +376,9 @@ class EmulatorTarget(PyserialTarget):
 
     def drive_events_since(self, t: int) -> List[Dict[str, Any]]:
         return self._need_control().drive_events_since(t)
+
+    def device_frames_since(self, t: int) -> List[Dict[str, Any]]:
+        return self._need_control().device_frames_since(t)
 
     def _need_control(self) -> EmulatorControl:
         if self.control is None:
