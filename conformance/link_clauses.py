@@ -14,7 +14,9 @@ case, and until a clause has passed the harness does without it:
 A clause that failed stays distrusted for the rest of the run, and the run says which one broke
 (terminal summary, JUnit property ``broken_clauses``). ``version`` and CR/LF are checked too: the
 session could not have opened without them, so they are never assumed away, but a failure of
-either is reported as the clause it breaks.
+either is reported as the clause it breaks. A HAT whose `version` never gives its line, but whose
+answers show a Build HAT (harness/hat_evidence.py), fails the version case at once and the rest
+is not-run (plugin/run.py, plugin/case_fixtures.py).
 """
 from __future__ import annotations
 

@@ -164,6 +164,20 @@ class World:
         level = [(start, before[-1][1] if before else 0)]
         return level + [c for c in changes if start < c[0] <= end] + [(end, None)]
 
+    def frames_to_device(self, port: int, line: str, settle_ms: float = 50.0) -> Tuple[Any, List[bytes]]:
+        """``line``'s reply, and the frames the device on ``port`` received from it (within
+        ``settle_ms`` after: a 131-byte frame takes 12 ms at 115200 baud). A HAT does not print
+        them; a target whose world sees them (``device_frames``: inprocess, sil) shows them."""
+        self.require("device_frames", "seeing the messages a device on a port receives")
+        inner = self._inner()
+        # A served HAT (the emulator or the firmware on a pty) answers over its control channel.
+        since = getattr(inner, "device_frames_since", None)
+        start = int(inner.now) if since is not None else len(inner.device_frames)
+        reply = self.hat.exchange(line)
+        self.hat.wait_ms(settle_ms)
+        events = since(start) if since is not None else inner.device_frames[start:]
+        return reply, [bytes.fromhex(e["hex"]) for e in events if int(e.get("port", -1)) == port]
+
     # -- changing the world --------------------------------------------------------------
     def can(self, capability: str) -> bool:
         return self.hat.can(capability)

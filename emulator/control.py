@@ -15,6 +15,8 @@ per line, one reply per line:
 - ``@settled`` -> ``ok 1`` once the start-up is done and the layout's devices are up, else ``ok 0``
 - ``@drive_events SINCE`` -> ``ok <JSON list>``: the motor-drive changes (``pwm``/``led`` events, in HAT
   ms) after HAT ms SINCE, each port's level at SINCE first (emulator/drive_log.py; recent ones only)
+- ``@device_frames SINCE`` -> ``ok <JSON list>``: the frames the devices received (``dev`` events) from HAT
+  ms SINCE on (recent ones only)
 - ``@gpio PIN LEVEL`` -> ``ok``: the HAT's RESET (GPIO 4) / BOOT0 (GPIO 22) lines as the host's GPIO drives
   them (emulator/reset_pins.py; the gpiozero pin factory of emulator/gpiozero_pins.py sends these)
 - ``@auth TOKEN`` -> ``ok``: required first on TCP (the per-run token printed at start as
@@ -34,7 +36,7 @@ import socket
 import stat
 from typing import Any, Callable, Dict, List, Optional, Tuple
 
-from .drive_log import DriveLog
+from .drive_log import DriveLog, FrameLog
 from .reset_pins import ResetPins
 from .world import WorldError
 
@@ -73,9 +75,11 @@ class ControlHandler:
         self.pins = ResetPins(emulator)
         # What the in-process targets read from their own event list: a served HAT keeps it here.
         self.drives = DriveLog()
+        self.frames = FrameLog()
         on_event = getattr(emulator, "on_event", None)
         if on_event is not None:
             on_event(self.drives.record)
+            on_event(self.frames.record)
 
     def __call__(self, line: str) -> str:
         try:
@@ -107,6 +111,10 @@ class ControlHandler:
             if len(words) != 2 or not words[1].lstrip("-").isdigit():
                 raise ValueError("@drive_events takes the HAT ms since when (e.g. @drive_events 0)")
             return "ok " + json.dumps(self.drives.since(int(words[1])), separators=(",", ":"))
+        if head == "@device_frames":
+            if len(words) != 2 or not words[1].lstrip("-").isdigit():
+                raise ValueError("@device_frames takes the HAT ms since when (e.g. @device_frames 0)")
+            return "ok " + json.dumps(self.frames.since(int(words[1])), separators=(",", ":"))
         if head == "@gpio":
             return self.pins.request(words[1:])
         reply = self.emulator.world(line)

@@ -131,13 +131,21 @@ class ControlClient:
     def drive_events_since(self, t: int) -> List[Dict[str, Any]]:
         """``@drive_events t``: the motor-drive changes after HAT ms ``t``, each port's level at ``t``
         first (``pwm``/``led`` events, as the in-process targets' ``drive_events``)."""
-        reply = self.value(f"@drive_events {int(t)}")
+        return self._json_list("@drive_events", t)
+
+    def device_frames_since(self, t: int) -> List[Dict[str, Any]]:
+        """``@device_frames t``: the frames the devices received from HAT ms ``t`` on (``dev`` events,
+        as the in-process targets' ``device_frames``)."""
+        return self._json_list("@device_frames", t)
+
+    def _json_list(self, request: str, t: int) -> List[Dict[str, Any]]:
+        reply = self.value(f"{request} {int(t)}")
         try:
             events = json.loads(reply)
         except ValueError:
             events = None
         if not isinstance(events, list):
-            raise ControlError(f"the emulator sent an unreadable @drive_events reply: {reply[:80]!r}")
+            raise ControlError(f"the emulator sent an unreadable {request} reply: {reply[:80]!r}")
         return events
 
     def close(self) -> None:

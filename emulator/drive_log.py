@@ -1,4 +1,5 @@
-"""The recent motor-drive changes of a served HAT, for the control channel's ``@drive_events``.
+"""The recent motor-drive changes of a served HAT, for the control channel's ``@drive_events``, and the
+recent frames its devices received, for ``@device_frames`` (:class:`FrameLog`).
 
 The in-process targets keep every ``pwm``/``led`` event (``drive_events``); a HAT served at
 wall-clock pace (``buildhat-emulator --pty``, ``sil serve``) runs for as long as the host likes, so
@@ -10,7 +11,7 @@ from __future__ import annotations
 import collections
 from typing import Any, Deque, Dict, List, Tuple
 
-__all__ = ["DriveLog", "DRIVE_KINDS"]
+__all__ = ["DriveLog", "DRIVE_KINDS", "FrameLog"]
 
 DRIVE_KINDS = ("pwm", "led")
 # About 50 s of a port whose drive changes at every 10 ms controller update; a reply with ``since``
@@ -49,3 +50,19 @@ class DriveLog:
 
 def _key(event: Dict[str, Any]) -> Tuple[str, int]:
     return str(event.get("dir")), int(event.get("port", -1))
+
+
+class FrameLog:
+    """The newest ``limit`` frames the devices received (transcript ``dev`` events), as the
+    in-process targets' ``device_frames``; subscribe :meth:`record` to a HAT's ``on_event``."""
+
+    def __init__(self, limit: int = DEFAULT_LIMIT):
+        self.recent: Deque[Dict[str, Any]] = collections.deque(maxlen=limit)
+
+    def record(self, event: Dict[str, Any]) -> None:
+        if event.get("dir") == "dev":
+            self.recent.append(dict(event))
+
+    def since(self, t: int) -> List[Dict[str, Any]]:
+        """Every frame received at or after HAT ms ``t``, in time order."""
+        return [e for e in self.recent if int(e["t"]) >= t]

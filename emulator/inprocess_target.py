@@ -16,7 +16,8 @@ kept per (release, layout, seed) and copied for every later open, so opening is 
 fuzzer opens one per example).
 
 Extras for white-box tools (the fuzzer): :attr:`emulator` (the Python API object),
-:meth:`advance`, :attr:`drive_events` (transcript ``pwm``/``led`` events), :attr:`line_records`
+:meth:`advance`, :attr:`drive_events` (transcript ``pwm``/``led`` events), :attr:`device_frames`
+(transcript ``dev`` events: the frames each device received), :attr:`line_records`
 (what each processed line ran, from ``hat.line_observers``).
 """
 from __future__ import annotations
@@ -102,8 +103,10 @@ class InProcessTarget(Target):
         self.hang_after = hang_after    # fault injection (emulator/hang.py), armed when opened
         self.emulator: Optional[HatModel] = None
         self.control = InProcessControl(self)
-        self.capabilities = frozenset({"control", "virtual_time", "drive_events", "line_records"})
+        self.capabilities = frozenset({"control", "virtual_time", "drive_events", "device_frames",
+                                       "line_records"})
         self.drive_events: List[dict] = []
+        self.device_frames: List[dict] = []     # transcript ``dev`` events: what each device received
         self.line_records: List[object] = []
         # A session's reader thread may read while the test thread writes: one at a time.
         self._lock = threading.RLock()
@@ -119,6 +122,7 @@ class InProcessTarget(Target):
                 raise TargetError("inprocess: hang_after needs the emulator's own model, not a factory's")
             arm(self.hang_after)
         self.drive_events = []
+        self.device_frames = []
         self.line_records = []
         self.emulator.on_event(self._on_event)
         hat = getattr(self.emulator, "hat", None)
@@ -187,6 +191,8 @@ class InProcessTarget(Target):
     def _on_event(self, event: dict) -> None:
         if event.get("dir") in ("pwm", "led"):
             self.drive_events.append(event)
+        elif event.get("dir") == "dev":
+            self.device_frames.append(event)
 
     def _need_open(self) -> HatModel:
         if self.emulator is None:

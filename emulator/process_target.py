@@ -37,7 +37,7 @@ __all__ = ["EmulatorTarget", "EmulatorControl", "from_url", "emulator_command", 
 
 # The world actions, plus the control requests of DEVELOPING.md (@reset, @time, @speed, @drive_events, ...).
 CONTROL_CAPABILITIES: FrozenSet[str] = frozenset(WORLD_ACTIONS) | {
-    "reset", "bootloader", "layout", "time", "lint", "speed", "firmware", "drive_events"}
+    "reset", "bootloader", "layout", "time", "lint", "speed", "firmware", "drive_events", "device_frames"}
 _STARTUP_TIMEOUT = 20.0     # generous: two shared noisy cores, and a Python start-up
 _REPLY_TIMEOUT = 10.0
 
@@ -101,6 +101,16 @@ class EmulatorControl(Control):
             raise TargetError("the emulator's control channel is not connected")
         try:
             return self.client.drive_events_since(t)
+        except ControlError as exc:
+            raise TargetError(str(exc)) from None
+
+    def device_frames_since(self, t: int) -> List[Dict[str, Any]]:
+        """The frames the devices received from HAT ms ``t`` on (``dev`` events, as the in-process
+        targets' ``device_frames``)."""
+        if not self.client.connected:
+            raise TargetError("the emulator's control channel is not connected")
+        try:
+            return self.client.device_frames_since(t)
         except ControlError as exc:
             raise TargetError(str(exc)) from None
 
@@ -330,6 +340,9 @@ class EmulatorTarget(PyserialTarget):
 
     def drive_events_since(self, t: int) -> List[Dict[str, Any]]:
         return self._need_control().drive_events_since(t)
+
+    def device_frames_since(self, t: int) -> List[Dict[str, Any]]:
+        return self._need_control().device_frames_since(t)
 
     def _need_control(self) -> EmulatorControl:
         if self.control is None:

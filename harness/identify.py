@@ -9,8 +9,9 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any, List, Optional
 
 from ..protocol.profiles import Profile, get_profile, resolve_version
-from .errors import ExpectTimeout, NeedsCapability, TargetError
+from .errors import BrokenClause, ExpectTimeout, NeedsCapability, TargetError
 from .events import Event
+from .hat_evidence import FLOOD_WINDOW_MS, broken_version, power_fault_flood
 from .matching import describe_events
 
 __all__ = ["Identification", "OPEN_ATTEMPTS"]
@@ -38,6 +39,9 @@ class Identification:
         def _transcript_t(self, t_ms: float) -> float: ...
         def now_ms(self) -> float: ...
         def mark(self) -> int: ...
+        def sleep(self, seconds: float) -> None: ...
+        @property
+        def time_scale(self) -> float: ...
 
     profile: Optional[Profile]
     profile_exact: bool
@@ -105,7 +109,34 @@ class Identification:
                 return
             except ExpectTimeout:
                 continue
-        raise TargetError(self._diagnosis(timeout))
+        finding = broken_version(bytes(self.received), OPEN_ATTEMPTS)
+        if finding is not None:
+            raise BrokenClause(f"{self.target.url} answers like a Build HAT but breaks the version clause: "
+                               f"{finding}", "version", "CMD-VERSION", finding)
+        diagnosis = self._diagnosis(timeout)
+        finding = self._flood_after_reset()
+        if finding is not None:
+            raise BrokenClause(f"{self.target.url} answers like a Build HAT but floods: {finding}",
+                               "", "PWR-PORT-FAULT", finding)
+        raise TargetError(diagnosis)
+
+    def _flood_after_reset(self) -> Optional[str]:
+        """A target that floods printable text and can be reset: reset it once and judge its
+        start-up (harness/hat_evidence.py). None when that shows no Build HAT."""
+        control = getattr(self.target, "control", None)
+        data = bytes(self.received)
+        if control is None or len(data) < 4096 or \
+                sum(1 for b in data if 0x20 <= b < 0x7F or b in (0x0D, 0x0A)) < 0.9 * len(data):
+            return None      # silence, a few lines or garbage: not a flood to look into
+        start, reset_ms = self.mark(), self.now_ms()
+        try:
+            with self._io_lock:
+                control.reset(False)
+        except (TargetError, NeedsCapability, ValueError):
+            return None
+        self._splitter.forget_pending()
+        self.sleep(FLOOD_WINDOW_MS / 1000.0 / self.time_scale)
+        return power_fault_flood(self.events[start:], reset_ms, time_scale=self.time_scale)
 
     def _diagnosis(self, timeout: float) -> str:
         url, data = self.target.url, bytes(self.received)

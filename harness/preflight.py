@@ -16,6 +16,7 @@ from typing import Optional
 
 from ..protocol.profiles import Profile, get_profile
 from .cli_options import UsageError
+from .errors import BrokenClause
 from .targets import make_target
 from .targets.base import NeedsCapability, Target, TargetError
 
@@ -112,6 +113,8 @@ def check_answers(target: Target, timeout: float = 2.0, profile: Optional[Profil
     try:
         session.open(timeout=timeout)
         return Answer(session.version_string or "", bool(session.in_bootloader), list(session.notes))
+    except BrokenClause:
+        raise        # a Build HAT breaking a clause: `run` reports it as a failure, the rest refuse
     except TargetError as exc:
         raise TargetError(one_line(exc)) from None
     finally:

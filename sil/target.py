@@ -99,7 +99,8 @@ class SilTarget(InProcessTarget):
         self.control = SilControl(self)
         # wire_input: host bytes cross a 115200-baud wire in HAT time (one per 87 us), so the HAT
         # may print between two bytes of one line (fuzz/link.py's ``timed``).
-        self.capabilities = frozenset({"control", "virtual_time", "drive_events", "wire_input"})
+        self.capabilities = frozenset({"control", "virtual_time", "drive_events", "device_frames",
+                                       "wire_input"})
 
     # The firmware does not say what each line ran (the emulator's white-box ``line_records``):
     # tools that look for them treat this target as the black box it is.

@@ -208,3 +208,25 @@ def test_pid_output_drives_the_motor(hat: Hat, world: World, motor_port: int, sp
         world.action(f"@hold {p} 0")
     seen = {d for _t, d in levels[:-1]}
     assert seen == {duty}, f"PID at set-point {sp} far from the PV: drive levels {sorted(seen, key=str)}"
+
+
+@pytest.mark.req("CMD-CLEAR-FAULTS", "CMD-SET-CONST")
+@pytest.mark.parametrize("setpoint,duty", [("0.4", 102), ("-0.4", -102)])
+def test_clear_faults_leaves_the_drive_on_and_forwards(hat: Hat, world: World, motor_port: int, setpoint: str,
+                                                      duty: int) -> None:
+    # FIRMWARE-BEHAVIOUR#fb-commands: clear_faults writes 0x70 and then 0x7F to register 0x4C, the
+    # driver's direction and enable flags; 0x7F is what a forward drive writes, and the driver is
+    # written again only when the duty changes (#fb-pwm-path). So a port driving forwards keeps its
+    # drive, and one driving backwards is driven forwards at the same size until its sign changes.
+    p = motor_port
+    drive(hat, p, f"pwm ; plimit 1 ; set {setpoint}")
+    try:
+        hat.wait_ms(50)
+        before = world.drive_levels(p, 50)
+        hat.exchange("clear_faults")
+        after = world.drive_levels(p, 200)
+    finally:
+        drive(hat, p, "set 0 ; plimit 0.1")
+    assert {d for _t, d in before[:-1]} == {duty}, f"set {setpoint}: drive {before}"
+    assert {d for _t, d in after[:-1]} == {abs(duty)}, \
+        f"set {setpoint}, then clear_faults: the drive must be {abs(duty)} (0x7F: on, forwards); got {after}"

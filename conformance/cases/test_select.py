@@ -181,6 +181,27 @@ def test_write_accepts_hex_bytes(hat: Hat, motor_port: int, line: str, verdict: 
                  "(docs/FIRMWARE-BEHAVIOUR.md#fb-device-messages)")
 
 
+# FACTS §8's byte-exact examples (docs/FIRMWARE-BEHAVIOUR.md#fb-device-messages): the header's length
+# bits replaced, zero padding to 2^L payload bytes, the checksum 0xFF XOR every byte before it.
+FRAMES = {"write1 c5 10 20 30 40": "D5 10 20 30 40 6A", "write1 c0 5": "C0 05 3A", "write1 40": "40 00 BF",
+          "write1 c2 12 23 34 45 12 23 34 45 12": "E2 12 23 34 45 12 23 34 45 12 00 00 00 00 00 00 00 0F",
+          # §8's `write2 44 11 22` -> `44 11 22 88` is a CMD header, which a device reads with one
+          # header byte (its receiving rules), so it does not take that frame whole. With an INFO
+          # header (a command byte follows) by the same rule: 80 11 22, then FF ^ 80 ^ 11 ^ 22 = 4C.
+          "write2 80 11 22": "80 11 22 4C"}
+
+
+@pytest.mark.req("CMD-WRITE1", "CMD-WRITE2")
+@pytest.mark.parametrize("line", list(FRAMES))
+def test_write_delivers_the_framed_message(hat: Hat, world: World, motor_port: int, line: str) -> None:
+    # Only the device side shows it: skipped (with the reason) on a target without that view.
+    reply, frames = world.frames_to_device(motor_port, f"port {motor_port} ; {line}")
+    assert reply.raw == b"\r\n", f"`{line}`: {reply.raw!r}"
+    expected = bytes.fromhex(FRAMES[line])
+    got = [f.hex(" ").upper() for f in frames]
+    assert expected in frames, f"`{line}` must reach the device as {FRAMES[line]}; it received {got}"
+
+
 @pytest.mark.req("CMD-WRITE1", "FW-ERROR")
 @pytest.mark.parametrize("line", ["write1 0x12", "write1", "write2", "write1 c5 zz"])
 def test_write_rejects_what_is_not_hex(hat: Hat, motor_port: int, line: str) -> None:

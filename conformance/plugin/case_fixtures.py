@@ -9,6 +9,7 @@ from typing import Any
 import pytest
 
 from ..link import Hat
+from ..link_clauses import MARKER as CLAUSE_MARKER
 from ..target_fault import first_line
 from ..verdict import Verdict
 from .run import (
@@ -57,6 +58,11 @@ def _conformance_case(request: Any, _run: Run) -> Any:
             _run.open()
         except CannotJudge:
             pass                # stopped: said below, as for every later case
+    broken = _run.broken
+    clause = item.get_closest_marker(CLAUSE_MARKER)
+    if broken is not None and (clause.args[0] == broken.clause if broken.clause and clause is not None
+                               else not broken.clause and broken.requirement in ids):
+        pytest.fail(broken.finding, pytrace=False)    # a case of the broken clause: a finding
     if _run.stopped is not None:
         item.stash[_not_run_key] = _run.stopped
         pytest.skip(f"not run: {_run.stopped}")

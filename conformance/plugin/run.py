@@ -21,6 +21,7 @@ from typing import Any, Dict, List, Optional, Tuple
 
 import pytest
 
+from ...harness.errors import BrokenClause
 from ...harness.targets.base import TargetError
 from ..link import Hat
 from ..link_clauses import MARKER as CLAUSE_MARKER
@@ -90,6 +91,7 @@ class Run:
         self.hat: Optional[Hat] = None
         self.tee: Optional[TeeTarget] = None
         self.open_error: Optional[str] = None
+        self.broken: Optional[BrokenClause] = None   # a Build HAT breaking a clause at open
         self.results: Dict[str, Tuple[str, List[str]]] = {}      # nodeid -> (verdict class, req ids)
         self.skip_reasons: Dict[str, str] = {}                   # nodeid -> why it was skipped
         self.has_control = False        # the target performs world actions (plug, ...)
@@ -110,6 +112,8 @@ class Run:
     def open(self) -> Hat:
         if self.hat is not None:
             return self.hat
+        if self.broken is not None:
+            raise CannotJudge(str(self.broken))
         if self.open_error:
             raise TargetFault("unreachable", self.open_error)
         from ...harness.session import Session
@@ -125,6 +129,13 @@ class Run:
             profile = get_profile(forced) if forced else None
             session = Session(self.tee, transcript=None, profile=profile)
             session.open()
+        except BrokenClause as exc:
+            # A Build HAT that breaks a clause the session needs: that clause's case fails
+            # (case_fixtures.py), every other case is not-run; nothing else can be judged.
+            self.broken = exc
+            self.junit.set_property("broken_clauses", f"{exc.requirement} failed at open: {exc.finding}")
+            self._stop(str(exc))
+            raise CannotJudge(str(exc)) from None
         except Exception as exc:  # the message says how to reach the target
             why = first_line(str(exc)) or type(exc).__name__
             self.open_error = why if self.url in why else f"cannot open target {self.url}: {why}"

@@ -1,6 +1,8 @@
 """Issue 24: a wrong but well-formed answer is a ``fail`` of the clause it breaks, never a target
 fault; the harness checks the clauses its own set-up relies on first; skips settle once and say
-exactly what is missing; a run that could not do its job exits 3 in one line.
+exactly what is missing; a run that could not do its job exits 3 in one line. Issue 25: a Build HAT
+that answers `version` without its version line (but with the CRLF and lines only a Build HAT
+prints) fails the version clause; a device that is not a Build HAT is still refused, exit 3.
 
 The HATs are real programs (tests/faulty/wrong_hat.py: ``buildhat-emulator --stdio`` with one
 behaviour changed) run as ``cmd:`` targets through the user's ``buildhat-conformance run``.
@@ -14,13 +16,14 @@ import xml.etree.ElementTree as ET
 from typing import Dict, Tuple
 
 import pytest
-from faulty.wrong_hat import PortlessPrompt, first_command, no_echo, port_error
+from faulty.wrong_hat import PortlessPrompt, first_command, no_echo, port_error, version_error
 from mutants.suite_run import REPO
 
 pytestmark = pytest.mark.timeout(300)
 
 WRONG_HAT = os.path.join(REPO, "tests", "faulty", "wrong_hat.py")
 EMULATOR = os.path.join(os.path.dirname(sys.executable), "buildhat-emulator")
+NOT_A_HAT = os.path.join(REPO, "tests", "faulty", "not_a_hat.py")
 
 
 Cases = Dict[str, Tuple[str, str, Dict[str, str]]]
@@ -170,3 +173,26 @@ def test_the_banner_says_how_much_was_skipped_and_why() -> None:
     skipped = {f"c{i}": ("skip", []) for i in range(2)}
     assert nothing_done(skipped, {"c0": "needs x", "c1": "needs y"}, False) == \
         "no case could run (2 of 2 cases skipped: no control channel)"
+
+
+
+def test_the_wrapper_changes_only_version() -> None:
+    assert version_error(b"version") == b"xersion" and version_error(b"vin ; ve") == b"vin ; xe"
+    assert version_error(b"vin") == b"vin" and version_error(b"v") == b"v"
+
+
+def test_a_hat_answering_version_with_error_fails_the_version_clause(tmp_path) -> None:
+    rc, out, cases = _run(tmp_path, _wrong("version-error"), "-k", "clause or test_vin_prints")
+    verdicts = {name: v for name, (v, _m, _p) in cases.items()}
+    assert rc == 1, out[-3000:]
+    assert verdicts.pop("test_clause_version_answers_one_line") == "fail", verdicts
+    assert "CMD-VERSION" in cases["test_clause_version_answers_one_line"][1]
+    assert verdicts and set(verdicts.values()) == {"not-run"}, verdicts
+    assert "answers like a Build HAT but breaks the version clause" in out, out[-3000:]
+
+
+def test_a_device_that_is_not_a_build_hat_is_refused_in_one_line(tmp_path) -> None:
+    rc, out, cases = _run(tmp_path, f"cmd:{sys.executable} {NOT_A_HAT}", "-k", "clause")
+    assert rc == 3 and not cases, out
+    lines = [ln for ln in out.splitlines() if ln.strip()]
+    assert len(lines) == 1 and "not like a Build HAT" in lines[0], out

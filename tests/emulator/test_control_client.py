@@ -1,5 +1,5 @@
-"""The one control-channel client: token first, ``ok``/``error`` replies, @drive_events as JSON, and
-errors that name the request. A scripted fake server stands in for the emulator's channel."""
+"""The one control-channel client: token first, ``ok``/``error`` replies, @drive_events and
+@device_frames as JSON, and errors that name the request. A scripted fake server stands in for the emulator's channel."""
 from __future__ import annotations
 
 import socket
@@ -61,6 +61,17 @@ def test_drive_events_are_parsed_and_garbage_is_named(tmp_path):
         assert client.drive_events_since(3) == [{"kind": "pwm", "port": 0, "value": 0.5, "t": 10}]
         with pytest.raises(ControlError, match="unreadable @drive_events reply"):
             client.drive_events_since(3)
+
+
+def test_device_frames_ask_from_when_and_garbage_is_named(tmp_path):
+    seen: List[str] = []
+    answers = iter(['ok [{"kind": "dev", "port": 1, "data": "4301bd", "t": 7}]', "ok {}"])
+    serve(str(tmp_path / "c.sock"), lambda line: next(answers), seen)
+    with ControlClient(str(tmp_path / "c.sock"), timeout=5) as client:
+        assert client.device_frames_since(5) == [{"kind": "dev", "port": 1, "data": "4301bd", "t": 7}]
+        with pytest.raises(ControlError, match="unreadable @device_frames reply"):
+            client.device_frames_since(0)
+    assert seen == ["@device_frames 5", "@device_frames 0"]
 
 
 def test_a_closed_channel_names_the_request(tmp_path):

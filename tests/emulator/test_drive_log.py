@@ -7,7 +7,7 @@ import json
 
 from buildhat_conformance.emulator import Emulator
 from buildhat_conformance.emulator.control import ControlHandler
-from buildhat_conformance.emulator.drive_log import DriveLog
+from buildhat_conformance.emulator.drive_log import DriveLog, FrameLog
 
 
 def pwm(t: int, port: int, value: object) -> dict:
@@ -56,3 +56,25 @@ def test_control_request_matches_what_the_emulator_recorded():
     assert handler(f"@drive_events {emu.now}").startswith("ok [")
     for bad in ("@drive_events", "@drive_events x", "@drive_events 1 2"):
         assert handler(bad).startswith("error @drive_events takes")
+
+
+def test_device_frames_request_gives_the_frames_a_device_received():
+    # `@device_frames SINCE` (emulator/drive_log.py's FrameLog): what frames_to_device reads on a
+    # served target; the frame is FIRMWARE-BEHAVIOUR#fb-write's example.
+    emu = Emulator(firmware="R7")
+    handler = ControlHandler(emu)
+    emu.boot()
+    start = emu.now
+    emu.write(b"port 0 ; write1 c5 10 20 30 40\r")
+    emu.advance(50)
+    served = json.loads(handler(f"@device_frames {start}")[3:])
+    assert {"D5 10 20 30 40 6A"} <= {e["hex"] for e in served if e["port"] == 0}
+    assert all(e["dir"] == "dev" and e["t"] >= start for e in served)
+    assert handler(f"@device_frames {emu.now + 1}") == "ok []"
+    for bad in ("@device_frames", "@device_frames x"):
+        assert handler(bad).startswith("error @device_frames takes")
+    log = FrameLog(limit=2)
+    for t in (1, 2, 3):
+        log.record({"t": t, "dir": "dev", "port": 0, "hex": "02"})
+    log.record(pwm(4, 0, 5))
+    assert [e["t"] for e in log.since(0)] == [2, 3]          # the newest only, frames only

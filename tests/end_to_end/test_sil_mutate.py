@@ -72,3 +72,26 @@ def test_killers_of_an_earlier_campaign_run_first_in_their_rank(tmp_path):
     pytest_collection_modifyitems(SimpleNamespace(getoption=lambda name: str(order)), items)
     assert [f"{i.fspath[3:-3]}::{i.name}" for i in items] == \
         ["test_c::two[x]", "test_b::one", "test_a::first", "test_a::late"]   # the rest as collected
+
+
+def test_a_build_hat_breaking_a_clause_at_open_is_killed_not_refused(tmp_path):
+    """Issue 25: mutants the run used to refuse as "not like a Build HAT" (no boot). One answers
+    `version` with `Error`, one floods `Port power fault`; each shows a Build HAT (the CRLF and
+    `Error`; its start-up after a reset) and fails the clause it breaks. A silent one stays no-boot."""
+    out = tmp_path / "mut"
+    done = cli("sil", "mutate", str(firmware_tree()), "--count", "0", "--jobs", "1",
+               "--killers-first", "none",
+               "-k", "test_clause or power_fault",
+               "--plant", "control.c:cmdbuf[cbrptr]==' '||cmdbuf:cmdbuf[cbrptr]!=' '||cmdbuf",
+               "--plant", "main.c:gtimers[0]>10&&:gtimers[0]>10||",
+               "--plant", "control.c:if(u==0x0d):if(u==0x0e)",
+               "-o", str(out), cache=tmp_path / "cache")
+    assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-2000:]
+    summary = json.loads((out / "mutation.json").read_text())
+    mutants = {m["file"] + ":" + str(m["line"]): m for m in summary["mutants"]}
+    version, flood = mutants["control.c:123"], mutants["main.c:136"]
+    assert version["status"] == "killed" and version["cases"] == [
+        "test_link_clauses::test_clause_version_answers_one_line"], version
+    assert flood["status"] == "killed" and "power_fault" in flood["cases"][0], flood
+    silent = [m for k, m in mutants.items() if k not in ("control.c:123", "main.c:136")]
+    assert [m["status"] for m in silent] == ["no-boot"], silent

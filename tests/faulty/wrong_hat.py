@@ -10,6 +10,8 @@ KIND:
 - ``first-command``: of a line of several commands separated by ``;`` only the first runs (the
   document's separator clause, SYN-SEMICOLON). Everything the host typed is still echoed.
 - ``no-echo``: ``echo 1`` leaves echo off (CMD-ECHO): nothing is ever echoed, no prompt.
+- ``version-error``: ``version`` (and the prefixes the firmware resolves to it) prints ``Error``
+  (CMD-VERSION): the run cannot identify the release, but the CRLF and ``Error`` show a Build HAT.
 - ``portless-prompt``: the prompt is ``P>`` instead of ``P<port>>`` (LINK-PROMPT; the firmware's
   decimal printer printing nothing does that, among other things). A rewrite of the output.
 
@@ -57,8 +59,17 @@ def no_echo(line: bytes) -> bytes:
     return _ECHO_ON.sub(lambda m: m.group(1) + m.group(2) + re.sub(rb"[1-9]", b"0", m.group(3)), line)
 
 
+_VERSION = re.compile(rb"(?:^|(?<=[ ;]))(ve|ver|vers|versi|versio|version)(?=[ ;]|$)")
+
+
+def version_error(line: bytes) -> bytes:
+    """``version`` -> ``xersion`` (same length): no command name matches, the firmware prints Error."""
+    return _VERSION.sub(lambda m: b"x" + m.group(1)[1:], line)
+
+
 REWRITES: Dict[str, Callable[[bytes], bytes]] = {"port-error": port_error, "first-command": first_command,
-                                                 "no-echo": no_echo, "portless-prompt": lambda line: line}
+                                                 "no-echo": no_echo, "version-error": version_error,
+                                                 "portless-prompt": lambda line: line}
 
 
 class PortlessPrompt:
