@@ -171,5 +171,10 @@ def test_a_report_torn_into_an_echo_is_not_compared():
     for alone in (b"Port power fault", b"Motor power fault", b"MQ overrun!"):
         glued = b"P0>ab" + alone + b"\r\ncd\r\nError\r\nP0>"
         assert compare_answers(glued, b"P0>abcd\r\nError\r\nP0>") is None
+    # echoed bytes that look like the start of such a line (`P1: `, `P2V`) before the real cut
+    for look in (b"P1: ", b"P2V", b"P3M1", b"deltat"):
+        glued = b"P0>x" + look + b"y" + b"deltat=00000003\r\nz\r\nError\r\nP0>"
+        assert compare_answers(glued, b"P0>x" + look + b"yz\r\nError\r\nP0>") is None, look
+        assert compare_answers(glued, b"P0>x" + look + b"yw\r\nError\r\nP0>") is not None, look
     # a listing line is no report: it is still compared
     assert compare_answers(b"xP0: no device detected\r\nP0>", b"x\r\nP0>") is not None
