@@ -48,8 +48,17 @@ def _prompts_apart(parts: List[bytes]) -> List[bytes]:
 
 # Where a line the HAT prints by itself can start: a port's report or event, or one of the lines without
 # a port (the main loop's stall line after a slow pass, fb-stall; a queue overrun; the power faults).
-_GLUED = re.compile(rb"(.+?)(P[0-3](?:M[0-9]+|C[0-9]+|V|: ).+|deltat=.+|MQ overrun!|"
-                    rb"(?:Port|Motor) power fault)", re.S)
+_GLUED = re.compile(rb"(?=P[0-3](?:M[0-9]|C[0-9]|V|: )|deltat=|MQ overrun!|(?:Port|Motor) power fault)")
+
+
+def _glued_at(raw: bytes) -> Optional[int]:
+    """Where in ``raw`` (not at its start) a line the HAT printed by itself begins: the first place
+    whose rest is such a line. Echoed bytes may look like the start of one (`P1: ` in a noise line)
+    before the real cut, so each candidate is tried in turn."""
+    for m in _GLUED.finditer(raw, 1):
+        if classify(raw[m.start():]).kind in ASYNC_KINDS:
+            return m.start()
+    return None
 
 
 def _torn_apart(parts: List[bytes]) -> List[bytes]:
@@ -64,10 +73,10 @@ def _torn_apart(parts: List[bytes]) -> List[bytes]:
     i = 0
     while i < len(parts):
         raw = parts[i]
-        m = _GLUED.fullmatch(raw) if i < len(parts) - 1 else None
-        if m and classify(m.group(2)).kind in ASYNC_KINDS and classify(raw).kind not in ASYNC_KINDS:
-            out.append(m.group(2))
-            parts = parts[:i + 1] + [m.group(1) + parts[i + 1]] + parts[i + 2:]
+        at = _glued_at(raw) if i < len(parts) - 1 and classify(raw).kind not in ASYNC_KINDS else None
+        if at is not None:
+            out.append(raw[at:])
+            parts = parts[:i + 1] + [raw[:at] + parts[i + 1]] + parts[i + 2:]
             i += 1
             continue
         out.append(raw)

@@ -267,7 +267,14 @@ class HatModel:
             for _ in range(4):
                 cur.need(cur.float())
             p.constant = None
-            self._svar(cur)
+            try:
+                self._svar(cur)
+            except LineFailed:
+                # The shape and its four numbers are stored (§3); whether coast ends too the facts
+                # do not say (the firmware in the loop ends it). Not coasting, with no constant set-point
+                # known, leaves the drive unjudged until a command the facts settle.
+                p.coast = False
+                raise
         else:
             for _ in range(4):                   # all four parsed before anything is stored
                 cur.need(cur.float())

@@ -10,13 +10,14 @@ from typing import Callable, Dict, List, Optional, Sequence, Set, Tuple, Union
 from ..harness.events import line_kind
 from ..harness.targets.base import Target, TargetError
 from ..protocol.profiles import Profile
-from .differential import first_difference, parted_matrix
+from .differential import first_difference, parted_matrix, synchronous_part
 from .expect import LineFate
 from .explain import differential_message, liveness_message, stream_message
 from .link import FENCE, Link, LinkTimeout
 from .lossymatch import match_lossy
 from .model import HatModel
 from .oracles import raise_finding
+from .reconnecting import Reconnecting
 from .statecheck import check_drive, expect_reports, follow_links, observe
 from .stepplan import plan_step
 from .stream import Problem, allowed_kinds, match_stream, without_torn
@@ -48,6 +49,7 @@ class Stats:
     answered: int = 0             # steps whose fence the (first) target answered: input it took
     ring_lossy: int = 0           # steps that lost output to a full TX ring, as the facts allow
     matrix_apart: int = 0         # runs whose sides parted on a light matrix (differential.parted_matrix)
+    reconnect_apart: int = 0      # steps that left out a port one side was setting up again (reconnecting.py)
     on_progress: Optional[Callable[[Stats], None]] = None
     on_note: Optional[Callable[[str], None]] = None     # what the campaign is doing besides fuzzing
 
@@ -130,6 +132,7 @@ class Runner:
         self.tx_ring = any(self.rings)     # the inputs: every side receives the same bytes
         self._queued: List[int] = []   # per side: what streams may have queued in the TX ring
         self._apart: Set[int] = set()  # ports whose light matrix one side lost (not compared)
+        self._reconnecting = Reconnecting(len(openers))   # ports set up again (compared after)
         for label, opener, profile in openers:
             try:
                 target = opener()
@@ -249,6 +252,7 @@ class Runner:
                 self.stats.answered += 1
             answers.append(got)
             compared.append(got)
+            self._track(side, got)
             self._note_kinds(got)
             if plan.debug & 1 and side.link.timed:
                 # The raw serial trace (debug bit 1, §7.4) has no line structure; where input
@@ -306,6 +310,7 @@ class Runner:
         for side in self.sides:
             out = side.link.wait(ms)
             self._note_kinds(out)
+            self._track(side, out)
             ports = [p.copy() for p in side.model.ports]
             if side.model.tainted:
                 continue
@@ -341,6 +346,11 @@ class Runner:
                                        details["received"])
         self.fail(first.oracle, message, dict(details, **more))
 
+    def _track(self, side: Side, out: bytes) -> None:
+        """Differential mode: the connection lines a side printed (reconnecting.py)."""
+        if len(self.sides) == 2:
+            self._reconnecting.feed(self.sides.index(side), synchronous_part(out)[1], side.link.now)
+
     def _differential(self, datas: Sequence[bytes], answers: List[bytes]) -> None:
         a_side, b_side = self.sides
         a, b = answers
@@ -355,6 +365,12 @@ class Runner:
             self._apart.add(int(parted_matrix(diff[1], diff[2]) or 0))
             self.stats.matrix_apart += 1
             diff = first_difference(a_cut, b_cut, frozenset(self._apart))
+        if diff is not None:
+            # A port one side is setting up again lists as its clock has it: timing (reconnecting.py).
+            settling = self._reconnecting.ports([side.link.now for side in self.sides])
+            if settling - self._apart:
+                diff = first_difference(a_cut, b_cut, frozenset(self._apart | settling))
+                self.stats.reconnect_apart += diff is None
         if diff is not None:
             step = b"".join(datas) + FENCE
             message, more = differential_message((a_side.label, b_side.label), step, *diff)

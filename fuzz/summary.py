@@ -142,6 +142,10 @@ def print_summary(result: CampaignResult, stats: Stats, productions, files: Dict
         print(f"  {stats.matrix_apart} time(s) one side's light matrix stopped talking and the other's "
               "not (its 1 s without motor power ends at other instants on each side's clock): its "
               "`list` block not compared from then on")
+    if stats.reconnect_apart:
+        print(f"  {stats.reconnect_apart} step(s) listed a port one side was still setting up again (set-up "
+              "times are a model difference, and each side's clock has its own instants): that port's "
+              "`list` block not compared in them")
     if stats.left_out and out_limit is not None:
         print(f"  {stats.left_out} input(s) not sent: the answer of each alone is over {out_limit} bytes, "
               f"more than the TX ring keeps on this wire")

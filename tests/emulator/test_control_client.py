@@ -1,5 +1,6 @@
 """The one control-channel client: token first, ``ok``/``error`` replies, @drive_events and
-@device_frames as JSON, and errors that name the request. A scripted fake server stands in for the emulator's channel."""
+@device_frames as JSON, and errors that name the request. A scripted fake server stands in for the
+emulator's channel."""
 from __future__ import annotations
 
 import socket

@@ -82,6 +82,46 @@ def test_not_reproduced_on_a_fresh_target_recalls_a_finding_that_began_on_a_kept
     assert "the finding began on a target earlier runs had left open" in res.stdout, res.stdout
 
 
+# A `list` as the first step after the prelude: both sides were opened just before it.
+_FIRST_LIST = """@name fuzz finding (differential): a list right after the targets opened
+@device 0 0x30
+@device 1 0x40
+@device 2 passive 8
+@device 3 none
+> echo 0
+> debug 0
+> port 0
+> select
+> version
+> list
+> version
+"""
+
+
+def test_a_fresh_emulator_process_starts_booted_as_the_in_process_one_does(tmp_path):
+    """sil finding (--against emulator, seed 5): `P0: no device detected` on the emulator, the
+    motor listed on the other side. The emulator process opened at power-on while the other side
+    opened booted, and its devices (about 0.8 s of HAT time to connect) were still setting up."""
+    from buildhat_conformance.fuzz.target_kinds import fresh_boot_options
+
+    assert fresh_boot_options("emulator") == {"booted": True}
+    assert fresh_boot_options("emulator:R7?speed=10") == {"booted": True}
+    assert fresh_boot_options("emulator:latest?booted=0") == {}       # the URL's word is kept
+    assert fresh_boot_options("emulator:?bootloader=1") == {}
+    assert fresh_boot_options("inprocess:R7") == {}                    # booted anyway
+    script = tmp_path / "differential.script"
+    script.write_text(_FIRST_LIST, encoding="utf-8")
+    res = _fuzz("--reproduce", str(script), "--target", "inprocess:R7", "--against", "emulator:R7",
+                "--confirm", "1")
+    assert res.returncode == 0, res.stdout + res.stderr
+    assert res.stdout.startswith("not reproduced (0/1 replays)"), res.stdout
+    # The same list is still compared: a side that lists port 0 otherwise is a finding.
+    other = _fuzz("--reproduce", str(script), "--target", "inprocess:R7?device=0=none",
+                  "--against", "emulator:R7", "--confirm", "1")
+    assert other.returncode == 1, other.stdout + other.stderr
+    assert "P0: no device detected" in other.stdout, other.stdout
+
+
 def test_reproduce_says_reproduced_with_exit_1_and_not_reproduced_with_exit_0(tmp_path):
     script = _coast_script(tmp_path / "fate.script")
     bad = _fuzz("--reproduce", str(script), "--target", _proxy_url("wrong"), "--confirm", "2")

@@ -7,6 +7,7 @@ from types import SimpleNamespace
 from buildhat_conformance.emulator.inprocess_target import InProcessTarget
 from buildhat_conformance.fuzz import cli, command
 from buildhat_conformance.fuzz.differential import compare_answers, first_difference, parted_matrix
+from buildhat_conformance.fuzz.reconnecting import Reconnecting
 from buildhat_conformance.fuzz.reduce import steps_of
 from buildhat_conformance.fuzz.replay import replay_script
 from buildhat_conformance.fuzz.runner import Runner, Stats
@@ -106,8 +107,10 @@ def test_a_light_matrix_gone_on_one_side_only_is_a_timing_boundary():
 
 def _runner_comparing(a: bytes, b: bytes) -> Runner:
     runner = Runner.__new__(Runner)
-    side = SimpleNamespace(fence_line=b"Firmware version: x", label="side")
-    runner.sides, runner.stats, runner._apart = [side, side], Stats(), set()   # type: ignore[list-item]
+    sides = [SimpleNamespace(fence_line=b"Firmware version: x", label=label, link=SimpleNamespace(now=0.0))
+             for label in ("target", "against")]
+    runner.sides, runner.stats, runner._apart = sides, Stats(), set()   # type: ignore[assignment]
+    runner._reconnecting = Reconnecting(2)
     found: list = []
     runner.fail = lambda oracle, message, details: found.append(oracle)    # type: ignore[method-assign]
     runner._differential([b"list\r"], [a, b])
@@ -120,6 +123,35 @@ def test_the_runner_stops_comparing_a_parted_matrix_and_says_so():
     assert runner.found == [] and runner.stats.matrix_apart == 1 and runner._apart == {1}  # type: ignore[attr-defined]
     runner._differential([b"list\r"], [MATRIX_LISTED + b"vin\r\n", MATRIX_GONE])
     assert runner.found == ["differential"]  # type: ignore[attr-defined]
+
+
+MOTOR_LISTED = (b"P0: connected to active ID 30\r\ntype 30\r\nP1: no device detected\r\n"
+                b"P2: no device detected\r\nP3: no device detected\r\n")
+MOTOR_GONE = MATRIX_GONE
+
+
+def test_a_port_one_side_sets_up_again_is_not_compared_until_it_is_established():
+    """sil finding (`--seed 11` against inprocess): the firmware dropped the motor after 500 ms
+    without data (fb-active) and was setting it up again (about 2 s at 2400 baud) where the emulator,
+    whose clock had not paused before the fences as the firmware's did, still listed it."""
+    runner = _runner_comparing(MOTOR_LISTED, MOTOR_LISTED)
+    assert runner.found == []  # type: ignore[attr-defined]
+    target, against = runner.sides
+    # the motor's difference alone, before anything happened to it, is a finding
+    runner._differential([b"list\r"], [MOTOR_GONE, MOTOR_LISTED])
+    assert runner.found == ["differential"]  # type: ignore[attr-defined]
+    runner._track(target, b"P0: timeout during data phase: disconnecting\r\nP0: disconnected\r\n")
+    runner._differential([b"list\r"], [MOTOR_GONE, MOTOR_LISTED])
+    assert runner.found == ["differential"] and runner.stats.reconnect_apart == 1  # type: ignore[attr-defined]
+    # another port's difference still counts while port 0 is set up again
+    runner._differential([b"list\r"], [MOTOR_GONE, MOTOR_LISTED.replace(b"P3: no device", b"P3: no  device")])
+    assert runner.found == ["differential"] * 2  # type: ignore[attr-defined]
+    # established again: compared again
+    target.link.now = 2500.0   # type: ignore[misc]  # a SimpleNamespace standing in for the Link
+    runner._track(target, b"P0: connecting to active device\r\n"
+                          b"P0: established serial communication with active ID 30\r\n")
+    runner._differential([b"list\r"], [MOTOR_GONE, MOTOR_LISTED])
+    assert runner.found == ["differential"] * 3  # type: ignore[attr-defined]
 
 
 def test_a_report_torn_into_an_echo_is_not_compared():
@@ -139,5 +171,10 @@ def test_a_report_torn_into_an_echo_is_not_compared():
     for alone in (b"Port power fault", b"Motor power fault", b"MQ overrun!"):
         glued = b"P0>ab" + alone + b"\r\ncd\r\nError\r\nP0>"
         assert compare_answers(glued, b"P0>abcd\r\nError\r\nP0>") is None
+    # echoed bytes that look like the start of such a line (`P1: `, `P2V`) before the real cut
+    for look in (b"P1: ", b"P2V", b"P3M1", b"deltat"):
+        glued = b"P0>x" + look + b"y" + b"deltat=00000003\r\nz\r\nError\r\nP0>"
+        assert compare_answers(glued, b"P0>x" + look + b"yz\r\nError\r\nP0>") is None, look
+        assert compare_answers(glued, b"P0>x" + look + b"yw\r\nError\r\nP0>") is not None, look
     # a listing line is no report: it is still compared
     assert compare_answers(b"xP0: no device detected\r\nP0>", b"x\r\nP0>") is not None

@@ -154,6 +154,21 @@ def test_expected_duty_follows_the_drive_path():
     assert expected_duty(m.profile, m.ports[0], m.plimit) is None
 
 
+def test_a_set_var_failing_in_its_sensor_variable_leaves_a_coasting_drive_unjudged():
+    """sil state finding (`--seed 5` and `--seed 1`, 20 s against inprocess): after `coast`, a `set var`
+    whose sensor variable fails (`u1` where its offset goes) prints `Error` having stored the shape
+    (fb-errors); the facts do not say whether coast ends, and the firmware drives the set-point."""
+    from buildhat_conformance.fuzz.portmodel import expected_duty
+    m, _out, fates = run("R7", b"coast\rset var -.6 0.5 676.6 0 3 0 u1 1 0\r")
+    assert fates[-1].error
+    assert expected_duty(m.profile, m.ports[0], m.plimit) is None
+    m, _out, _f = run("R7", b"coast\rset var -.6 0.5 676.6 0 3 0 u1 1 0\rcoast\r")
+    assert expected_duty(m.profile, m.ports[0], m.plimit) == "coast"
+    # a bad number among the four of the map fails before anything is stored: still coasting
+    m, _out, _f = run("R7", b"coast\rset var -.6 x 676.6 0 3 0 0 u1 1 0\r")
+    assert expected_duty(m.profile, m.ports[0], m.plimit) == "coast"
+
+
 def test_drive_oracle_allows_a_reverse_duty_flagged_forwards_by_clear_faults():
     """FIRMWARE-BEHAVIOUR#fb-commands: clear_faults writes every driver's flag register (forwards) and
     the direction is written again only at the next change of sign (the sil finding: +26 after
