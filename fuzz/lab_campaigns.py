@@ -58,6 +58,9 @@ def run_places(args: argparse.Namespace) -> int:
     children: Dict[str, subprocess.Popen] = {}
     for name, url in places:
         out = os.path.join(args.out, name)
+        # Made here, before the campaigns start: each child's check of its -o would otherwise make
+        # and undo the shared parent at the same time as its siblings (a race that lost a campaign).
+        os.makedirs(out, exist_ok=True)
         children[name] = subprocess.Popen(child_argv(args, url, out))
     print(f"fuzz: {len(children)} campaigns, one per labgrid place: {', '.join(children)}", flush=True)
     try:
