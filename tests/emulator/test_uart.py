@@ -3,22 +3,11 @@ virtual time: both directions move at the wire rate and the firmware's report th
 backlog. The real rate against the wall clock is measured by ``make bench`` only."""
 from __future__ import annotations
 
-from buildhat_conformance.emulator import Emulator
-
-EMPTY = {0: None, 1: None, 2: None, 3: None}
-PER_MS = 115200 / 10 / 1000          # 11.52 bytes a millisecond (8N1)
-
-
-def _booted(firmware: str = "R7", devices=EMPTY) -> Emulator:
-    emu = Emulator(firmware=firmware, devices=devices, baud=115200)
-    emu.boot()
-    emu.advance(50)
-    emu.read()
-    return emu
+from paced_emulator import PER_MS, booted
 
 
 def test_input_reaches_the_firmware_at_the_wire_rate() -> None:
-    emu = _booted()
+    emu = booted()
     lines = []
     emu.hat.line_observers.append(lines.append)
     emu.write(b"port 0\r" * 200)                 # 1400 bytes: ~122 ms on the wire
@@ -30,7 +19,7 @@ def test_input_reaches_the_firmware_at_the_wire_rate() -> None:
 
 
 def test_output_leaves_at_the_wire_rate() -> None:
-    emu = _booted()
+    emu = booted()
     emu.write(b"help\r")
     got = b""
     for ms in range(1, 301):
@@ -47,7 +36,7 @@ def test_report_throttle_follows_the_paced_backlog() -> None:
     # §6.2 / §11: R5+ print no report while the TX ring holds 4096 bytes or more. Two help
     # texts (8402 bytes, 8192 kept) fill it; on an infinitely fast wire it would stay empty.
     for firmware, throttles in (("R7", True), ("R1", False)):
-        emu = _booted(firmware, devices={0: "0x30", 1: None, 2: None, 3: None})
+        emu = booted(firmware, devices={0: "0x30", 1: None, 2: None, 3: None})
         emu.write(b"port 0 ; select 1\r")
         emu.advance(300)
         emu.read()

@@ -3,20 +3,10 @@ time: it hands the host no more than the wire carried. The real rate against the
 measured by ``make bench`` only."""
 from __future__ import annotations
 
-from buildhat_conformance.emulator import Emulator
+from paced_emulator import PER_MS, booted
+
 from buildhat_conformance.emulator.runners.clock import RealTimeClock
 from buildhat_conformance.emulator.runners.realtime import run_realtime
-
-EMPTY = {0: None, 1: None, 2: None, 3: None}
-PER_MS = 115200 / 10 / 1000          # 11.52 bytes a millisecond (8N1)
-
-
-def _booted(firmware: str = "R7", devices=EMPTY) -> Emulator:
-    emu = Emulator(firmware=firmware, devices=devices, baud=115200)
-    emu.boot()
-    emu.advance(50)
-    emu.read()
-    return emu
 
 
 class _FakeLink:
@@ -41,7 +31,7 @@ class _FakeLink:
 def test_realtime_runner_hands_over_only_what_the_wire_carried() -> None:
     # The process path of `buildhat-emulator --baud 115200`: the runner's clock is driven by a
     # fake time source (5 ms per look), so this runs in virtual time; select() only sleeps.
-    emu = _booted()
+    emu = booted()
     fake = [0.0]
 
     def now() -> float:
