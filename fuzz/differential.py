@@ -13,7 +13,7 @@ import math
 import re
 from typing import FrozenSet, List, Optional, Tuple
 
-from ..harness.events import PORT_STATUS_KINDS, Event, classify
+from ..harness.events import PORT_STATUS_KINDS, Event, classify, line_kind
 from .stream import ASYNC_KINDS
 
 __all__ = ["compare_answers", "first_difference", "VIN_TOLERANCE_V", "VALUE_TOLERANCE", "synchronous_part",
@@ -36,7 +36,7 @@ def _prompts_apart(parts: List[bytes]) -> List[bytes]:
         raw = carry + raw
         carry = b""
         m = _PROMPTS.fullmatch(raw)
-        if m and i < len(parts) - 1 and classify(m.group(2)).kind in ASYNC_KINDS:
+        if m and i < len(parts) - 1 and line_kind(m.group(2)) in ASYNC_KINDS:
             out.append(m.group(2))
             carry = m.group(1)
             continue
@@ -56,7 +56,7 @@ def _glued_at(raw: bytes) -> Optional[int]:
     whose rest is such a line. Echoed bytes may look like the start of one (`P1: ` in a noise line)
     before the real cut, so each candidate is tried in turn."""
     for m in _GLUED.finditer(raw, 1):
-        if classify(raw[m.start():]).kind in ASYNC_KINDS:
+        if line_kind(raw[m.start():]) in ASYNC_KINDS:
             return m.start()
     return None
 
@@ -73,7 +73,8 @@ def _torn_apart(parts: List[bytes]) -> List[bytes]:
     i = 0
     while i < len(parts):
         raw = parts[i]
-        at = _glued_at(raw) if i < len(parts) - 1 and classify(raw).kind not in ASYNC_KINDS else None
+        at = (_glued_at(raw) if i < len(parts) - 1 and _GLUED.search(raw, 1) is not None
+              and line_kind(raw) not in ASYNC_KINDS else None)
         if at is not None:
             out.append(raw[at:])
             parts = parts[:i + 1] + [raw[:at] + parts[i + 1]] + parts[i + 2:]
@@ -92,28 +93,31 @@ def synchronous_part(data: bytes) -> Tuple[List[bytes], List[Event]]:
     parts = _torn_apart(_prompts_apart(data.split(b"\r\n")))
     sync: List[bytes] = []
     async_events: List[Event] = []
-    block: List[Tuple[bytes, Event]] = []     # listing lines since the last other line
+    block: List[Tuple[bytes, str]] = []       # listing lines since the last other line, and their kinds
+    # (kinds come from the cached line_kind; an Event is made only for a line that needs one:
+    # the campaign's hottest path was classifying every line of every long `list` twice)
     for i, raw in enumerate(parts):
         last = i == len(parts) - 1
         if last and not raw:
             continue
-        ev = classify(raw)
-        if not last and ev.kind in ("list_line", "list_port"):
-            block.append((raw + b"\r\n", ev))
+        kind = line_kind(raw)
+        if not last and kind in ("list_line", "list_port"):
+            block.append((raw + b"\r\n", kind))
             continue
         dump = 0
-        if ev.kind == "established":
-            headers = [k for k, (_p, e) in enumerate(block) if e.kind == "list_port"]
-            if headers and block[headers[-1]][1].port == ev.port:
+        if kind == "established":
+            port = classify(raw).port
+            headers = [k for k, (_p, kd) in enumerate(block) if kd == "list_port"]
+            if headers and classify(block[headers[-1]][0][:-2]).port == port:
                 dump = len(block) - headers[-1]
-        sync.extend(p for p, _e in block[:len(block) - dump])
-        async_events.extend(e for _p, e in block[len(block) - dump:])
+        sync.extend(p for p, _k in block[:len(block) - dump])
+        async_events.extend(classify(p[:-2]) for p, _k in block[len(block) - dump:])
         block = []
-        if not last and ev.kind in ASYNC_KINDS:
-            async_events.append(ev)
+        if not last and kind in ASYNC_KINDS:
+            async_events.append(classify(raw))
             continue
         sync.append(raw + (b"" if last else b"\r\n"))
-    sync.extend(p for p, _e in block)
+    sync.extend(p for p, _k in block)
     return sync, async_events
 
 
@@ -162,10 +166,10 @@ def _without_ports(pieces: List[bytes], ports: FrozenSet[int]) -> List[bytes]:
     out: List[bytes] = []
     skipping = False
     for piece in pieces:
-        ev = classify(piece.rstrip(b"\r\n"))
-        if ev.kind in PORT_STATUS_KINDS:
-            skipping = ev.port in ports
-        elif ev.kind != "list_line":
+        kind = line_kind(piece.rstrip(b"\r\n"))
+        if kind in PORT_STATUS_KINDS:
+            skipping = classify(piece.rstrip(b"\r\n")).port in ports
+        elif kind != "list_line":
             skipping = False
         if not skipping:
             out.append(piece)

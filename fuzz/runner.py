@@ -348,7 +348,9 @@ class Runner:
 
     def _track(self, side: Side, out: bytes) -> None:
         """Differential mode: the connection lines a side printed (reconnecting.py)."""
-        if len(self.sides) == 2:
+        # (every connection line has "connect", "established" or "disconnect" in it: an answer
+        # without any is not split into lines at all)
+        if len(self.sides) == 2 and (b"connect" in out or b"established" in out):
             self._reconnecting.feed(self.sides.index(side), synchronous_part(out)[1], side.link.now)
 
     def _differential(self, datas: Sequence[bytes], answers: List[bytes]) -> None:

@@ -16,6 +16,7 @@ World -> firmware (upper case):
 | ``G`` | - | - | port-power OK (u8), motor-power OK (u8) | the two fault pins (1 = no fault) |
 | ``F`` | port | - | 3 bytes | the port driver's fault registers 0x4D-0x4F |
 | ``A`` | - | - | raw (u16) | the ADC reading of the input voltage |
+| ``W`` | - | - | mask (u8, bit n: port n) | ports whose drive changes stop the firmware (default: all); the others' ``d`` frames wait for the next stop |
 | ``S`` | - | - | 64 bytes | what the bootloader left at 0x2003FF00 (the image signature) |
 | ``Q`` | - | - | - | exit (coverage data is written) |
 | ``K`` | - | - | socket path, NUL, stderr path | fork a copy of this HAT, which connects to the socket |

@@ -113,6 +113,7 @@ class SilPort(PortActions):
                 device.begin_setup(self.world.now_ms)
         self.device = device
         self.sync_id()
+        self.world.sync_drive_stops()
         self.wake()
 
     def cut(self) -> None:
@@ -125,6 +126,7 @@ class SilPort(PortActions):
             self.cut()
         self.device = None
         self.sync_id()
+        self.world.sync_drive_stops()
 
     def button_changed(self) -> None:
         self.sync_id()
@@ -246,6 +248,7 @@ class SilWorld:
         self.now_ms = 0
         self.base_ns = 0               # virtual time at the firmware's power-on (frames count from it)
         self._outbox: List[bytes] = []
+        self._drive_stops = 0xFF           # the stand-in's default: every port's drive stops it
         self._event = event
         self.ports = [SilPort(self, i) for i in range(4)]
         self.controllers = [_DriveView(self, i) for i in range(4)]
@@ -255,6 +258,7 @@ class SilWorld:
         for index, spec in sorted(layout.items()):
             if spec is not None:
                 self.ports[int(index)].plug(spec)
+        self.sync_drive_stops()
         self.send(encode("A", 0, struct.pack("<H", DEFAULT_ADC)))
 
     # -- what the device models and the world actions call ------------------------------------
@@ -271,6 +275,16 @@ class SilWorld:
     def event(self, kind: str, t: int, **fields: Any) -> None:
         if self._event is not None:
             self._event(kind, t, fields)
+
+    def sync_drive_stops(self) -> None:
+        """Tell the firmware which ports' drive changes must stop it: those with an active
+        device (a motor's shaft, the light matrix's power). A passive device or an empty port
+        does nothing with its drive, so its changes (a ramp's, every millisecond) travel with
+        their times to the next stop instead of one round trip each."""
+        mask = sum(1 << p.index for p in getattr(self, "ports", ()) if isinstance(p.device, ActiveDevice))
+        if mask != self._drive_stops:
+            self._drive_stops = mask
+            self.send(encode("W", 0, bytes([mask])))
 
     def set_adc(self, raw: int) -> None:
         if not 0 <= int(raw) <= 4095:

@@ -137,6 +137,7 @@ static void obey(void) {
                 periph_set_adc(raw);
             }
             break;
+        case 'W': if (h.len >= 1) periph_set_drive_stops(payload[0]); break;
         case 'S': memcpy((void *)0x2003ff00, payload, h.len < 256 ? h.len : 256); break;
         case 'Q': link_flush(); exit(0);   /* exit(), not _exit(): coverage data is written */
         case 'K': {                    /* payload: socket path, NUL, stderr path */

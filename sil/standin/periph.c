@@ -385,6 +385,12 @@ void periph_set_fault_pins(uint8_t port_ok, uint8_t motor_ok) {
 #define ACCEL_ADDR 0x6a
 static uint8_t regs[SIL_PORTS][256], reg_ptr[SIL_PORTS], fault_regs[SIL_PORTS][3];
 static int16_t drive_seen[SIL_PORTS];
+/* Ports whose drive changes stop the firmware at once ('W'): a motor's shaft or a device that
+ * reacts to its power must see the change as it happens; a light or an empty port only needs
+ * the frame, with its time, at the next stop (a ramp changes the duty every millisecond). */
+static uint8_t drive_stops = 0xff;
+
+void periph_set_drive_stops(uint8_t mask) { drive_stops = mask; }
 static uint8_t drive_mode_seen[SIL_PORTS];   /* 0 coast (outputs off), 1 driven */
 static uint port_tx_pin[SIL_PORTS], port_rx_pin[SIL_PORTS];
 
@@ -405,7 +411,7 @@ static void drive_changed(int p) {
     memcpy(msg, &duty, 2);
     msg[2] = mode;
     link_emit('d', (uint8_t)p, sil_now, msg, sizeof msg);
-    sil_request_yield();
+    if (drive_stops & (1u << p)) sil_request_yield();
 }
 
 static void driver_write(int p, uint8_t r, uint8_t v) {

@@ -29,6 +29,7 @@ void periph_set_id(int port, uint16_t signature, uint8_t rx_idle_level);
 void periph_set_fault_pins(uint8_t port_ok, uint8_t motor_ok);
 void periph_set_fault_regs(int port, const uint8_t *regs3);
 void periph_set_adc(uint16_t raw);
+void periph_set_drive_stops(uint8_t mask);   /* ports whose drive changes stop the firmware */
 void periph_init(void);
 void periph_flush_output(void);       /* bytes to the host not yet in a frame */
 
