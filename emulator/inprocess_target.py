@@ -184,6 +184,18 @@ class InProcessTarget(Target):
         with self._lock:
             self._need_open().advance(int(ms))
 
+    def settle(self, min_ms: int, max_ms: int) -> int:
+        """Let HAT time pass until the command port is at rest, between ``min_ms`` and
+        ``max_ms``; returns the ms that passed. A HAT model that cannot tell (the emulator
+        prints at once: there is no ring to drain) waits ``max_ms``."""
+        with self._lock:
+            emu = self._need_open()
+            settle = getattr(emu, "settle", None)
+            if settle is not None:
+                return int(settle(int(min_ms), int(max_ms)))
+            emu.advance(int(max_ms))
+            return int(max_ms)
+
     @property
     def now(self) -> int:
         return int(self._need_open().now)

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 import re
+from functools import lru_cache
 from typing import FrozenSet, List, Optional, Tuple
 
 from ..harness.events import PORT_STATUS_KINDS, Event, classify, line_kind
@@ -90,6 +91,14 @@ def synchronous_part(data: bytes) -> Tuple[List[bytes], List[Event]]:
     unterminated rest (a prompt). Listing lines answer `list`, except the device dump a HAT
     prints on connecting (§5): one port's header and block, then that port's ``established``
     line. Its time depends on each target's clock, so it is not compared."""
+    sync, async_events = _split(data)
+    return list(sync), list(async_events)
+
+
+@lru_cache(maxsize=16)
+def _split(data: bytes) -> Tuple[Tuple[bytes, ...], Tuple[Event, ...]]:
+    """:func:`synchronous_part`, kept for the last few answers: one step's answer is split for
+    the connection tracker and again for each comparison of the differential oracle."""
     parts = _torn_apart(_prompts_apart(data.split(b"\r\n")))
     sync: List[bytes] = []
     async_events: List[Event] = []
@@ -110,15 +119,16 @@ def synchronous_part(data: bytes) -> Tuple[List[bytes], List[Event]]:
             headers = [k for k, (_p, kd) in enumerate(block) if kd == "list_port"]
             if headers and classify(block[headers[-1]][0][:-2]).port == port:
                 dump = len(block) - headers[-1]
-        sync.extend(p for p, _k in block[:len(block) - dump])
-        async_events.extend(classify(p[:-2]) for p, _k in block[len(block) - dump:])
-        block = []
+        if block:
+            sync.extend(p for p, _k in block[:len(block) - dump])
+            async_events.extend(classify(p[:-2]) for p, _k in block[len(block) - dump:])
+            block = []
         if not last and kind in ASYNC_KINDS:
             async_events.append(classify(raw))
             continue
         sync.append(raw + (b"" if last else b"\r\n"))
     sync.extend(p for p, _k in block)
-    return sync, async_events
+    return tuple(sync), tuple(async_events)
 
 
 def _close(a: Event, b: Event) -> bool:
@@ -181,6 +191,8 @@ def first_difference(a: bytes, b: bytes, apart: FrozenSet[int] = frozenset()
     """(index, A's piece, B's piece) of the first answer piece that differs beyond tolerance
     (a missing piece is None); None when the answers agree. The `list` blocks of the ports in
     ``apart`` are left out on both sides (:func:`parted_matrix`)."""
+    if a == b:
+        return None                       # (most steps: nothing to split)
     sync_a = _without_ports(synchronous_part(a)[0], apart)
     sync_b = _without_ports(synchronous_part(b)[0], apart)
     for i in range(max(len(sync_a), len(sync_b))):

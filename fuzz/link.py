@@ -137,6 +137,28 @@ class Link:
             del out[len(out) - keep:]
         return bytes(out)
 
+    def settle(self, min_ms: int, max_ms: int) -> bytes:
+        """:meth:`wait` for a TX ring to drain before a fence: ``max_ms`` HAT ms, or less on a
+        target that tells when its command port is at rest (the firmware in the loop), but at
+        least ``min_ms`` (the step's input still arriving). The trace keeps the ms that passed,
+        so a replay waits as long."""
+        settle = getattr(self.target, "settle", None) if self._virtual else None
+        if settle is None or min_ms >= max_ms:
+            return self.wait(max_ms)
+        at = self.now
+        out = bytearray(self._carry)
+        self._carry = b""
+        waited = int(settle(min_ms, max_ms))
+        self.trace.entries.append(("wait", at, waited))
+        data = self.target.read(0)
+        self._got(data)
+        out += data
+        keep = _incomplete_tail(bytes(out), 0)
+        if keep:
+            self._carry = bytes(out[len(out) - keep:])
+            del out[len(out) - keep:]
+        return bytes(out)
+
     def exchange(self, data: bytes, fence_line: bytes, fences: int, extra_bytes: int = 0) -> bytes:
         """Send ``data`` + fence; read until ``fences`` copies of ``fence_line`` arrived."""
         return self.exchange_batch([data], fence_line, [fences], [extra_bytes])[0]

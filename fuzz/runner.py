@@ -21,7 +21,7 @@ from .reconnecting import Reconnecting
 from .statecheck import check_drive, expect_reports, follow_links, observe
 from .stepplan import plan_step
 from .stream import Problem, allowed_kinds, match_stream, without_torn
-from .txring import UNHELD_DEBUG, WIRE_BYTES_PER_MS, backlog, drain_ms, headroom
+from .txring import UNHELD_DEBUG, WIRE_BYTES_PER_MS, backlog, drain_ms, headroom, input_ms
 
 __all__ = ["Runner", "Side", "Stats", "PRELUDE"]
 
@@ -217,6 +217,10 @@ class Runner:
         # What a stream stopped by the last step queued may still be draining ahead of this answer.
         queued, self._queued = [max(q, last) for q, last in zip(queued, self._queued)], queued
         keeps = [headroom(q, p.size_max) if ring else None for p, q, ring in zip(plans, queued, self.rings)]
+        # A reckoned pause ends early where the target tells its command port is at rest (the
+        # firmware in the loop: the step's output has left the ring), once the input has arrived;
+        # a replayed script's pause is waited in full.
+        settle = pause_ms is None
         if pause_ms is None:
             pause_ms = max([drain_ms(p.size_max, len(p.blob), k)
                             for p, k in zip(plans, keeps) if k is not None], default=0)
@@ -225,7 +229,8 @@ class Runner:
         for side, plan, pause in zip(self.sides, plans, pauses):
             records.append(len(getattr(side.link.target, "line_records", ())))
             self._send(side, plan.blob[:-len(FENCE)] if pause else plan.blob, plan.blob)
-        early = [side.link.wait(pause) if pause else b"" for side, pause in zip(self.sides, pauses)]
+        early = [(side.link.settle(input_ms(len(plan.blob)), pause) if settle else side.link.wait(pause))
+                 if pause else b"" for side, plan, pause in zip(self.sides, plans, pauses)]
         for side, plan, pause in zip(self.sides, plans, pauses):
             if pause:
                 self._send(side, FENCE, plan.blob)

@@ -23,7 +23,8 @@ from typing import Optional, Sequence
 
 from .portmodel import PortModel
 
-__all__ = ["RING_SIZE", "THROTTLE", "UNHELD_DEBUG", "WIRE_BYTES_PER_MS", "backlog", "headroom", "drain_ms"]
+__all__ = ["RING_SIZE", "THROTTLE", "UNHELD_DEBUG", "WIRE_BYTES_PER_MS", "backlog", "headroom", "drain_ms",
+           "input_ms"]
 
 RING_SIZE = 8192            # §1
 THROTTLE = 4096             # §6.2: no report is printed while the ring holds this much
@@ -62,3 +63,14 @@ def drain_ms(size: int, sent: int, keep: int) -> int:
     and 10 ms, for a target that runs a little slower than the wire."""
     must_leave = max(0, size + FENCE_ROOM - keep)
     return math.ceil((sent + must_leave) / WIRE_BYTES_PER_MS * 1.2) + 10
+
+
+# A line that has arrived is read and answered within a main-loop pass; a pass over 2 ms prints
+# a stall line (fb-stall), a long `list` makes one of about 3 ms.
+PASS_MARGIN_MS = 5
+
+
+def input_ms(sent: int) -> int:
+    """HAT ms before a pause may end early (:meth:`fuzz.link.Link.settle`): the ``sent`` bytes
+    have crossed the wire and the last line has been read and begun answering."""
+    return math.ceil(sent / WIRE_BYTES_PER_MS) + PASS_MARGIN_MS

@@ -83,8 +83,9 @@ class SilHat:
         for frame in frames:
             self._take(frame)
 
-    def _run(self, end_ns: int, stop_on_output: bool) -> None:
-        """Run firmware and world up to ``end_ns`` (or the first output, if asked)."""
+    def _run(self, end_ns: int, stop_on_output: bool, once: bool = False) -> None:
+        """Run firmware and world up to ``end_ns`` (or the first output, if asked; or the
+        firmware's first stop, ``once``)."""
         while self._now_ns < end_ns:
             if self.proc is None or self.died is not None or self.hung:
                 self._now_ns = end_ns        # a dead or hung HAT: time passes, nothing happens
@@ -103,7 +104,7 @@ class SilHat:
             for frame in frames:
                 self._take(frame)
             self.outside.tick_due(self.now)
-            if stop_on_output and self._out:
+            if (stop_on_output and self._out) or once:
                 return
 
     def _take(self, frame) -> None:
@@ -163,6 +164,23 @@ class SilHat:
         if not self._out:
             self._run(self._now_ns + max(0, int(ms)) * NS_PER_MS, stop_on_output=True)
         return self.now - start
+
+    def settle(self, min_ms: int, max_ms: int) -> int:
+        """Let HAT time pass until the command port is at rest (nothing leaving, nothing
+        arriving: a TX ring drained), at least ``min_ms`` and at most ``max_ms``; returns the
+        whole ms that passed. The firmware stops when its transmitter falls idle, so this costs
+        no more stops than :meth:`advance`."""
+        start = self._now_ns
+        self.advance(min_ms)
+        end = start + max(min_ms, max_ms) * NS_PER_MS
+        while self._now_ns < end and self.proc is not None and not self.proc.host_quiet:
+            if self.died is not None or self.hung:
+                break
+            self._run(end, stop_on_output=True, once=True)
+        # (whole ms, as a script's @wait says; the firmware stops a block past a limit)
+        ms = min(-(-(self._now_ns - start) // NS_PER_MS), max(min_ms, max_ms))
+        self._run(start + ms * NS_PER_MS, stop_on_output=False)
+        return ms
 
     def step(self) -> None:
         self.advance(1)

@@ -89,6 +89,8 @@ class FirmwareProcess:
         self._buf = bytearray()
         self.now = 0
         self.ended: Optional[FirmwareDied] = None
+        # At the last yield nothing was leaving or arriving on the command port (protocol.py 'y').
+        self.host_quiet = False
         hello, _frames = self._until("y")
         if hello.payload[:4] != HELLO:
             self.kill()
@@ -143,6 +145,7 @@ class FirmwareProcess:
         self.send(b"".join(inputs) + encode("R", limit_ns, flags))
         y, frames = self._until("y")
         self.now = y.t
+        self.host_quiet = y.payload[:1] == b"\x03"
         return frames
 
     def _until(self, kind: str) -> Tuple[Frame, List[Frame]]:

@@ -16,16 +16,19 @@ World -> firmware (upper case):
 | ``G`` | - | - | port-power OK (u8), motor-power OK (u8) | the two fault pins (1 = no fault) |
 | ``F`` | port | - | 3 bytes | the port driver's fault registers 0x4D-0x4F |
 | ``A`` | - | - | raw (u16) | the ADC reading of the input voltage |
-| ``W`` | - | - | mask (u8, bit n: port n) | ports whose drive changes stop the firmware (default: all); the others' ``d`` frames wait for the next stop |
+| ``W`` | - | - | mask (u8, bit n: port n) | ports whose ``d`` stops the firmware (default: all) |
 | ``S`` | - | - | 64 bytes | what the bootloader left at 0x2003FF00 (the image signature) |
 | ``Q`` | - | - | - | exit (coverage data is written) |
 | ``K`` | - | - | socket path, NUL, stderr path | fork a copy of this HAT, which connects to the socket |
+
+The other ports' ``d`` frames wait, with their times, for the next stop. The rest byte of ``y``:
+bit 0, nothing is leaving on the command port; bit 1, nothing from the host is arriving.
 
 Firmware -> world (lower case):
 
 | type | port | time | payload | meaning |
 |---|---|---|---|---|
-| ``y`` | - | now | ``SIL1`` on the first (a copy adds its pid, i32) | yield: the firmware waits |
+| ``y`` | - | now | ``SIL1`` on the first (a copy adds its pid, i32); then the port's rest (u8) | yield |
 | ``k`` | - | now | the copy's pid (i32; negative: errno) | answer to ``K`` |
 | ``h`` | - | end of the last byte | bytes | bytes to the host (one frame per stretch) |
 | ``p`` | port | end of the byte | baud (u32), byte | a byte to the port's device |

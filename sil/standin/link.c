@@ -156,7 +156,8 @@ static void obey(void) {
 
 void link_yield(void) {
     periph_flush_output();
-    link_emit('y', 0, sil_now, NULL, 0);
+    uint8_t status = periph_host_status();
+    link_emit('y', 0, sil_now, &status, 1);
     link_flush();
     obey();
 }

@@ -111,6 +111,15 @@ static void host_out_add(uint64_t t, uint8_t b) {
     host_out_t = t;
 }
 
+/* Bit 0: nothing is leaving on the command port (no byte on the wire, no send request the
+ * handler has yet to see); bit 1: no byte from the host is on its way or unread. The world
+ * reads it at each yield to let a TX ring drain no longer than it takes (fuzz pauses). */
+uint8_t periph_host_status(void) {
+    uint8_t tx_idle = !cu.tx_busy && !cu.tx_irq;
+    uint8_t rx_idle = wire_next(&cu.rx) == UINT64_MAX && !cu.rx_full;
+    return (uint8_t)(tx_idle | rx_idle << 1);
+}
+
 void periph_host_bytes(uint64_t t, const uint8_t *b, uint16_t n) {
     wire_push(&cu.rx, t, (uint32_t)(10ull * 1000000000ull / cu.byte_ns), b, n);
 }

@@ -31,6 +31,7 @@ void periph_set_fault_regs(int port, const uint8_t *regs3);
 void periph_set_adc(uint16_t raw);
 void periph_set_drive_stops(uint8_t mask);   /* ports whose drive changes stop the firmware */
 void periph_init(void);
+uint8_t periph_host_status(void);      /* the command port at rest: see periph.c */
 void periph_flush_output(void);       /* bytes to the host not yet in a frame */
 
 /* board.c: where the Build HAT wires its ports (from its published pin-out) */

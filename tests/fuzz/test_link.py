@@ -23,3 +23,45 @@ def test_fuzz_link_completes_a_prompt_split_by_the_wire() -> None:
     for answer in answers:
         assert answer.endswith(fence_line + b"P0>") or answer.endswith(fence_line + b"P1>"), answer
     assert answers[0].startswith(b"vin\r\n") and FENCE in answers[0]
+
+
+class _RestingHat:
+    """A virtual target whose command port comes to rest ``rest_ms`` after a settle begins."""
+
+    capabilities = frozenset({"virtual_time"})
+    time_scale = None
+
+    def __init__(self, rest_ms: int, with_settle: bool = True):
+        self.now, self.rest_ms, self.calls = 0, rest_ms, []
+        if not with_settle:
+            self.settle = None
+
+    def settle(self, min_ms: int, max_ms: int) -> int:
+        waited = min(max(min_ms, self.rest_ms), max_ms)
+        self.now += waited
+        self.calls.append(("settle", min_ms, max_ms))
+        return waited
+
+    def advance(self, ms: int) -> None:
+        self.now += ms
+        self.calls.append(("advance", ms))
+
+    def read(self, timeout: float) -> bytes:
+        return b""
+
+
+def test_a_pause_ends_when_the_port_is_at_rest_and_the_trace_keeps_what_passed() -> None:
+    # A replayed finding waits the trace's @wait in full, so it must be what really passed.
+    hat = _RestingHat(rest_ms=40)
+    link = Link(hat, "sil")  # type: ignore[arg-type]
+    link.settle(10, 500)
+    assert hat.now == 40 and hat.calls == [("settle", 10, 500)]
+    assert link.trace.entries[-1] == ("wait", 0.0, 40)
+
+
+def test_a_target_that_cannot_tell_waits_the_whole_pause() -> None:
+    hat = _RestingHat(rest_ms=40, with_settle=False)
+    link = Link(hat, "plain")  # type: ignore[arg-type]
+    link.settle(10, 500)
+    assert hat.now == 500 and hat.calls == [("advance", 500)]
+    assert link.trace.entries[-1] == ("wait", 0.0, 500)

@@ -125,3 +125,47 @@ def test_a_byte_that_arrives_inside_the_handler_is_read_after_it(tmp_path):
         assert hat.read() == b"abcdef"
     finally:
         hat.close()
+
+
+def _booted_firmware_hat() -> SilHat:
+    from sil_support import firmware_tree
+    hat = SilHat(str(build_tree(str(firmware_tree())).program))
+    hat.boot()
+    hat.read()
+    return hat
+
+
+def test_settle_ends_when_the_answer_has_left_the_ring():
+    """`help` prints about 3 KB, some 270 ms on a 115200-baud wire. settle() lets HAT time pass
+    until the command port is at rest: the whole answer has come, in whole ms, and well before
+    the bound (a fuzz pause reckons the most a step may print)."""
+    hat = _booted_firmware_hat()
+    try:
+        hat.write(b"help\r")
+        start = hat.now
+        waited = hat.settle(5, 5000)
+        out = hat.read()
+        assert hat.now - start == waited
+        wire_ms = len(out) / 11.52
+        assert len(out) > 2000, out[-200:]
+        assert out.rstrip(b"\r\n").endswith(b"32=unknown messages"), out[-200:]
+        assert wire_ms <= waited < wire_ms + 50, (waited, wire_ms)
+        hat.advance(200)
+        assert hat.read() == b"", "output came after settle() said the port was at rest"
+    finally:
+        hat.close()
+
+
+def test_settle_waits_at_least_for_the_input_and_at_most_the_bound():
+    hat = _booted_firmware_hat()
+    try:
+        start = hat.now
+        assert hat.settle(7, 500) == 7 and hat.now - start == 7       # nothing to send: at rest
+        hat.write(b"echo 0 ; " * 40 + b"\r")                          # 360 bytes: 31 ms of input
+        start = hat.now
+        waited = hat.settle(1, 500)
+        assert 31 <= waited < 60, waited                              # not at rest while input arrives
+        hat.write(b"help ; help ; help\r")                               # a full ring: 700 ms to drain
+        assert hat.settle(5, 300) == 300
+    finally:
+        hat.close()
