@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import sys
 from types import ModuleType
 from typing import List, Optional, Sequence, Tuple
@@ -128,6 +129,10 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     except TargetError as exc:
         _say(name, str(exc))
         return EXIT_TARGET
+    except BrokenPipeError:
+        # The reader went away (`... | head`): nothing is wrong, and nothing more can be said.
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 0
     except OSError as exc:
         if not exc.filename:
             raise                   # not a file the user named: a bug of ours, with its traceback

@@ -403,3 +403,15 @@ def test_a_busy_tcp_port_is_one_line(tmp_path):
         rc, out, err = _cli(["mock", TRANSCRIPT, "--tcp", f"127.0.0.1:{port}"], tmp_path)
     assert rc == 2 and _one_line(err) and err.startswith("buildhat-conformance mock: --tcp"), (rc, err)
     assert "Traceback" not in err and out == ""
+
+
+def test_a_reader_that_goes_away_is_no_error(tmp_path):
+    """`buildhat-conformance targets | head -1`: the pipe closes while the command still prints."""
+    proc = subprocess.Popen([sys.executable, "-m", "buildhat_conformance", "targets", "--all"], cwd=tmp_path,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    assert proc.stdout is not None and proc.stderr is not None
+    proc.stdout.read(1)
+    proc.stdout.close()                     # the reader goes away after one byte
+    err = proc.stderr.read().decode()
+    assert proc.wait(timeout=120) == 0, err
+    assert "Traceback" not in err, err
