@@ -6,10 +6,12 @@ file is compiled), run the suite against it in virtual time, and say per mutant 
   stops at its first failing case (``stopped``), which is all the verdict needs; with
   ``stop_at_first=False`` (``--all-cases``) every case runs and every failing one is listed;
 - ``killed-by-fault``: only target faults (a crash, silence): caught, but not as a clause;
-- ``survived``: every case passed although some byte the HAT sent differs from the original's
+- ``survived``: every case passed although what the HAT sent differs from the original's
   (the cases that saw a difference, and their requirement IDs, are listed);
-- ``likely-equivalent``: every case passed and no line the HAT sent differs from the original's
-  run of the same suite (the reference campaign): no host can tell, as far as the suite looks.
+- ``likely-equivalent``: every case passed and, case by case, the HAT sent the original's
+  answers and the original's asynchronous lines, each in the same order, as in the original's
+  run of the same suite (the reference campaign); only where an asynchronous line fell among
+  the answers may differ (sil/case_output.py): no host can tell, as far as the suite looks.
   Cases whose output differs between runs of the original (when a host line reaches the HAT is
   paced partly by the wall clock, and a motor's state carries that into later cases) are left
   out of that comparison: a second run beside the reference, and a control run of the original
@@ -22,9 +24,7 @@ deterministic in virtual time, so the original's run is the reference for every 
 """
 from __future__ import annotations
 
-import json
 import os
-import re
 import shutil
 import subprocess
 import sys
@@ -36,6 +36,7 @@ from pathlib import Path
 from typing import Callable, Dict, List, Optional, Sequence, Tuple
 
 from .build import Build, BuildError, build_tree
+from .case_output import case_lines, same_output
 from .mutants import Mutant
 
 __all__ = ["Outcome", "Campaign", "run_campaign", "STATUSES", "CONTROL_EVERY"]
@@ -150,55 +151,16 @@ def _verdicts(junit: Path) -> List[Tuple[str, str, List[str], str]]:
     return out
 
 
-_SYNC_TOKEN = re.compile(r"sync-[0-9a-f]+-\d+")
-
-
-def _hat_entries(path: str) -> List[Tuple[bool, str]]:
-    """(is a partial, text) of each entry of what the HAT sent in a case's transcript."""
-    out: List[Tuple[bool, str]] = []
-    try:
-        with open(path, encoding="utf-8") as fh:
-            for line in fh:
-                e = json.loads(line)
-                if e.get("dir") == "hat":
-                    partial = "partial" in e
-                    out.append((partial, str(e["partial"] if partial else e.get("line", e.get("bytes")))))
-    except OSError:
-        pass
-    return out
-
-
-def _case_lines(verdicts: List[Tuple[str, str, List[str], str]]) -> Dict[str, List[str]]:
-    """Each case's HAT lines, without times. The transcripts are read in run order as one
-    stream: a ``partial`` entry (the head of a line the reader saw before its end came) is
-    joined to what follows, and a line counts in the case where it began. Where the reads cut
-    the stream, and so which transcript a line's end lands in, depends on the wall clock, not
-    on what the HAT sent. The harness's own sync tokens (a fresh one each run) are blanked."""
-    out: Dict[str, List[str]] = {}
-    head, head_case = "", ""
-    for case, _verdict, _reqs, transcript in verdicts:
-        out[case] = []
-        for partial, text in _hat_entries(transcript):
-            if not head:
-                head_case = case
-            head += text
-            if not partial:
-                out[head_case].append(_SYNC_TOKEN.sub("sync-*", head))
-                head = ""
-    if head:
-        out[head_case].append(_SYNC_TOKEN.sub("sync-*", head))
-    return out
-
-
 def _differences(reference: Dict[str, Tuple[List[str], List[str]]],
                  verdicts: List[Tuple[str, str, List[str], str]]) -> List[Tuple[str, List[str]]]:
-    """The cases whose HAT output differs from the reference run's, with their requirement IDs
-    (only cases in ``reference``: those whose output the unmutated tree reproduces)."""
-    lines = _case_lines(verdicts)
+    """The cases whose HAT output differs from the reference run's (sil/case_output.py: an
+    asynchronous line that only fell elsewhere among the answers is no difference), with their
+    requirement IDs (only cases in ``reference``: those whose output the unmutated tree reproduces)."""
+    lines = case_lines(verdicts)
     out = []
     for case, _verdict, reqs, _transcript in verdicts:
         ref = reference.get(case)
-        if ref is not None and lines[case] != ref[1]:
+        if ref is not None and not same_output(ref[1], lines[case]):
             out.append((case, reqs))
     return out
 
@@ -263,7 +225,7 @@ def _control(program: str, folder: Path, keyword: Optional[str],
         shutil.rmtree(folder)
     folder.mkdir(parents=True)
     _code, junit = _suite(program, folder, keyword, False, order)
-    return _case_lines(_verdicts(junit))
+    return case_lines(_verdicts(junit))
 
 
 Progress = Callable[[Outcome, int, int], None]
@@ -303,8 +265,8 @@ def run_campaign(tree: str, mutants: Sequence[Mutant], work: Path, jobs: int = 2
     if code not in (0,) or bad:
         raise RuntimeError(f"the unmutated tree does not pass the suite (exit {code}; "
                            f"{len(bad)} case(s) not passing, first: {bad[:1]}): mutants cannot be judged")
-    ref_lines = _case_lines(ref)
-    runs = [_case_lines(_verdicts(again_folder / "junit.xml"))]
+    ref_lines = case_lines(ref)
+    runs = [case_lines(_verdicts(again_folder / "junit.xml"))]
     outcomes: List[Outcome] = []
     with ThreadPoolExecutor(max_workers=max(1, jobs)) as pool:
         futures = []
@@ -319,7 +281,9 @@ def run_campaign(tree: str, mutants: Sequence[Mutant], work: Path, jobs: int = 2
             outcomes.append(outcome)
             progress(outcome, i, len(futures))
         runs += [c.result() for c in controls]
-    unstable = sorted(c for c in ref_lines if any(run.get(c) != ref_lines[c] for run in runs))
+    # The same measure as a mutant's: a case is left out when the unmutated runs differ by it.
+    unstable = sorted(c for c in ref_lines
+                      if any(c not in run or not same_output(ref_lines[c], run[c]) for run in runs))
     (ref_folder / "unstable-cases.txt").write_text("".join(c + "\n" for c in unstable), encoding="utf-8")
     reference = {c: (r, ref_lines[c]) for c, _v, r, _t in ref if c not in unstable}
     for i, outcome in enumerate(outcomes, 1):

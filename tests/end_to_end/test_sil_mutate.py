@@ -21,7 +21,7 @@ def test_a_small_campaign_kills_the_planted_regression(tmp_path):
 
 
 def test_hat_output_compares_lines_however_the_reads_cut_them(tmp_path):
-    from buildhat_conformance.sil.mutate import _case_lines
+    from buildhat_conformance.sil.case_output import case_lines
 
     def transcript(name, events):
         path = tmp_path / name
@@ -29,7 +29,7 @@ def test_hat_output_compares_lines_however_the_reads_cut_them(tmp_path):
         return str(path)
 
     def run(*cases):
-        return _case_lines([(f"case{i}", "pass", [], transcript(f"{id(cases)}-{i}.jsonl", events))
+        return case_lines([(f"case{i}", "pass", [], transcript(f"{id(cases)}-{i}.jsonl", events))
                             for i, events in enumerate(cases)])
 
     whole = run([{"t": 1, "dir": "hat", "line": "    RAW: 00 SI: 01"},
