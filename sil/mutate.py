@@ -85,12 +85,18 @@ class Campaign:
         return len(self.outcomes) - sum(self.count(s) for s in ("likely-equivalent", "no-build", "no-boot"))
 
     @property
-    def score(self) -> float:
-        return 100.0 * self.count("killed") / self.judged if self.judged else float("nan")
+    def score(self) -> Optional[float]:
+        """Killed / judged in per cent; None when no mutant is left to judge (each one likely
+        equivalent, not built or not booted): then there is no score, neither 0 nor NaN."""
+        return 100.0 * self.count("killed") / self.judged if self.judged else None
+
+    def score_text(self) -> str:
+        score = self.score
+        return f"{score:.1f}%" if score is not None else "none"
 
     def summary_line(self) -> str:
         parts = ", ".join(f"{self.count(s)} {s}" for s in STATUSES if self.count(s))
-        return (f"mutation score {self.score:.1f}% ({self.count('killed')} killed by a failing case of "
+        return (f"mutation score {self.score_text()} ({self.count('killed')} killed by a failing case of "
                 f"{self.judged} not likely equivalent); {len(self.outcomes)} mutants: {parts}; "
                 f"{self.seconds:.0f} s" + (f"; {self.unstable_cases} case(s) left out of the comparison: "
                                            f"their output varies between {self.controls + 1} unmutated runs"
@@ -99,7 +105,8 @@ class Campaign:
                    else ""))
 
     def as_dict(self) -> dict:
-        return {"tree": self.tree, "score": round(self.score, 2), "judged": self.judged,
+        score = self.score
+        return {"tree": self.tree, "score": None if score is None else round(score, 2), "judged": self.judged,
                 "seconds": round(self.seconds, 1), "reference_cases": self.reference_cases,
                 "unstable_cases": self.unstable_cases, "stop_at_first": self.stop_at_first,
                 "counts": {s: self.count(s) for s in STATUSES},
