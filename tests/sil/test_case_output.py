@@ -15,8 +15,9 @@ REFERENCE = ["", "", VERSION, PID, PID, REPORT, PID]
 
 def _verdicts(tmp_path, name, lines):
     path = tmp_path / f"{name}.jsonl"
-    path.write_text(json.dumps({"dir": "meta", "case": name}) + "\n"
-                    + "".join(json.dumps({"t": i, "dir": "hat", "line": line}) + "\n" for i, line in enumerate(lines)))
+    entries = [{"dir": "meta", "case": name}]
+    entries += [{"t": i, "dir": "hat", "line": line} for i, line in enumerate(lines)]
+    path.write_text("".join(json.dumps(e) + "\n" for e in entries))
     return [("test_abbreviation::case[s]", "pass", ["SYN-ABBREV"], str(path))]
 
 

@@ -8,7 +8,8 @@ from buildhat_conformance.sil.mutation_report import write_reports
 
 
 def _campaign(*statuses):
-    outcomes = [Outcome(Mutant("main.c", 10 + i, 100 + i, "planted", "a", "b"), s) for i, s in enumerate(statuses)]
+    outcomes = [Outcome(Mutant("main.c", 10 + i, 100 + i, "planted", "a", "b"), status)
+                for i, status in enumerate(statuses)]
     return Campaign("/tree", outcomes, seconds=1.0, reference_cases=3)
 
 
