@@ -123,11 +123,24 @@ def _mutate(args: argparse.Namespace) -> int:
     if missing:
         raise UsageError(f"{missing[0]}: not a file of {tree}")
     chosen = sample(find_mutants(tree, files, kinds), args.count, args.seed)
+    texts: dict = {}
+
+    def changed(m) -> str:
+        """The mutant's file as it builds it: two mutants that make the same one would share a
+        build folder, which the first to finish removes under the other (--jobs 2)."""
+        if m.file not in texts:
+            texts[m.file] = (tree / m.file).read_text(encoding="utf-8", errors="replace")
+        return m.apply(texts[m.file])
+
     for spec in args.plant:
         parts = spec.split(":", 2)
         hand = planted(tree, *parts) if len(parts) == 3 else None
         if hand is None:
             raise UsageError(f"--plant {spec!r}: give FILE:OLD:NEW with OLD found in FILE")
+        twin = next((m for m in chosen if m.file == hand.file and changed(m) == changed(hand)), None)
+        if twin is not None:
+            raise UsageError(f"--plant {spec!r}: makes the same {hand.file} as {twin.describe()}, "
+                             "which already runs")
         chosen.append(hand)
     if not chosen:
         raise UsageError("no mutants to run (--count 0 and no --plant)")

@@ -9,6 +9,7 @@ tree: :meth:`Mutant.apply` returns the changed text of the file.
 """
 from __future__ import annotations
 
+import hashlib
 import random
 import re
 from dataclasses import dataclass
@@ -51,7 +52,14 @@ class Mutant:
 
     @property
     def ident(self) -> str:
-        return f"{Path(self.file).stem}-{self.line}-{self.kind}-{self.offset}"
+        """A name of its own (a campaign's folder for it): sampling draws one mutant per site and
+        kind, but two plants can change the same place differently, so a plant's name also
+        carries a digest of its change."""
+        site = f"{Path(self.file).stem}-{self.line}-{self.kind}-{self.offset}"
+        if self.kind != "planted":
+            return site
+        change = (self.original + "\0" + self.replacement).encode("utf-8")
+        return f"{site}-{hashlib.sha1(change).hexdigest()[:8]}"
 
     def apply(self, text: str) -> str:
         if text[self.offset:self.offset + len(self.original)] != self.original:

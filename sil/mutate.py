@@ -6,10 +6,12 @@ file is compiled), run the suite against it in virtual time, and say per mutant 
   stops at its first failing case (``stopped``), which is all the verdict needs; with
   ``stop_at_first=False`` (``--all-cases``) every case runs and every failing one is listed;
 - ``killed-by-fault``: only target faults (a crash, silence): caught, but not as a clause;
-- ``survived``: every case passed although some byte the HAT sent differs from the original's
+- ``survived``: every case passed although what the HAT sent differs from the original's
   (the cases that saw a difference, and their requirement IDs, are listed);
-- ``likely-equivalent``: every case passed and no line the HAT sent differs from the original's
-  run of the same suite (the reference campaign): no host can tell, as far as the suite looks.
+- ``likely-equivalent``: every case passed and, case by case, the HAT sent the original's
+  answers and the original's asynchronous lines, each in the same order, as in the original's
+  run of the same suite (the reference campaign); only where an asynchronous line fell among
+  the answers may differ (sil/case_output.py): no host can tell, as far as the suite looks.
   Cases whose output differs between runs of the original (when a host line reaches the HAT is
   paced partly by the wall clock, and a motor's state carries that into later cases) are left
   out of that comparison: a second run beside the reference, and a control run of the original
@@ -22,9 +24,7 @@ deterministic in virtual time, so the original's run is the reference for every 
 """
 from __future__ import annotations
 
-import json
 import os
-import re
 import shutil
 import subprocess
 import sys
@@ -36,6 +36,7 @@ from pathlib import Path
 from typing import Callable, Dict, List, Optional, Sequence, Tuple
 
 from .build import Build, BuildError, build_tree
+from .case_output import case_lines, same_output
 from .mutants import Mutant
 
 __all__ = ["Outcome", "Campaign", "run_campaign", "STATUSES", "CONTROL_EVERY"]
@@ -84,12 +85,18 @@ class Campaign:
         return len(self.outcomes) - sum(self.count(s) for s in ("likely-equivalent", "no-build", "no-boot"))
 
     @property
-    def score(self) -> float:
-        return 100.0 * self.count("killed") / self.judged if self.judged else float("nan")
+    def score(self) -> Optional[float]:
+        """Killed / judged in per cent; None when no mutant is left to judge (each one likely
+        equivalent, not built or not booted): then there is no score, neither 0 nor NaN."""
+        return 100.0 * self.count("killed") / self.judged if self.judged else None
+
+    def score_text(self) -> str:
+        score = self.score
+        return f"{score:.1f}%" if score is not None else "none"
 
     def summary_line(self) -> str:
         parts = ", ".join(f"{self.count(s)} {s}" for s in STATUSES if self.count(s))
-        return (f"mutation score {self.score:.1f}% ({self.count('killed')} killed by a failing case of "
+        return (f"mutation score {self.score_text()} ({self.count('killed')} killed by a failing case of "
                 f"{self.judged} not likely equivalent); {len(self.outcomes)} mutants: {parts}; "
                 f"{self.seconds:.0f} s" + (f"; {self.unstable_cases} case(s) left out of the comparison: "
                                            f"their output varies between {self.controls + 1} unmutated runs"
@@ -98,7 +105,8 @@ class Campaign:
                    else ""))
 
     def as_dict(self) -> dict:
-        return {"tree": self.tree, "score": round(self.score, 2), "judged": self.judged,
+        score = self.score
+        return {"tree": self.tree, "score": None if score is None else round(score, 2), "judged": self.judged,
                 "seconds": round(self.seconds, 1), "reference_cases": self.reference_cases,
                 "unstable_cases": self.unstable_cases, "stop_at_first": self.stop_at_first,
                 "counts": {s: self.count(s) for s in STATUSES},
@@ -150,55 +158,16 @@ def _verdicts(junit: Path) -> List[Tuple[str, str, List[str], str]]:
     return out
 
 
-_SYNC_TOKEN = re.compile(r"sync-[0-9a-f]+-\d+")
-
-
-def _hat_entries(path: str) -> List[Tuple[bool, str]]:
-    """(is a partial, text) of each entry of what the HAT sent in a case's transcript."""
-    out: List[Tuple[bool, str]] = []
-    try:
-        with open(path, encoding="utf-8") as fh:
-            for line in fh:
-                e = json.loads(line)
-                if e.get("dir") == "hat":
-                    partial = "partial" in e
-                    out.append((partial, str(e["partial"] if partial else e.get("line", e.get("bytes")))))
-    except OSError:
-        pass
-    return out
-
-
-def _case_lines(verdicts: List[Tuple[str, str, List[str], str]]) -> Dict[str, List[str]]:
-    """Each case's HAT lines, without times. The transcripts are read in run order as one
-    stream: a ``partial`` entry (the head of a line the reader saw before its end came) is
-    joined to what follows, and a line counts in the case where it began. Where the reads cut
-    the stream, and so which transcript a line's end lands in, depends on the wall clock, not
-    on what the HAT sent. The harness's own sync tokens (a fresh one each run) are blanked."""
-    out: Dict[str, List[str]] = {}
-    head, head_case = "", ""
-    for case, _verdict, _reqs, transcript in verdicts:
-        out[case] = []
-        for partial, text in _hat_entries(transcript):
-            if not head:
-                head_case = case
-            head += text
-            if not partial:
-                out[head_case].append(_SYNC_TOKEN.sub("sync-*", head))
-                head = ""
-    if head:
-        out[head_case].append(_SYNC_TOKEN.sub("sync-*", head))
-    return out
-
-
 def _differences(reference: Dict[str, Tuple[List[str], List[str]]],
                  verdicts: List[Tuple[str, str, List[str], str]]) -> List[Tuple[str, List[str]]]:
-    """The cases whose HAT output differs from the reference run's, with their requirement IDs
-    (only cases in ``reference``: those whose output the unmutated tree reproduces)."""
-    lines = _case_lines(verdicts)
+    """The cases whose HAT output differs from the reference run's (sil/case_output.py: an
+    asynchronous line that only fell elsewhere among the answers is no difference), with their
+    requirement IDs (only cases in ``reference``: those whose output the unmutated tree reproduces)."""
+    lines = case_lines(verdicts)
     out = []
     for case, _verdict, reqs, _transcript in verdicts:
         ref = reference.get(case)
-        if ref is not None and lines[case] != ref[1]:
+        if ref is not None and not same_output(ref[1], lines[case]):
             out.append((case, reqs))
     return out
 
@@ -263,7 +232,7 @@ def _control(program: str, folder: Path, keyword: Optional[str],
         shutil.rmtree(folder)
     folder.mkdir(parents=True)
     _code, junit = _suite(program, folder, keyword, False, order)
-    return _case_lines(_verdicts(junit))
+    return case_lines(_verdicts(junit))
 
 
 Progress = Callable[[Outcome, int, int], None]
@@ -303,8 +272,8 @@ def run_campaign(tree: str, mutants: Sequence[Mutant], work: Path, jobs: int = 2
     if code not in (0,) or bad:
         raise RuntimeError(f"the unmutated tree does not pass the suite (exit {code}; "
                            f"{len(bad)} case(s) not passing, first: {bad[:1]}): mutants cannot be judged")
-    ref_lines = _case_lines(ref)
-    runs = [_case_lines(_verdicts(again_folder / "junit.xml"))]
+    ref_lines = case_lines(ref)
+    runs = [case_lines(_verdicts(again_folder / "junit.xml"))]
     outcomes: List[Outcome] = []
     with ThreadPoolExecutor(max_workers=max(1, jobs)) as pool:
         futures = []
@@ -319,7 +288,9 @@ def run_campaign(tree: str, mutants: Sequence[Mutant], work: Path, jobs: int = 2
             outcomes.append(outcome)
             progress(outcome, i, len(futures))
         runs += [c.result() for c in controls]
-    unstable = sorted(c for c in ref_lines if any(run.get(c) != ref_lines[c] for run in runs))
+    # The same measure as a mutant's: a case is left out when the unmutated runs differ by it.
+    unstable = sorted(c for c in ref_lines
+                      if any(c not in run or not same_output(ref_lines[c], run[c]) for run in runs))
     (ref_folder / "unstable-cases.txt").write_text("".join(c + "\n" for c in unstable), encoding="utf-8")
     reference = {c: (r, ref_lines[c]) for c, _v, r, _t in ref if c not in unstable}
     for i, outcome in enumerate(outcomes, 1):

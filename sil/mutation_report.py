@@ -33,7 +33,7 @@ def write_reports(campaign: Campaign, folder: Path) -> Path:
                     f"<td>{who}</td><td>{html.escape(', '.join(o.requirements))}</td></tr>")
     counts = " &middot; ".join(f"{campaign.count(s)} {s}" for s in STATUSES)
     page = (f"<!doctype html><meta charset='utf-8'><title>Mutation campaign</title><style>{_CSS}</style>"
-            f"<h1>Mutation score {campaign.score:.1f}%</h1><p>{html.escape(campaign.tree)}: "
+            f"<h1>Mutation score {campaign.score_text()}</h1><p>{html.escape(campaign.tree)}: "
             f"{campaign.count('killed')} of {campaign.judged} mutants that are not likely equivalent were "
             f"killed by a failing case. {counts}. {campaign.seconds:.0f} s.</p>"
             "<p>A <b>survivor</b> changed what the HAT sent in the cases listed, yet every case passed: "

@@ -21,7 +21,7 @@ def test_a_small_campaign_kills_the_planted_regression(tmp_path):
 
 
 def test_hat_output_compares_lines_however_the_reads_cut_them(tmp_path):
-    from buildhat_conformance.sil.mutate import _case_lines
+    from buildhat_conformance.sil.case_output import case_lines
 
     def transcript(name, events):
         path = tmp_path / name
@@ -29,7 +29,7 @@ def test_hat_output_compares_lines_however_the_reads_cut_them(tmp_path):
         return str(path)
 
     def run(*cases):
-        return _case_lines([(f"case{i}", "pass", [], transcript(f"{id(cases)}-{i}.jsonl", events))
+        return case_lines([(f"case{i}", "pass", [], transcript(f"{id(cases)}-{i}.jsonl", events))
                             for i, events in enumerate(cases)])
 
     whole = run([{"t": 1, "dir": "hat", "line": "    RAW: 00 SI: 01"},
@@ -95,3 +95,15 @@ def test_a_build_hat_breaking_a_clause_at_open_is_killed_not_refused(tmp_path):
     assert flood["status"] == "killed" and "power_fault" in flood["cases"][0], flood
     silent = [m for k, m in mutants.items() if k not in ("control.c:123", "main.c:136")]
     assert [m["status"] for m in silent] == ["no-boot"], silent
+
+
+def test_a_plant_that_makes_the_same_file_as_another_mutant_is_refused(tmp_path):
+    """Two mutants that make the same file share a build folder, which the first to finish removes
+    under the other: one line, exit 2, before anything is built."""
+    plant = 'command.c:ostrnl(" V"):ostrnl(" v")'
+    for second in (plant, 'command.c:" V":" v"'):
+        done = cli("sil", "mutate", str(firmware_tree()), "--count", "0", "--plant", plant, "--plant", second,
+                   "-o", str(tmp_path / "mut"), cache=tmp_path / "cache")
+        assert done.returncode == 2 and done.stdout == "", done.stdout + done.stderr
+        assert len(done.stderr.strip().splitlines()) == 1 and "makes the same command.c as" in done.stderr
+    assert not (tmp_path / "mut").exists() and not (tmp_path / "cache").exists()

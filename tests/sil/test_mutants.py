@@ -52,3 +52,16 @@ def test_a_planted_mutant(tmp_path):
     (tmp_path / "c.c").write_text(SOURCE)
     m = planted(tmp_path, "c.c", "v * 2", "v * 3")
     assert m is not None and m.apply(SOURCE).count("v * 3") == 1 and m.line == 8
+
+
+def test_two_plants_at_one_place_have_names_of_their_own(tmp_path):
+    """A campaign keeps each mutant's run in a folder named by its ident: two plants that change
+    one place differently ran in the same folder under --jobs 2, and one removed the other's."""
+    (tmp_path / "c.c").write_text(SOURCE)
+    a, b = planted(tmp_path, "c.c", "v * 2", "v / 2"), planted(tmp_path, "c.c", "v * 2", "v * 3")
+    assert a is not None and b is not None and (a.offset, a.line) == (b.offset, b.line)
+    assert a.ident != b.ident and a.ident.startswith("c-8-planted-")
+    again = planted(tmp_path, "c.c", "v * 2", "v / 2")
+    assert again is not None and again.ident == a.ident                 # the name is the change's
+    sampled = next(m for m in find_mutants(tmp_path, ["c.c"]) if m.kind == "arithmetic" and m.original == "*")
+    assert sampled.ident == f"c-{sampled.line}-arithmetic-{sampled.offset}"

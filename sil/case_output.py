@@ -1,0 +1,84 @@
+"""What the HAT sent in each case of a `sil mutate` run, and when two runs' output of a case
+count as the same (sil/mutate.py judges survivors and equivalent mutants with it).
+
+A case's output is its whole lines, read from the transcripts in run order as one stream (where
+the host's reads cut the stream depends on the wall clock, not on the HAT). Two runs' output of a
+case is the same when the answers (every line that is not asynchronous) are equal in order, and
+the asynchronous lines are equal in order as a sequence of their own: only where an asynchronous
+line falls among the answers may differ. No clause fixes that place (an unasked line may come
+between any two lines, docs/FIRMWARE-BEHAVIOUR.md#fb-async), and a mutant that only makes the
+firmware a few blocks faster or slower moves it (sil/README.md, "How time works"). One more or one
+fewer asynchronous line, or a changed one, is still a difference: a changed report rate shows as
+exactly that.
+"""
+from __future__ import annotations
+
+import json
+import re
+from typing import Dict, List, Sequence, Tuple
+
+from ..harness.events import UNASKED_KINDS, classify
+
+__all__ = ["case_lines", "same_output", "split_asynchronous", "MOVABLE_KINDS"]
+
+#: The lines whose place among the answers is not compared: the classifier's unasked kinds, but
+#: not a passive device's connect line, which is also a line of `list`'s answer (fb-list): there
+#: its place is part of the answer, and a list that printed it elsewhere must not pass as the same.
+MOVABLE_KINDS = UNASKED_KINDS - {"connected_passive"}
+
+_SYNC_TOKEN = re.compile(r"sync-[0-9a-f]+-\d+")
+
+#: (case, verdict, requirement IDs, transcript path), as sil/mutate.py reads them from a JUnit file.
+Verdict = Tuple[str, str, List[str], str]
+
+
+def _hat_entries(path: str) -> List[Tuple[bool, str]]:
+    """(is a partial, text) of each entry of what the HAT sent in a case's transcript."""
+    out: List[Tuple[bool, str]] = []
+    try:
+        with open(path, encoding="utf-8") as fh:
+            for line in fh:
+                e = json.loads(line)
+                if e.get("dir") == "hat":
+                    partial = "partial" in e
+                    out.append((partial, str(e["partial"] if partial else e.get("line", e.get("bytes")))))
+    except OSError:
+        pass
+    return out
+
+
+def case_lines(verdicts: Sequence[Verdict]) -> Dict[str, List[str]]:
+    """Each case's HAT lines, without times. The transcripts are read in run order as one
+    stream: a ``partial`` entry (the head of a line the reader saw before its end came) is
+    joined to what follows, and a line counts in the case where it began. Where the reads cut
+    the stream, and so which transcript a line's end lands in, depends on the wall clock, not
+    on what the HAT sent. The harness's own sync tokens (a fresh one each run) are blanked."""
+    out: Dict[str, List[str]] = {}
+    head, head_case = "", ""
+    for case, _verdict, _reqs, transcript in verdicts:
+        out[case] = []
+        for partial, text in _hat_entries(transcript):
+            if not head:
+                head_case = case
+            head += text
+            if not partial:
+                out[head_case].append(_SYNC_TOKEN.sub("sync-*", head))
+                head = ""
+    if head:
+        out[head_case].append(_SYNC_TOKEN.sub("sync-*", head))
+    return out
+
+
+def split_asynchronous(lines: Sequence[str]) -> Tuple[List[str], List[str]]:
+    """(answers, asynchronous lines), each in the order the HAT sent them."""
+    answers: List[str] = []
+    unasked: List[str] = []
+    for line in lines:
+        (unasked if classify(line).kind in MOVABLE_KINDS else answers).append(line)
+    return answers, unasked
+
+
+def same_output(reference: Sequence[str], other: Sequence[str]) -> bool:
+    """One case's lines in two runs: the same answers in order and the same asynchronous lines
+    in order; only how the two interleave may differ."""
+    return list(reference) == list(other) or split_asynchronous(reference) == split_asynchronous(other)

@@ -1,0 +1,50 @@
+"""sil/case_output.py and the judgement of sil/mutate.py that uses it: an asynchronous line that
+only fell elsewhere among the answers is no difference; one more, one fewer or a changed one is,
+and so are answers in another order. The transcripts are written here, in the transcript format."""
+import json
+
+from buildhat_conformance.sil.case_output import case_lines, same_output, split_asynchronous
+from buildhat_conformance.sil.mutate import _differences
+
+VERSION = "Firmware version: 1737564117 2025-01-22T16:41:57+00:00"
+PID = "P0: pv=0.00000 sp=0.250000: e=-0.250000 ie=-0.00000 de=25.0000 cv=-0.00000"
+REPORT = "P0M3: +49"
+# What a case like test_ambiguous_prefix_resolves_by_table_order[s] reads after `s 0.25 ; version`.
+REFERENCE = ["", "", VERSION, PID, PID, REPORT, PID]
+
+
+def _verdicts(tmp_path, name, lines):
+    path = tmp_path / f"{name}.jsonl"
+    entries = [{"dir": "meta", "case": name}]
+    entries += [{"t": i, "dir": "hat", "line": line} for i, line in enumerate(lines)]
+    path.write_text("".join(json.dumps(e) + "\n" for e in entries))
+    return [("test_abbreviation::case[s]", "pass", ["SYN-ABBREV"], str(path))]
+
+
+def _differs(tmp_path, lines):
+    reference = case_lines(_verdicts(tmp_path, "reference", REFERENCE))
+    judged = {c: (["SYN-ABBREV"], got) for c, got in reference.items()}
+    return _differences(judged, _verdicts(tmp_path, "mutant", lines))
+
+
+def test_an_asynchronous_line_moved_across_an_answer_is_no_difference(tmp_path):
+    moved = ["", PID, "", VERSION, PID, REPORT, PID]            # a PID line before the fence's answer
+    assert _differs(tmp_path, moved) == []
+    assert same_output(REFERENCE, moved) and REFERENCE != moved
+    assert split_asynchronous(moved) == (["", "", VERSION], [PID, PID, REPORT, PID])
+
+
+def test_one_more_or_a_changed_asynchronous_line_is_a_difference(tmp_path):
+    one_more = ["", REPORT, "", VERSION, PID, PID, REPORT, PID]        # what the five survivors showed
+    changed = ["", "", VERSION, PID, PID, "P0M3: +50", PID]
+    one_fewer = ["", "", VERSION, PID, REPORT, PID]
+    reordered = ["", "", VERSION, PID, REPORT, PID, PID]            # the report one PID line earlier
+    for lines in (one_more, changed, one_fewer, reordered):
+        assert _differs(tmp_path, lines) == [("test_abbreviation::case[s]", ["SYN-ABBREV"])], lines
+
+
+def test_answers_in_another_order_are_a_difference(tmp_path):
+    assert _differs(tmp_path, ["", VERSION, "", PID, PID, REPORT, PID]) != []
+    # A passive device's connect line is also a line of `list`'s answer: its place counts.
+    listing = ["P0: connected to passive ID 8", "P1: no device detected", ""]
+    assert not same_output(listing, ["P1: no device detected", "P0: connected to passive ID 8", ""])
