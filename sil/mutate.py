@@ -39,12 +39,17 @@ from .build import Build, BuildError, build_tree
 from .case_output import case_lines, same_output
 from .mutants import Mutant
 
-__all__ = ["Outcome", "Campaign", "run_campaign", "STATUSES", "CONTROL_EVERY"]
+__all__ = ["Outcome", "Campaign", "run_campaign", "STATUSES", "CONTROL_EVERY", "PHASE_CONTROLS_NS"]
 
 STATUSES = ("killed", "killed-by-fault", "survived", "likely-equivalent", "no-build", "no-boot")
 #: One run of the unmutated tree among every this many mutants: the output that varies between
 #: runs under the campaign's own load is learnt from these controls, not from its start alone.
 CONTROL_EVERY = 30
+#: Phase controls: runs of the unmutated tree whose chip starts this many ns later after power-on
+#: (the stand-in's BUILDHAT_SIL_START_NS). A mutant adds or removes a few blocks (ns to us) and so
+#: moves later instants against the world's; a case whose output moves with such a phase cannot
+#: tell that mutant from the unmutated firmware on a chip that started a little later.
+PHASE_CONTROLS_NS = (3_000, 250_000)
 
 
 @dataclass
@@ -100,6 +105,7 @@ class Campaign:
                 f"{self.judged} not likely equivalent); {len(self.outcomes)} mutants: {parts}; "
                 f"{self.seconds:.0f} s" + (f"; {self.unstable_cases} case(s) left out of the comparison: "
                                            f"their output varies between {self.controls + 1} unmutated runs"
+                                           f" ({_phases()})"
                                            if self.unstable_cases else "")
                 + ("; each killed mutant's run stopped at its first failing case" if self.stop_at_first
                    else ""))
@@ -116,6 +122,11 @@ class Campaign:
                             for o in self.outcomes]}
 
 
+def _phases() -> str:
+    shifts = " and ".join(f"{ns / 1000:g} us" for ns in PHASE_CONTROLS_NS)
+    return f"{len(PHASE_CONTROLS_NS)} of them on a chip started {shifts} later"
+
+
 def _command() -> List[str]:
     exe = os.path.join(os.path.dirname(sys.executable), "buildhat-conformance")
     return [exe] if os.path.exists(exe) else [sys.executable, "-m", "buildhat_conformance.cli"]
@@ -130,7 +141,7 @@ def _copy_tree(tree: Path, dest: Path) -> Path:
 
 
 def _suite(program: str, folder: Path, keyword: Optional[str], stop_at_first: bool,
-           order: Optional[Path] = None) -> Tuple[int, Path]:
+           order: Optional[Path] = None, start_ns: int = 0) -> Tuple[int, Path]:
     junit = folder / "junit.xml"
     argv = _command() + ["run", "--target", f"sil:{program}", "--junit", str(junit),
                          "--transcripts", str(folder / "transcripts"), "--max-target-faults", "3"]
@@ -140,7 +151,8 @@ def _suite(program: str, folder: Path, keyword: Optional[str], stop_at_first: bo
     argv += ["--", "-p", "buildhat_conformance.sil.mutant_run"]
     argv += ["--stop-at-fail"] if stop_at_first else []
     argv += ["--case-order", str(order)] if order else []
-    done = subprocess.run(argv, capture_output=True, text=True, timeout=1800)
+    env = dict(os.environ, BUILDHAT_SIL_START_NS=str(start_ns)) if start_ns else None
+    done = subprocess.run(argv, capture_output=True, text=True, timeout=1800, env=env)
     (folder / "run.log").write_text(done.stdout + done.stderr, encoding="utf-8")
     return done.returncode, junit
 
@@ -226,12 +238,13 @@ def _judge(out: Outcome, reference: Dict[str, Tuple[List[str], List[str]]]) -> N
 
 
 def _control(program: str, folder: Path, keyword: Optional[str],
-             order: Optional[Path]) -> Dict[str, List[str]]:
-    """One run of the unmutated tree among the mutants: each case's HAT lines."""
+             order: Optional[Path], start_ns: int = 0) -> Dict[str, List[str]]:
+    """One run of the unmutated tree among the mutants (``start_ns``: a phase control): each
+    case's HAT lines."""
     if folder.exists():
         shutil.rmtree(folder)
     folder.mkdir(parents=True)
-    _code, junit = _suite(program, folder, keyword, False, order)
+    _code, junit = _suite(program, folder, keyword, False, order, start_ns)
     return case_lines(_verdicts(junit))
 
 
@@ -265,6 +278,8 @@ def run_campaign(tree: str, mutants: Sequence[Mutant], work: Path, jobs: int = 2
     with ThreadPoolExecutor(max_workers=2 if jobs > 1 else 1) as pool:
         first = pool.submit(_suite, str(base.program), ref_folder, keyword, False, order)
         second = pool.submit(_suite, str(base.program), again_folder, keyword, False, order)
+        phases = [pool.submit(_control, str(base.program), work / "controls" / f"phase-{ns}ns", keyword,
+                              order, ns) for ns in PHASE_CONTROLS_NS]
         code, junit = first.result()
         second.result()
     ref = _verdicts(junit)
@@ -273,7 +288,7 @@ def run_campaign(tree: str, mutants: Sequence[Mutant], work: Path, jobs: int = 2
         raise RuntimeError(f"the unmutated tree does not pass the suite (exit {code}; "
                            f"{len(bad)} case(s) not passing, first: {bad[:1]}): mutants cannot be judged")
     ref_lines = case_lines(ref)
-    runs = [case_lines(_verdicts(again_folder / "junit.xml"))]
+    runs = [case_lines(_verdicts(again_folder / "junit.xml"))] + [p.result() for p in phases]
     outcomes: List[Outcome] = []
     with ThreadPoolExecutor(max_workers=max(1, jobs)) as pool:
         futures = []

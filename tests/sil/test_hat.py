@@ -169,3 +169,23 @@ def test_settle_waits_at_least_for_the_input_and_at_most_the_bound():
         assert hat.settle(5, 300) == 300
     finally:
         hat.close()
+
+
+def test_a_chip_started_later_prints_later_by_as_much():
+    """BUILDHAT_SIL_START_NS (sil mutate's phase controls): the program starts that many ns after
+    power-on, so its first output comes that much later on the world's clock."""
+    import os
+
+    from sil_support import firmware_tree
+
+    from buildhat_conformance.sil.process import FirmwareProcess
+    program = str(build_tree(str(firmware_tree())).program)
+    firsts = []
+    for start_ns in (0, 250_000):
+        proc = FirmwareProcess(program, env=dict(os.environ, BUILDHAT_SIL_START_NS=str(start_ns)))
+        try:
+            frames = proc.run(50_000_000)                     # 50 ms: the banner is out
+            firsts.append(next(f.t for f in frames if f.kind == "h"))
+        finally:
+            proc.quit()
+    assert firsts[1] - firsts[0] == 250_000, firsts

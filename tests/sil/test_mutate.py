@@ -32,3 +32,19 @@ def test_the_score_counts_killed_of_judged():
     assert campaign.judged == 4 and campaign.score == 50.0
     assert campaign.summary_line().startswith("mutation score 50.0% (2 killed by a failing case of 4 ")
     assert campaign.as_dict()["score"] == 50.0
+
+
+def test_a_phase_control_runs_the_suite_on_a_chip_started_later(tmp_path, monkeypatch):
+    from buildhat_conformance.sil import mutate
+    seen = []
+
+    class Done:
+        returncode, stdout, stderr = 0, "", ""
+
+    def fake_run(argv, **kw):
+        seen.append((kw.get("env") or {}).get("BUILDHAT_SIL_START_NS"))
+        return Done()
+    monkeypatch.setattr(mutate.subprocess, "run", fake_run)
+    mutate._control("/prog", tmp_path / "c0", None, None)
+    mutate._control("/prog", tmp_path / "c1", None, None, mutate.PHASE_CONTROLS_NS[0])
+    assert seen == [None, str(mutate.PHASE_CONTROLS_NS[0])]
