@@ -2,10 +2,10 @@
 
 The sil finding (`--against emulator --seed 5 --jobs 2`, 20 s): the firmware dropped the motor after
 500 ms without data and set it up again at 2400 baud; meanwhile a step sent the motor frames (`write2`,
-`selonce`, `pid`...), each waiting for the last to cross the 2400-baud wire, so that main-loop pass took
+`selonce`...), each waiting for the last to cross the 2400-baud wire, so that main-loop pass took
 301 ms (`deltat=0000012D`) and the port's 4-slot message queue overran (`MQ overrun!`). From then on,
 in that run and the next runs on the kept-open target, the firmware listed the motor without its mode 4
-and with mode 5's name only; the emulator listed all of it.
+and mode 5 without its SI range, symbol and format; the emulator listed all of it.
 """
 from __future__ import annotations
 
