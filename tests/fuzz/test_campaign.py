@@ -200,7 +200,7 @@ def test_kept_targets_that_took_a_set_up_in_part_are_started_anew():
             self.closed = True
 
     campaign = Campaign.__new__(Campaign)
-    campaign.keepers = [_Keeper(_Target, True), _Keeper(_Target, True)]
+    campaign.keepers = [_Keeper(_Target, True), _Keeper(_Target, True)]   # type: ignore[arg-type]
     campaign.against = (campaign.keepers[1], get_profile("R7"))
     first, second = campaign.keepers[0](), campaign.keepers[1]()
     for k in campaign.keepers:
