@@ -1,16 +1,17 @@
 """Ports whose set-up a HAT took only in part: their `list` block is not compared until they set up again.
 
 A HAT keeps each port's messages from its device in a 4-slot queue that the main loop empties; a
-message completed while the queue is full is dropped, and the interrupt prints ``MQ overrun!`` (without
-a port: FIRMWARE-FACTS §5 item 6). During a set-up (2400 baud on the firmware in the loop) a main-loop
-pass may be long: a frame to a device waits for the previous one to finish (§8), so a step that sends a
-setting-up device several frames (`write1`, `select`...) keeps the loop in one pass while they cross
-the wire, at 2400 baud ~4 ms a byte (a sil finding: `deltat=0000012D`, 301 ms, with ``MQ overrun!``
-lines). The messages dropped then are missing from what that HAT knows of the device (a mode without
-its name, format or ranges in `list`) until the device sets up again. Which ones are dropped depends
-on each side's timing (the set-up baud itself is a model difference on purpose: docs/EMULATOR-MODELS.md),
-so the differential oracle does not compare the `list` block of such a port from the overrun to the
-port's next ``connecting`` line (from there :mod:`.reconnecting` covers the new set-up).
+message completed while the queue is full is dropped, and the interrupt prints ``MQ overrun!``
+(without a port: docs/FIRMWARE-BEHAVIOUR.md#fb-active, item 6). During a set-up (2400 baud on the
+firmware in the loop) a main-loop pass may be long: a frame to a device waits for the previous one
+to finish (#fb-framing), so a step that sends a setting-up device several frames (`write1`,
+`select`...) keeps the loop in one pass while they cross the wire, ~4 ms a byte (a sil finding:
+`deltat=0000012D`, 301 ms, with ``MQ overrun!`` lines). The messages dropped then are missing from
+what that HAT knows of the device (a mode without its name, format or ranges in `list`) until the
+device sets up again. Which ones are dropped depends on each side's timing (the set-up baud itself
+is a model difference on purpose: docs/EMULATOR-MODELS.md), so the differential oracle does not
+compare the `list` block of such a port from the overrun to the port's next ``connecting`` line
+(from there :mod:`.reconnecting` covers the new set-up).
 
 The loss outlives a run on a target kept open from run to run (its next runs list the same damaged
 block), so it is kept per target (:func:`for_target`), for as long as that target object lives.
