@@ -34,6 +34,7 @@ from .oracles import Finding
 from .reduce import reduce_finding
 from .replay import replay_script
 from .runner import Runner, Stats
+from .setup_loss import for_target
 from .stepplan import output_groups
 
 __all__ = ["Budget", "parse_budget", "CampaignConfig", "CampaignResult", "Confirmed", "run_campaign",
@@ -233,8 +234,16 @@ class Campaign:
                     c.stats.on_progress(c.stats)
             for k in self.keepers:
                 k.clean = True
+            if c.keep_open and c.fresh and self._set_up_in_part():
+                # A HAT that took a device's set-up only in part lists it so until the device sets up
+                # again, and that port is not compared meanwhile (setup_loss.py): new HATs compare it.
+                self.discard_targets()
         finally:
             runner.close()
+
+    def _set_up_in_part(self) -> bool:
+        return self.against is not None and any(
+            k.target is not None and for_target(k.target).ports() for k in self.keepers)
 
     def _count(self, batch) -> None:  # type: ignore[no-untyped-def]
         stats = self.config.stats
@@ -246,6 +255,7 @@ class Campaign:
     def discard_targets(self) -> None:
         for k in self.keepers:
             k.discard()
+            k.clean = False           # the next run drains and syncs the new targets
 
     def after_failure(self, finding: Finding) -> None:
         """A target that stopped answering is restarted; after any other failure it answered,

@@ -5,7 +5,7 @@ replay of a finding's script (fuzz/replay.py), so a replay judges exactly as the
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Callable, Dict, List, Optional, Sequence, Set, Tuple, Union
+from typing import Callable, Dict, FrozenSet, List, Optional, Sequence, Set, Tuple, Union
 
 from ..harness.events import line_kind
 from ..harness.targets.base import Target, TargetError
@@ -18,6 +18,7 @@ from .lossymatch import match_lossy
 from .model import HatModel
 from .oracles import raise_finding
 from .reconnecting import Reconnecting
+from .setup_loss import for_target
 from .statecheck import check_drive, expect_reports, follow_links, observe
 from .stepplan import plan_step
 from .stream import Problem, allowed_kinds, match_stream, without_torn
@@ -50,6 +51,7 @@ class Stats:
     ring_lossy: int = 0           # steps that lost output to a full TX ring, as the facts allow
     matrix_apart: int = 0         # runs whose sides parted on a light matrix (differential.parted_matrix)
     reconnect_apart: int = 0      # steps that left out a port one side was setting up again (reconnecting.py)
+    setup_loss_apart: int = 0     # steps that left out a port a side set up only in part (setup_loss.py)
     on_progress: Optional[Callable[[Stats], None]] = None
     on_note: Optional[Callable[[str], None]] = None     # what the campaign is doing besides fuzzing
 
@@ -157,14 +159,16 @@ class Runner:
         is still on its way ends up in the prelude's answer."""
         for side in self.sides:
             try:
+                drained = b""
                 if not self.settled:
-                    side.link.drain()
+                    drained = side.link.drain()
                     side.link.sync(side.fence_line)
-                side.link.exchange(prelude, side.fence_line, 1)
+                out = drained + side.link.exchange(prelude, side.fence_line, 1)
             except LinkTimeout as exc:
                 # Not a finding: no fuzzed input was sent yet (the campaign counts these apart).
                 self.fail("liveness", f"{side.label}: no answer after the prelude: {exc}",
                           {"step": prelude, "received": exc.received, "prelude": True})
+            self._track(side, out)      # (what an earlier run's set-up printed may arrive here)
             side.model.feed(prelude)
             side.model.feed(FENCE)
             if not self.fresh:
@@ -353,10 +357,12 @@ class Runner:
 
     def _track(self, side: Side, out: bytes) -> None:
         """Differential mode: the connection lines a side printed (reconnecting.py)."""
-        # (every connection line has "connect", "established" or "disconnect" in it: an answer
-        # without any is not split into lines at all)
-        if len(self.sides) == 2 and (b"connect" in out or b"established" in out):
-            self._reconnecting.feed(self.sides.index(side), synchronous_part(out)[1], side.link.now)
+        # (every line either tracker reads has "connect", "established" or "MQ overrun" in it;
+        # an answer with none of them is not split into lines at all)
+        if len(self.sides) == 2 and (b"connect" in out or b"established" in out or b"MQ overrun" in out):
+            events = synchronous_part(out)[1]
+            self._reconnecting.feed(self.sides.index(side), events, side.link.now)
+            for_target(side.link.target).feed(events)
 
     def _differential(self, datas: Sequence[bytes], answers: List[bytes]) -> None:
         a_side, b_side = self.sides
@@ -365,23 +371,38 @@ class Runner:
         # The fence's own answer names each release: compare up to it.
         a_cut = a[:a.rfind(a_side.fence_line)] if a_side.fence_line in a else a
         b_cut = b[:b.rfind(b_side.fence_line)] if b_side.fence_line in b else b
-        diff = first_difference(a_cut, b_cut, frozenset(self._apart))
-        while diff is not None and parted_matrix(diff[1], diff[2]) is not None:
-            # A light matrix gone on one side only: a timing boundary (differential.parted_matrix);
-            # its port's `list` block is not compared for the rest of the run.
-            self._apart.add(int(parted_matrix(diff[1], diff[2]) or 0))
-            self.stats.matrix_apart += 1
-            diff = first_difference(a_cut, b_cut, frozenset(self._apart))
+        diff = self._first_difference(a_cut, b_cut, frozenset())
+        settling: FrozenSet[int] = frozenset()
         if diff is not None:
             # A port one side is setting up again lists as its clock has it: timing (reconnecting.py).
             settling = self._reconnecting.ports([side.link.now for side in self.sides])
             if settling - self._apart:
-                diff = first_difference(a_cut, b_cut, frozenset(self._apart | settling))
+                diff = self._first_difference(a_cut, b_cut, settling)
                 self.stats.reconnect_apart += diff is None
+        if diff is not None:
+            # A port whose set-up lost messages to a side's full queue (`MQ overrun!`) lists what that
+            # side received, until it sets up again: timing (setup_loss.py).
+            partial = frozenset().union(*(for_target(side.link.target).ports() for side in self.sides))
+            if partial - self._apart - settling:
+                diff = self._first_difference(a_cut, b_cut, settling | partial)
+                self.stats.setup_loss_apart += diff is None
         if diff is not None:
             step = b"".join(datas) + FENCE
             message, more = differential_message((a_side.label, b_side.label), step, *diff)
             self.fail("differential", message, dict(more, step=step, received=a, received_other=b))
+
+    def _first_difference(self, a: bytes, b: bytes, also: FrozenSet[int]
+                          ) -> Optional[Tuple[int, Optional[bytes], Optional[bytes]]]:
+        """The first difference, leaving out the ports in ``also`` and those whose light matrix one
+        side has lost: a timing boundary (differential.parted_matrix), whose port's `list` block is
+        not compared for the rest of the run (found here, whichever port's difference came first)."""
+        while True:
+            diff = first_difference(a, b, frozenset(self._apart | also))
+            port = None if diff is None else parted_matrix(diff[1], diff[2])
+            if port is None or port in self._apart:
+                return diff
+            self._apart.add(port)
+            self.stats.matrix_apart += 1
 
     def fail(self, oracle: str, message: str, details: dict) -> None:
         traces = [s.link.trace.copy() for s in self.sides]

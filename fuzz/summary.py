@@ -146,6 +146,10 @@ def print_summary(result: CampaignResult, stats: Stats, productions, files: Dict
         print(f"  {stats.reconnect_apart} step(s) listed a port one side was still setting up again (set-up "
               "times are a model difference, and each side's clock has its own instants): that port's "
               "`list` block not compared in them")
+    if stats.setup_loss_apart:
+        print(f"  {stats.setup_loss_apart} step(s) listed a port whose set-up one side took only in part "
+              "(`MQ overrun!` while it set up: the messages lost depend on each side's timing): that port's "
+              "`list` block not compared until it sets up again")
     if stats.left_out and out_limit is not None:
         print(f"  {stats.left_out} input(s) not sent: the answer of each alone is over {out_limit} bytes, "
               f"more than the TX ring keeps on this wire")

@@ -37,6 +37,7 @@ Firmware -> world (lower case):
 | ``f`` | port | now | - | the driver's fault latch was cleared |
 | ``o`` | - | now | on (u8) | port power switched |
 | ``l`` | - | now | bits (u8) | the two status LEDs |
+| ``r`` | port | arrival | the byte (u8) | a byte from the port's device was lost: the PIO RX FIFO was full |
 """
 from __future__ import annotations
 

@@ -288,7 +288,9 @@ void periph_port_cut(int port, uint64_t t) {
 }
 
 /* A byte from a device reaches the port's receiving state machine; a baud rate more than
- * 5 % off what it listens at gives no byte (a real UART would see framing errors). */
+ * 5 % off what it listens at gives no byte (a real UART would see framing errors). A fifth
+ * byte before the firmware has read any is lost, as on the chip, which says nothing; here the
+ * world is told ('r'), so a device message the firmware never saw is not a mystery. */
 static void port_byte_arrives(int port, uint8_t b, uint32_t baud) {
     for (int pi = 0; pi < 2; pi++) {
         for (int s = 0; s < 4; s++) {
@@ -298,6 +300,7 @@ static void port_byte_arrives(int port, uint8_t b, uint32_t baud) {
             uint32_t diff = want > baud ? want - baud : baud - want;
             if (diff * 20 > want) return;
             if (m->rxn < 4) m->rxf[m->rxn++] = (uint32_t)b << 24;   /* shifted in from the right */
+            else link_emit('r', (uint8_t)port, sil_now, &b, 1);
             sil_touch();
             return;
         }

@@ -184,3 +184,31 @@ def test_a_combi_set_while_a_device_connects_may_outlive_the_setup():
         runner.wait(400)
     finally:
         runner.close()
+
+
+def test_kept_targets_that_took_a_set_up_in_part_are_started_anew():
+    """fuzz/setup_loss.py: such a port is not compared until its device sets up again, which on a kept
+    HAT may be never (a sil campaign left 444 steps' port 0 uncompared); new HATs compare it again."""
+    from buildhat_conformance.fuzz.campaign import Campaign, _Keeper
+    from buildhat_conformance.fuzz.setup_loss import for_target
+    from buildhat_conformance.harness.events import classify
+
+    class _Target:
+        closed = False
+
+        def close(self) -> None:
+            self.closed = True
+
+    campaign = Campaign.__new__(Campaign)
+    campaign.keepers = [_Keeper(_Target, True), _Keeper(_Target, True)]   # type: ignore[arg-type]
+    campaign.against = (campaign.keepers[1], get_profile("R7"))
+    first, second = campaign.keepers[0](), campaign.keepers[1]()
+    for k in campaign.keepers:
+        k.clean = True
+    assert not campaign._set_up_in_part()
+    for_target(second).feed([classify(b"P2: connecting to active device"), classify(b"MQ overrun!")])
+    assert campaign._set_up_in_part()
+    campaign.discard_targets()
+    assert first.closed and second.closed           # type: ignore[attr-defined]
+    assert all(k.target is None and not k.clean for k in campaign.keepers)
+    assert not campaign._set_up_in_part()

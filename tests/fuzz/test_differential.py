@@ -107,7 +107,8 @@ def test_a_light_matrix_gone_on_one_side_only_is_a_timing_boundary():
 
 def _runner_comparing(a: bytes, b: bytes) -> Runner:
     runner = Runner.__new__(Runner)
-    sides = [SimpleNamespace(fence_line=b"Firmware version: x", label=label, link=SimpleNamespace(now=0.0))
+    sides = [SimpleNamespace(fence_line=b"Firmware version: x", label=label,
+                             link=SimpleNamespace(now=0.0, target=SimpleNamespace()))
              for label in ("target", "against")]
     runner.sides, runner.stats, runner._apart = sides, Stats(), set()   # type: ignore[assignment]
     runner._reconnecting = Reconnecting(2)

@@ -86,3 +86,57 @@ def test_a_passive_port_s_drive_changes_reach_the_world_at_their_times_without_a
     assert batched == stopped
     assert out_batched == out_stopped
     assert trips_batched < trips_stopped / 3, (trips_batched, trips_stopped)
+
+
+# A program of the test's own (not a Build HAT firmware): port 0's PIO receiver listens at 2400
+# baud and is never read, so its 4-word FIFO fills and the device's later bytes are lost.
+RX_PIO = """
+.program uart_rx
+    wait 0 pin 0
+    in pins, 1
+    push
+"""
+
+NEVER_READ = r"""
+#include "pico/stdlib.h"
+#include "hardware/pio.h"
+#include "uart_rx.pio.h"
+
+int main(void) {
+    uint offset = (uint)pio_add_program(pio0, &uart_rx_program);
+    pio_sm_config c = uart_rx_program_get_default_config(offset);
+    sm_config_set_in_pins(&c, 10);                     /* port 0's RX line */
+    sm_config_set_clkdiv(&c, 125000000.0f / (8 * 2400));
+    pio_sm_init(pio0, 1, offset, &c);
+    pio_sm_set_enabled(pio0, 1, true);
+    for (;;) sleep_ms(1);
+}
+"""
+
+
+def test_a_byte_lost_to_a_full_pio_rx_fifo_is_said_in_a_note(tmp_path):
+    import re
+    import shutil
+
+    import pytest
+
+    from buildhat_conformance.sil.build import build_tree
+    from buildhat_conformance.sil.hat import SilHat
+    if not (shutil.which("cc") or shutil.which("gcc") or shutil.which("clang")):
+        pytest.skip("no C compiler on this machine")
+    tree = tmp_path / "tree"
+    tree.mkdir()
+    (tree / "main.c").write_text(NEVER_READ)
+    (tree / "uart_rx.pio").write_text(RX_PIO)
+    build = build_tree(str(tree), cache=tmp_path / "cache")
+    hat = SilHat(str(build.program), devices={0: "0x30", 1: None, 2: None, 3: None})
+    try:
+        hat.advance(400)                  # the motor's set-up at 2400 baud: ~4 ms a byte
+    finally:
+        hat.close()
+    sent = bytes.fromhex(" ".join(e["hex"] for e in hat.events if e["dir"] == "devrx" and e["port"] == 0))
+    notes = [e["text"] for e in hat.events if e["dir"] == "note" and "PIO RX FIFO was full" in e["text"]]
+    assert len(notes) > 50, notes                      # ~90 bytes arrived, 4 of them kept
+    assert all(n.startswith("port 0: ") for n in notes), notes
+    lost = bytes(int(re.search(r"0x([0-9A-F]{2})", n).group(1), 16) for n in notes)   # type: ignore[union-attr]
+    assert lost == sent[4:4 + len(lost)], "the bytes noted are not the device's, from its fifth on"
