@@ -22,7 +22,7 @@ __all__ = ["hold_for_campaign", "run_places", "child_argv"]
 _PASSED = (("budget", "--budget"), ("seed", "--seed"), ("confirm", "--confirm"), ("profile", "--firmware"),
            ("families", "--families"), ("steps", "--steps"), ("batch", "--batch"), ("waits", "--waits"),
            ("fence_timeout", "--fence-timeout"), ("shrink_time", "--shrink-time"),
-           ("no_database", "--no-database"), ("quiet", "--quiet"))
+           ("check_time", "--check-time"), ("no_database", "--no-database"), ("quiet", "--quiet"))
 
 
 def hold_for_campaign(args: argparse.Namespace) -> Optional[Callable[[], None]]:
