@@ -172,10 +172,12 @@ def test_ctrl_c_while_confirming_keeps_the_finding_marked_not_fully_checked(tmp_
     assert "checking cut short: interrupted" in (failed["fate"].text or "")
 
 
-def test_a_second_ctrl_c_kills_at_once_and_still_leaves_nothing_running(tmp_path):
+@pytest.mark.parametrize("jobs", ["1", "2"])
+def test_a_second_ctrl_c_kills_at_once_and_still_leaves_nothing_running(tmp_path, jobs):
     """The target ignores SIGTERM, so closing it after the first Ctrl-C takes its 2 s grace before
     SIGKILL; the second Ctrl-C comes in that time, and the command ends there, writing nothing more."""
-    run = Fuzz(tmp_path, "-t", _proxy("sh -c 'trap \"\" TERM; exec \"$0\" \"$@\"' "), *LONG, *CONFIRMING)
+    run = Fuzz(tmp_path, "-t", _proxy("sh -c 'trap \"\" TERM; exec \"$0\" \"$@\"' "), "--jobs", jobs, *LONG,
+               *CONFIRMING)
     run.wait_for(re.compile(r"replaying it 100000 time\(s\) to confirm it"))
     run.interrupt()
     run.wait_for(re.compile(r"\[fuzz\] stopping"), within=STOP_S)
