@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
-from typing import Callable, Dict, Optional, Tuple
+from typing import Callable, Dict, List, Optional, Tuple
 
 from ..transcripts.script import Script
 from .findings import script_from_trace
@@ -107,6 +107,23 @@ def _replays(script: Script, oracle: str, replay: Replay, times: int, deadline: 
     return hits, attempts
 
 
+class _Cuts:
+    """What of a check did not happen: the clock's cuts (its reason said once) and the others."""
+
+    def __init__(self, check: Check, clock_why: str):
+        self.check, self.clock_why = check, clock_why
+        self.clock: List[str] = []
+        self.other: List[str] = []
+
+    def by_clock(self, what: str) -> None:
+        self.check.clock_cut = True
+        self.clock.append(what)
+
+    def text(self) -> Optional[str]:
+        parts = self.other + ([f"{', '.join(self.clock)}: {self.clock_why}"] if self.clock else [])
+        return "; ".join(parts) or None
+
+
 def check_finding(check: Check, replay: Replay, confirm: int, reduce_seconds: float, deadline: float,
                   clock_why: str, note: Callable[[str], None]) -> Optional[Confirmed]:
     """Confirm ``check.finding`` (``confirm`` replays), reduce it, confirm the reduced script; none
@@ -120,44 +137,39 @@ def check_finding(check: Check, replay: Replay, confirm: int, reduce_seconds: fl
     while check.attempts < confirm and time.monotonic() < deadline:
         check.hits += same_failure(replay(check.script), oracle)
         check.attempts += 1
-    cuts = []
+    cuts = _Cuts(check, clock_why)
     if check.attempts < confirm:
-        check.clock_cut = True
+        cuts.by_clock(f"{check.attempts} of {confirm} replays ran" if check.attempts else
+                      "not confirmed: no replay ran")
         if not check.attempts:
-            return check.result(f"not confirmed: {clock_why} before its first replay")
-        cuts.append(f"{check.attempts} of {confirm} replays ran: {clock_why}")
+            return check.result(cuts.text())
     if not check.hits:
         note(f"the [{oracle}] failure did not happen again: not reported")
         return None
     limit = min(reduce_seconds, deadline - time.monotonic())
     if limit <= 0:
         if reduce_seconds > 0:
-            check.clock_cut = True
-            cuts.append(f"not reduced: {clock_why}")
-        return check.result("; ".join(cuts) or None)
+            cuts.by_clock("not reduced")
+        return check.result(cuts.text())
     note(f"[{oracle}] reproduced {check.hits}/{check.attempts}; reducing it by replaying smaller scripts "
-         f"(at most {limit:g} s)")
+         f"(at most {limit:.1f} s)")
 
     def smaller(script: Script, finding: Finding) -> None:
         check.smaller = (script, finding)
 
     reduced, found = reduce_finding(check.script, check.finding, replay, limit, on_smaller=smaller)
     if limit < reduce_seconds and time.monotonic() >= deadline:
-        check.clock_cut = True
-        cuts.append(f"its reduction cut short: {clock_why}")
+        cuts.by_clock("its reduction cut short")
     if found is check.finding:
-        return Confirmed(check.finding, check.script, check.hits, check.attempts, check.seed,
-                         cut="; ".join(cuts) or None)
+        return Confirmed(check.finding, check.script, check.hits, check.attempts, check.seed, cut=cuts.text())
     hits, attempts = _replays(reduced, oracle, replay, confirm, deadline)
     if not attempts:
         # The reduced script failed once, in the reduction; no time was left to replay it again.
-        check.clock_cut = True
-        cuts.append(f"the reduced script replayed once, in its reduction: {clock_why}")
-        return Confirmed(found, reduced, 1, 1, check.seed, cut="; ".join(cuts))
+        cuts.by_clock("the reduced script replayed only once, in its reduction")
+        return Confirmed(found, reduced, 1, 1, check.seed, cut=cuts.text())
     if attempts < confirm:
-        check.clock_cut = True
-        cuts.append(f"the reduced script replayed {attempts} of {confirm} times: {clock_why}")
+        cuts.by_clock(f"the reduced script replayed {attempts} of {confirm} times")
     if hits:
-        return Confirmed(found, reduced, hits, attempts, check.seed, cut="; ".join(cuts) or None)
-    return Confirmed(check.finding, check.script, check.hits, check.attempts, check.seed,
-                     cut="; ".join(cuts + ["not reduced: the smaller script did not fail again"]))
+        return Confirmed(found, reduced, hits, attempts, check.seed, cut=cuts.text())
+    cuts.other.append("not reduced: the smaller script did not fail again")
+    return Confirmed(check.finding, check.script, check.hits, check.attempts, check.seed, cut=cuts.text())

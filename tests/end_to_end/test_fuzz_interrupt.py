@@ -67,7 +67,7 @@ class Fuzz:
         for pid in descendants(self.proc.pid) - set(self.started):
             self.started[pid] = cmdline(pid)
 
-    def wait_for(self, pattern: "re.Pattern[str]", within: float = 180) -> None:
+    def wait_for(self, pattern: re.Pattern[str], within: float = 180) -> None:
         """Until stderr shows ``pattern`` (noting every process the command starts meanwhile)."""
         end = time.monotonic() + within
         while time.monotonic() < end:
@@ -167,7 +167,8 @@ def test_ctrl_c_while_confirming_keeps_the_finding_marked_not_fully_checked(tmp_
     assert b"Error" in received
     assert received in read_transcript(str(run.out / "fate.target.jsonl")).hat_bytes
     suite = ET.parse(run.out / "junit.xml").getroot()
-    failed = {c.get("name"): c.find("failure") for c in suite.iter("testcase") if c.find("failure") is not None}
+    failed = {c.get("name"): c.find("failure") for c in suite.iter("testcase")
+              if c.find("failure") is not None}
     assert set(failed) == {"fate"}
     assert "checking cut short: interrupted" in (failed["fate"].text or "")
 

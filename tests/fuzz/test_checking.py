@@ -70,7 +70,8 @@ def test_checking_stops_at_its_bound_and_the_summary_line_says_so(tmp_path, caps
     assert result.check_cut == 1
     assert result.checking < 30          # 100000 replays unbounded would take many minutes
     out = capsys.readouterr().out
-    assert "confirming findings, cut short at its bound, --check-time 1s: 1 finding(s) not fully checked" in out
+    assert ("confirming findings, cut short at its bound, --check-time 1s: 1 finding(s) not fully "
+            "checked") in out
     assert "checking cut short: " in out
 
 
@@ -78,7 +79,8 @@ def test_checking_stops_at_its_bound_and_the_summary_line_says_so(tmp_path, caps
     (1, "not confirmed: interrupted before its first replay"),
     (3, "interrupted while it was being checked (2 of 2 replays failed again)"),
 ])
-def test_ctrl_c_while_confirming_keeps_the_finding_as_far_as_it_was_checked(tmp_path, monkeypatch, stop_at, cut):
+def test_ctrl_c_while_confirming_keeps_the_finding_as_far_as_it_was_checked(tmp_path, monkeypatch, stop_at,
+                                                                           cut):
     calls: List[int] = []
     replay = Campaign.replay
 
