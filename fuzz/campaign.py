@@ -8,7 +8,9 @@ what is drawn, so a run replays exactly, on any target. Run seeds derive from th
 A failed oracle is a candidate. It is confirmed by replaying the run's script ``confirm`` times
 (fuzz/replay.py); one that never fails again is listed as unconfirmed, not reported. A confirmed
 one is reduced by replaying smaller scripts (fuzz/reduce.py) and reported with how often it
-reproduced. The campaign goes on until the budget is spent; one finding per oracle is kept.
+reproduced (fuzz/checking.py), all within the campaign's bound on checking (fuzz/budget.py). The
+campaign goes on until the budget is spent; one finding per oracle is kept. A KeyboardInterrupt
+(Ctrl-C, SIGTERM: fuzz/stop_signals.py) ends it at once, keeping a finding it cut short.
 
 Targets that take seconds to start (a HAT, a process) stay open from run to run: the prelude
 brings them back to a known state. In-process, every run starts on a freshly booted copy.
