@@ -8,7 +8,9 @@ what is drawn, so a run replays exactly, on any target. Run seeds derive from th
 A failed oracle is a candidate. It is confirmed by replaying the run's script ``confirm`` times
 (fuzz/replay.py); one that never fails again is listed as unconfirmed, not reported. A confirmed
 one is reduced by replaying smaller scripts (fuzz/reduce.py) and reported with how often it
-reproduced. The campaign goes on until the budget is spent; one finding per oracle is kept.
+reproduced (fuzz/checking.py), all within the campaign's bound on checking (fuzz/budget.py). The
+campaign goes on until the budget is spent; one finding per oracle is kept. A KeyboardInterrupt
+(Ctrl-C, SIGTERM: fuzz/stop_signals.py) ends it at once, keeping a finding it cut short.
 
 Targets that take seconds to start (a HAT, a process) stay open from run to run: the prelude
 brings them back to a known state. In-process, every run starts on a freshly booted copy.
@@ -19,7 +21,6 @@ import hashlib
 import json
 import os
 import random
-import re
 import time
 from dataclasses import dataclass, field
 from typing import Callable, Dict, List, Optional, Tuple, Union
@@ -27,11 +28,11 @@ from typing import Callable, Dict, List, Optional, Tuple, Union
 from ..harness.targets.base import Target, TargetError
 from ..protocol.profiles import Profile
 from ..transcripts.script import Script
-from .findings import script_from_trace
+from .budget import Budget, parse_budget
+from .checking import Check, CheckClock, Confirmed, check_finding
 from .generate import FAMILIES, InputGenerator
 from .grammar import grammar_for
 from .oracles import Finding
-from .reduce import reduce_finding
 from .replay import replay_script
 from .runner import Runner, Stats
 from .setup_loss import for_target
@@ -42,36 +43,6 @@ __all__ = ["Budget", "parse_budget", "CampaignConfig", "CampaignResult", "Confir
 
 _GENERATOR_VERSION = 2      # part of the database key: a stored run seed means nothing to another generator
 PRELUDE_REFUSALS = 3        # runs in a row the target may refuse to start before the campaign stops
-
-
-@dataclass(frozen=True)
-class Budget:
-    seconds: Optional[float] = None
-    examples: Optional[int] = None
-
-    def __str__(self) -> str:
-        return f"{self.seconds:g}s" if self.seconds is not None else f"{self.examples}x"
-
-
-_BUDGET = re.compile(r"\s*(\d+(?:\.\d+)?)\s*(s|m|h|x)\s*")
-
-
-def parse_budget(text: str) -> Budget:
-    """``60s``, ``2m``, ``1h`` (wall clock) or ``500x`` (runs). A bare number is refused."""
-    m = _BUDGET.fullmatch(str(text))
-    if not m:
-        hint = f" (say {text.strip()}s for seconds or {text.strip()}x for runs)" if re.fullmatch(
-            r"\s*\d+(\.\d+)?\s*", str(text)) else ""
-        raise ValueError(f"--budget takes a duration (60s, 2m, 1h) or a number of runs (500x), "
-                         f"got {text!r}{hint}")
-    value, unit = float(m.group(1)), m.group(2)
-    if unit == "x":
-        if value != int(value) or value < 1:
-            raise ValueError(f"a run budget must be a positive whole number, got {text!r}")
-        return Budget(examples=int(value))
-    if value <= 0:
-        raise ValueError(f"a time budget must be more than zero, got {text!r}")
-    return Budget(seconds=value * {"s": 1, "m": 60, "h": 3600}[unit])
 
 
 def new_seed() -> int:
@@ -99,27 +70,12 @@ class CampaignConfig:
     out_limit: Optional[int] = None   # bytes one exchange may print (a wire's TX ring)
     # output may meet a full TX ring (a wire, cmd:, sil:): fuzz/txring.py; one flag, or one per side
     tx_ring: Union[bool, Tuple[bool, ...]] = False
-    confirm: int = 3
+    confirm: int = 3              # replays of a failing run; 0: reported as found, never replayed
     reduce_seconds: float = 30.0
+    check_seconds: Optional[float] = None   # checking findings, in all (fuzz/budget.py); None: no bound
     labels: Tuple[str, str] = ("target", "against")
     devices: Optional[Dict[int, Optional[tuple]]] = None   # the layout, when known
     stats: Stats = field(default_factory=Stats)
-
-
-@dataclass
-class Confirmed:
-    """A reported finding: the (reduced) failure, its script and how often replays failed."""
-
-    finding: Finding
-    script: Script
-    reproduced: int
-    attempts: int
-    run_seed: int
-    also_seen: int = 0
-
-    @property
-    def oracle(self) -> str:
-        return self.finding.oracle
 
 
 @dataclass
@@ -131,7 +87,9 @@ class CampaignResult:
     cpu: float = 0.0              # this process's CPU time while fuzzing (a loaded machine shows here)
     runs: int = 0
     seed: int = 0
-    interrupted: bool = False     # stopped by Ctrl-C before the budget was spent
+    interrupted: bool = False     # stopped by Ctrl-C (or SIGTERM) before the budget was spent
+    check_limit: Optional[float] = None   # the bound on checking (--check-time), if any
+    check_cut: int = 0            # findings whose checking that bound cut short
     prelude_failures: List[str] = field(default_factory=list)   # runs the target did not let start
     stopped: Optional[str] = None     # the target let no run start this many times in a row
     not_done: Optional[str] = None    # why the campaign could not do its job (exit 3), if it could not
@@ -175,6 +133,7 @@ class Campaign:
         self.generator = InputGenerator(grammar_for(config.profile), config.families)
         self.keepers = [_Keeper(config.open_primary, config.keep_open)]
         self.against: Optional[Tuple[Callable[[], Target], Profile]] = None
+        self.checking: Optional[Check] = None     # the finding being checked now, if any
         if config.open_secondary is not None:
             self.keepers.append(_Keeper(config.open_secondary, config.keep_open))
             self.against = (self.keepers[1], config.secondary_profile or config.profile)
@@ -275,37 +234,15 @@ class Campaign:
         if self.config.stats.on_note is not None:
             self.config.stats.on_note(text)
 
-    def confirm(self, script: Script, oracle: str) -> int:
-        """How many of ``confirm`` replays fail ``oracle`` again."""
-        hits = 0
-        for _ in range(max(1, self.config.confirm)):
-            again = self.replay(script)
-            hits += _same(again, oracle)
-        return hits
-
-    def check(self, finding: Finding, seed: int) -> Optional[Confirmed]:
-        """Confirm, reduce, confirm again; None when no replay failed the same way."""
+    def check(self, finding: Finding, seed: int, clock: CheckClock) -> Tuple[Check, Optional[Confirmed]]:
+        """Confirm, reduce, confirm again, within the clock (fuzz/checking.py). The Check is made
+        first, so an interrupt still finds it in ``self.checking`` (until it is kept)."""
         c = self.config
         self.after_failure(finding)
-        script = script_from_trace(finding, c.devices if c.fresh else None)
-        self._note(f"a [{finding.oracle}] failure: replaying it {max(1, c.confirm)} time(s) to confirm it")
-        hits = self.confirm(script, finding.oracle)
-        if not hits:
-            self._note(f"the [{finding.oracle}] failure did not happen again: not reported")
-            return None
-        self._note(f"[{finding.oracle}] reproduced {hits}/{max(1, c.confirm)}; reducing it by replaying "
-                   f"smaller scripts (at most {c.reduce_seconds:g} s)")
-        reduced, smaller = reduce_finding(script, finding, self.replay, c.reduce_seconds)
-        if smaller is not finding:
-            again = self.confirm(reduced, finding.oracle)
-            if again:
-                return Confirmed(smaller, reduced, again, max(1, c.confirm), seed)
-        return Confirmed(finding, script, hits, max(1, c.confirm), seed)
-
-
-def _same(finding: Optional[Finding], oracle: str) -> bool:
-    """A replay failed ``oracle`` again (a replay the target did not let start proves nothing)."""
-    return finding is not None and finding.oracle == oracle and not finding.details.get("prelude")
+        check = self.checking = Check(finding, seed, c.devices if c.fresh else None)
+        confirmed = check_finding(check, self.replay, c.confirm, c.reduce_seconds, clock.deadline(),
+                                  clock.why() if clock.limit is not None else "", self._note)
+        return check, confirmed
 
 
 def not_done(result: CampaignResult, stats: Stats) -> Optional[str]:
@@ -365,6 +302,26 @@ def _forget_run(folder: Optional[str], seed: int) -> None:
             pass
 
 
+def _keep(result: CampaignResult, check: Check, confirmed: Optional[Confirmed],
+          folder: Optional[str]) -> None:
+    """A checked finding reported (and its run stored for the next campaign), or listed as unconfirmed."""
+    check.kept = True
+    if confirmed is None:
+        result.unconfirmed.append((check.finding, check.attempts))
+    else:
+        result.findings.append(confirmed)
+        _store_run(folder, check.seed, check.finding.oracle)
+
+
+def _checked(result: CampaignResult, stats: Stats, clock: CheckClock, since: Tuple[float, float]) -> float:
+    """Counts the time since ``since`` as checking (not fuzzing); the CPU time it took."""
+    took = time.monotonic() - since[0]
+    result.checking += took
+    clock.spent += took
+    stats.checking_s = result.checking
+    return time.process_time() - since[1]
+
+
 def run_campaign(config: CampaignConfig, budget: Budget, seed: int, database: Optional[str] = None,
                  database_scheme: str = "", first: int = 0, stride: int = 1,
                  replay_stored: bool = True) -> CampaignResult:
@@ -382,6 +339,9 @@ def run_campaign(config: CampaignConfig, budget: Budget, seed: int, database: Op
     start = time.monotonic()
     cpu_start, checking_cpu = time.process_time(), 0.0
     index, refused = first, 0
+    clock = CheckClock(config.check_seconds)
+    result.check_limit = config.check_seconds
+    since: Optional[Tuple[float, float]] = None      # (wall, CPU) time the check under way began
 
     def spent() -> bool:
         return budget.seconds is not None and time.monotonic() - start - result.checking \
@@ -417,24 +377,26 @@ def run_campaign(config: CampaignConfig, budget: Budget, seed: int, database: Op
                     break
                 continue
             refused = 0
-            t0, c0 = time.monotonic(), time.process_time()
+            since = (time.monotonic(), time.process_time())
             known = result.finding(finding.oracle)
             if known is not None:
                 known.also_seen += 1
                 campaign.after_failure(finding)
             else:
-                confirmed = campaign.check(finding, seed_i)
-                if confirmed is None:
-                    result.unconfirmed.append((finding, max(1, config.confirm)))
-                else:
-                    result.findings.append(confirmed)
-                    _store_run(folder, seed_i, finding.oracle)
-            result.checking += time.monotonic() - t0
-            checking_cpu += time.process_time() - c0
-            config.stats.checking_s = result.checking
+                check, confirmed = campaign.check(finding, seed_i, clock)
+                result.check_cut += check.clock_cut
+                _keep(result, check, confirmed, folder)
+                campaign.checking = None
+            checking_cpu += _checked(result, config.stats, clock, since)
+            since = None
     except KeyboardInterrupt:
         result.interrupted = True    # what ran so far is still summarised and written
+        check = campaign.checking
+        if check is not None and not check.kept:    # a finding cut short while it was being checked
+            _keep(result, check, check.result(check.interrupted()), folder)
     finally:
+        if since is not None:
+            checking_cpu += _checked(result, config.stats, clock, since)
         campaign.discard_targets()
     result.elapsed = time.monotonic() - start - result.checking - config.stats.startup_s
     result.cpu = time.process_time() - cpu_start - checking_cpu

@@ -10,7 +10,9 @@ Findings (one per oracle, confirmed by replays and reduced) are written to ``-o/
 or ``buildhat-conformance script``), ``<oracle>.<target>.jsonl`` transcripts and ``junit.xml``.
 Exit status: 0 no findings, 1 findings (with ``--reproduce``: 1 reproduced, 0 not), 2 usage
 errors, 3 a campaign that could not do its job
-(a target that cannot be reached, answers as another release than ``--firmware``, or took no input).
+(a target that cannot be reached, answers as another release than ``--firmware``, or took no input),
+130 interrupted: the first Ctrl-C (or SIGTERM) stops the campaign and still writes what it found
+(fuzz/stop_signals.py), a second kills it at once.
 """
 from __future__ import annotations
 
@@ -41,8 +43,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--seed", type=int, default=None, metavar="N",
                         help="campaign seed (default: chosen at random, printed and stored with the results)")
     parser.add_argument("--confirm", type=int, default=3, metavar="N",
-                        help="replays of a failing run before it is reported (and with --reproduce); "
-                             "default 3")
+                        help="replays of a failing run before it is reported (and with --reproduce, at "
+                             "least 1); 0: a failing run is reported as found, never replayed (neither "
+                             "confirmed nor reduced); default 3")
     parser.add_argument("--reproduce", default=None, metavar="FINDING",
                         help="replay a finding's script against the target: prints reproduced (exit 1) "
                              "or not reproduced (exit 0)")
@@ -72,6 +75,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--shrink-time", type=float, default=30.0, metavar="S",
                         help="seconds a finding may spend being reduced by replaying smaller scripts "
                              "(default 30)")
+    parser.add_argument("--check-time", default=None, metavar="TIME",
+                        help="wall-clock time the campaign may spend checking findings in all (confirming "
+                             "and reducing them; not counted in --budget): 90s, 2m; a finding it cuts "
+                             "short is reported as far as it was checked, and the summary says so "
+                             "(default: a quarter of a time budget; with a run budget, no bound beyond "
+                             "--confirm and --shrink-time)")
     parser.add_argument("--jobs", type=int, default=1, metavar="N",
                         help="run N campaign workers at once, each with targets of its own, into one "
                              "summary (targets started anew at each open: inprocess, emulator, cmd:, "

@@ -12,21 +12,25 @@ from typing import Callable, Dict, Optional, Tuple
 from ..harness.targets import make_target
 from ..harness.targets.base import Target
 from ..protocol.devices import DEFAULT_LAYOUT
-from .campaign import CampaignConfig, CampaignResult, new_seed, parse_budget, run_campaign
+from .budget import check_limit
+from .campaign import Budget, CampaignConfig, CampaignResult, Confirmed, new_seed, parse_budget, run_campaign
 from .explain import header_lines
 from .findings import write_finding, write_junit
 from .generate import check_families
 from .grammar import grammar_for
 from .release import detect_profile, judged_profile
+from .stop_signals import StopSignals
 from .summary import KEPT_OPEN, Progress, print_summary
 from .target_kinds import has_tx_ring, is_fresh, is_virtual, is_wire, opener_for, scheme, sides_rings
 
-__all__ = ["run", "DEFAULT_OUT", "DEFAULT_TARGET", "OUT_LIMIT"]
+__all__ = ["run", "DEFAULT_OUT", "DEFAULT_TARGET", "OUT_LIMIT", "STOPPING"]
 
 DEFAULT_OUT = os.path.join("reports", "fuzz")
 DEFAULT_TARGET = "inprocess"
 # On a wire the firmware's 8192-byte TX ring must never fill: one exchange may print this much.
 OUT_LIMIT = 6000
+STOPPING = ("[fuzz] stopping: keeping what was found, closing the targets, writing the findings and the "
+            "JUnit file (Ctrl-C again: kill at once)")
 
 
 def _config(args: argparse.Namespace, target: str, primary: Optional[Callable[[], Target]],
@@ -72,12 +76,29 @@ def _config(args: argparse.Namespace, target: str, primary: Optional[Callable[[]
         reduce_seconds=args.shrink_time, devices=devices)
 
 
+def _reproduced(f: Confirmed) -> str:
+    return f"{f.reproduced}/{f.attempts} replays" if f.attempts else "not replayed"
+
+
 def run(args: argparse.Namespace, primary: Optional[Callable[[], Target]] = None,
         secondary: Optional[Callable[[], Target]] = None) -> Tuple[CampaignResult, Dict[str, Dict[str, str]]]:
-    """The campaign of ``args``; prints its summary. Returns the result and the files written."""
+    """The campaign of ``args``; prints its summary. Returns the result and the files written.
+    Ctrl-C or SIGTERM stops the campaign, and what it found is still written (fuzz/stop_signals.py)."""
     budget = parse_budget(args.budget)
+    limit = check_limit(budget, getattr(args, "check_time", None))
     target = args.target or DEFAULT_TARGET
     config = _config(args, target, primary, secondary)
+    config.check_seconds = limit
+    with StopSignals(say=STOPPING) as stops:
+        result, chosen = _campaign(args, config, budget, stops)
+        stops.hold()                  # the campaign is over: what it found is written in full
+        result.interrupted = result.interrupted or stops.stopped
+        return result, _report(args, config, budget, result, chosen)
+
+
+def _campaign(args: argparse.Namespace, config: CampaignConfig, budget: Budget,
+              stops: StopSignals) -> Tuple[CampaignResult, bool]:
+    """The campaign run (over ``--jobs`` workers or here), and whether its seed was chosen at random."""
     seed, chosen = (args.seed, False) if args.seed is not None else (new_seed(), True)
     grammar = grammar_for(config.profile)
     progress = Progress(budget, len(grammar.productions), set(grammar.productions), not args.quiet)
@@ -87,16 +108,25 @@ def run(args: argparse.Namespace, primary: Optional[Callable[[], Target]] = None
     if not args.quiet:
         print(f"fuzz: seed {seed}" + (" (chosen at random)" if chosen else "") + f", budget {budget}",
               file=sys.stderr, flush=True)
-    kinds = f"{scheme(target)}>{scheme(args.against or '')}"
+    kinds = f"{scheme(args.target or DEFAULT_TARGET)}>{scheme(args.against or '')}"
     jobs = getattr(args, "jobs", 1) or 1
     if jobs > 1:
         from .jobs import run_jobs
-        result, config.stats = run_jobs(config, budget, seed, jobs, database, kinds, progress, progress.note)
+        result, config.stats = run_jobs(config, budget, seed, jobs, database, kinds, progress, progress.note,
+                                        stops)
     else:
         result = run_campaign(config, budget, seed, database, kinds)
-    stats = config.stats
-    stats.examples = result.runs
-    progress.end(stats)
+    config.stats.examples = result.runs
+    progress.end(config.stats)
+    return result, chosen
+
+
+def _report(args: argparse.Namespace, config: CampaignConfig, budget: Budget,
+            result: CampaignResult, chosen: bool) -> Dict[str, Dict[str, str]]:
+    """The findings' files, the JUnit file and the summary."""
+    target = args.target or DEFAULT_TARGET
+    seed, stats = result.seed, config.stats
+    grammar = grammar_for(config.profile)
     files: Dict[str, Dict[str, str]] = {}
     other = config.secondary_profile
     release = config.profile.name + (f" / {other.name}" if other else "")
@@ -109,7 +139,7 @@ def run(args: argparse.Namespace, primary: Optional[Callable[[], Target]] = None
             reproduce_cmd += ["--against", args.against]
         header = [f"target: {target}"] + ([f"against: {args.against}"] if args.against else []) + [
             f"release: {release}", f"seed: {seed}  run seed: {f.run_seed}  budget: {budget}",
-            f"reproduced: {f.reproduced}/{f.attempts} replays",
+            f"reproduced: {_reproduced(f)}", *([f"checking cut short: {f.cut}"] if f.cut else []),
             *([] if f.finding.details.get("fresh", True) else [f"began on: {KEPT_OPEN}"]),
             f"reproduce: {shlex.join(reproduce_cmd)}",
             f"replay: {shlex.join(['buildhat-conformance', 'script', '--target', target, script_path])}",
@@ -118,11 +148,16 @@ def run(args: argparse.Namespace, primary: Optional[Callable[[], Target]] = None
         files[f.oracle] = write_finding(f.finding, args.out, header, meta, layout)
     oracles = ["liveness", "fate", "state", "hygiene"] + (["differential"] if config.open_secondary else [])
     junit = args.junit or os.path.join(args.out, "junit.xml")
+    properties = {"target": target, "against": args.against or "", "release": config.profile.name,
+                  "seed": str(seed), "budget": str(budget), "inputs": str(stats.executions),
+                  "lines": str(stats.lines)}
+    if result.interrupted:
+        properties["partial"] = "true"        # stopped by Ctrl-C or SIGTERM: what ran until then
+    notes = {f.oracle: f"reproduced: {_reproduced(f)}" + (f"; checking cut short: {f.cut}" if f.cut else "")
+             for f in result.findings}
     write_junit(junit, oracles, [f.finding for f in result.findings], stats.checks, result.elapsed,
-                {"target": target, "against": args.against or "", "release": config.profile.name,
-                 "seed": str(seed), "budget": str(budget), "inputs": str(stats.executions),
-                 "lines": str(stats.lines)}, files, result.not_done)
+                properties, files, result.not_done, notes)
     # The share of the wire is a wall-clock figure: not for in-process targets (virtual time).
     wire = is_wire(target) and scheme(target) != "inprocess"
     print_summary(result, stats, grammar.productions, files, junit, seed, chosen, wire, config.out_limit)
-    return result, files
+    return files

@@ -122,9 +122,10 @@ def write_finding(finding: Finding, outdir: str, header: Sequence[str], meta: di
 
 def write_junit(path: str, oracles: Sequence[str], findings: Sequence[Finding], checks: Dict[str, int],
                 elapsed: float, properties: Dict[str, str], files: Dict[str, Dict[str, str]],
-                not_done: Optional[str] = None) -> str:
-    """One test case per oracle: a failure carries the finding and the files to replay it. A
-    campaign that could not do its job (``not_done``) adds a ``campaign`` case in error saying why."""
+                not_done: Optional[str] = None, notes: Optional[Dict[str, str]] = None) -> str:
+    """One test case per oracle: a failure carries the finding, the files to replay it and the
+    oracle's line in ``notes`` (how often it reproduced). A campaign that could not do its job
+    (``not_done``) adds a ``campaign`` case in error saying why."""
     unknown = set(oracles) - set(ORACLES)
     if unknown:
         raise ValueError(f"unknown oracles {sorted(unknown)}")
@@ -135,6 +136,8 @@ def write_junit(path: str, oracles: Sequence[str], findings: Sequence[Finding], 
         body = ""
         if f is not None:
             where = "; ".join(f"{k}: {v}" for k, v in files.get(oracle, {}).items())
+            if notes and notes.get(oracle):
+                where += f"\n{notes[oracle]}"
             body = (f'<failure message={quoteattr(f.message[:500])} type="fuzz.{oracle}">'
                     f"{escape(f.message)}\n{escape(where)}</failure>")
         elif not checks.get(oracle):

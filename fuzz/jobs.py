@@ -8,21 +8,31 @@ reduces its own findings; the merge keeps one finding per oracle (the lowest wor
 count as seen again), and adds up the figures. Only worker 0 replays the stored failing runs.
 
 It needs a target started anew at every open (``inprocess``, ``emulator``, ``cmd:``, ``sil:``):
-a HAT on a serial port or a socket is one HAT (for several, ``--places``). Ctrl-C stops every
-worker; what they ran is still merged.
+a HAT on a serial port or a socket is one HAT (for several, ``--places``).
+
+Stopping: a worker ignores SIGINT (a terminal's Ctrl-C reaches the whole process group) and takes
+SIGTERM from this process as its Ctrl-C (fuzz/stop_signals.py): the first Ctrl-C or SIGTERM here
+is passed on to every worker, which keeps what it found, closes its targets and sends its result,
+and what they ran is still merged; a second one kills the workers at once. A worker dies with this
+process (its parent-death signal), and its targets with it.
 """
 from __future__ import annotations
 
 import multiprocessing
 import multiprocessing.connection
+import os
+import signal
 import time
 import traceback
+from contextlib import nullcontext
 from dataclasses import fields, replace
 from typing import Any, Callable, Dict, List, Optional, Tuple
 
+from ..harness.parent_death import set_parent_death_signal
 from ..harness.targets.base import TargetError
 from .campaign import Budget, CampaignConfig, CampaignResult, not_done, run_campaign
 from .runner import Stats
+from .stop_signals import EXIT_INTERRUPTED, StopSignals
 
 __all__ = ["run_jobs", "merge_stats", "merge_results", "PROGRESS_EVERY_S"]
 
@@ -74,6 +84,8 @@ def merge_results(parts: List[CampaignResult], stats: Stats) -> CampaignResult:
         out.checking = max(out.checking, part.checking)
         out.interrupted = out.interrupted or part.interrupted
         out.stopped = out.stopped or part.stopped
+        out.check_limit = part.check_limit
+        out.check_cut += part.check_cut
     out.not_done = not_done(out, stats)
     return out
 
@@ -83,34 +95,78 @@ def _worker(index: int, jobs: int, config: CampaignConfig, budget: Budget, seed:
     """One worker: its campaign, its figures sent now and then, its result at the end."""
     from ..sil.target import close_templates
 
+    # Ctrl-C is the parent's to pass on (as SIGTERM); a worker never outlives it.
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    set_parent_death_signal(signal.SIGKILL)
+    stops = StopSignals((signal.SIGTERM,), kill=lambda: os._exit(EXIT_INTERRUPTED))
+    stops.__enter__()
     last = [0.0]
+
+    def send(message: tuple) -> None:
+        with stops.deferring():       # never half a message on the pipe
+            conn.send(message)
 
     def progress(stats: Stats) -> None:
         now = time.monotonic()
         if now - last[0] >= PROGRESS_EVERY_S:
             last[0] = now
-            conn.send(("progress", index, _plain(stats)))
+            send(("progress", index, _plain(stats)))
 
-    config.stats = Stats(on_progress=progress, on_note=lambda text: conn.send(("note", index, text)))
+    config.stats = Stats(on_progress=progress, on_note=lambda text: send(("note", index, text)))
+    message: tuple = ()
     try:
         result = run_campaign(config, budget, seed, database, scheme, first=index, stride=jobs,
                               replay_stored=index == 0)
-        conn.send(("done", index, (result, _plain(config.stats))))
+        message = ("done", index, (result, _plain(config.stats)))
     except KeyboardInterrupt:
-        conn.send(("done", index, (CampaignResult(seed=seed, interrupted=True), _plain(config.stats))))
+        message = ("done", index, (CampaignResult(seed=seed, interrupted=True), _plain(config.stats)))
     except TargetError as exc:
-        conn.send(("error", index, ("target", str(exc.args[0] if exc.args else exc))))
+        message = ("error", index, ("target", str(exc.args[0] if exc.args else exc)))
     except Exception as exc:  # noqa: BLE001  (a worker's crash is told, not lost)
-        conn.send(("error", index, ("crash", f"{type(exc).__name__}: {exc}\n{traceback.format_exc()}")))
+        message = ("error", index, ("crash", f"{type(exc).__name__}: {exc}\n{traceback.format_exc()}"))
     finally:
-        close_templates()            # the booted firmwares this worker started
+        stops.hold()                  # a SIGTERM from here on must not cut the result short
+        if message:
+            conn.send(message)
+        close_templates()             # the booted firmwares this worker started
         conn.close()
 
 
+def _receive(conn: Any, open_pipes: List[Any], latest: Dict[int, Stats],
+             done: Dict[int, Tuple[CampaignResult, Stats]], errors: List[Tuple[str, str]],
+             on_progress: Callable[[Stats], None], on_note: Callable[[str], None]) -> None:
+    """One message from a worker (a closed pipe: that worker has ended)."""
+    try:
+        kind, index, payload = conn.recv()
+    except (EOFError, OSError):
+        open_pipes.remove(conn)
+        return
+    if kind == "progress":
+        latest[index] = payload
+        on_progress(merge_stats(list(latest.values())))
+    elif kind == "note":
+        on_note(f"worker {index}: {payload}")
+    elif kind == "done":
+        done[index] = payload
+        latest[index] = payload[1]
+    else:
+        errors.append(payload)
+
+
+def _signal_all(workers: List[Any], sig: int) -> None:
+    for proc in workers:
+        if proc.pid is not None and proc.exitcode is None:
+            try:
+                os.kill(proc.pid, sig)
+            except OSError:
+                pass
+
+
 def run_jobs(config: CampaignConfig, budget: Budget, seed: int, jobs: int, database: Optional[str],
-             scheme: str, on_progress: Callable[[Stats], None], on_note: Callable[[str], None]
-             ) -> Tuple[CampaignResult, Stats]:
-    """``jobs`` campaigns at once; their merged result and figures."""
+             scheme: str, on_progress: Callable[[Stats], None], on_note: Callable[[str], None],
+             stops: Optional[StopSignals] = None) -> Tuple[CampaignResult, Stats]:
+    """``jobs`` campaigns at once; their merged result and figures. ``stops``: this command's
+    signal handlers (a second Ctrl-C kills the workers before this process ends)."""
     try:
         context = multiprocessing.get_context("fork")
     except ValueError:
@@ -124,6 +180,8 @@ def run_jobs(config: CampaignConfig, budget: Budget, seed: int, jobs: int, datab
         theirs.close()
         pipes.append(mine)
         workers.append(proc)
+    if stops is not None:
+        stops.at_kill(lambda: _signal_all(workers, signal.SIGKILL))
     latest: Dict[int, Stats] = {}
     done: Dict[int, Tuple[CampaignResult, Stats]] = {}
     errors: List[Tuple[str, str]] = []
@@ -131,23 +189,13 @@ def run_jobs(config: CampaignConfig, budget: Budget, seed: int, jobs: int, datab
     while open_pipes:
         try:
             for conn in multiprocessing.connection.wait(open_pipes, timeout=1.0):
-                try:
-                    kind, index, payload = conn.recv()  # type: ignore[union-attr]
-                except (EOFError, OSError):
-                    open_pipes.remove(conn)
-                    continue
-                if kind == "progress":
-                    latest[index] = payload
-                    on_progress(merge_stats(list(latest.values())))
-                elif kind == "note":
-                    on_note(f"worker {index}: {payload}")
-                elif kind == "done":
-                    done[index] = payload
-                    latest[index] = payload[1]
-                else:
-                    errors.append(payload)
+                with stops.deferring() if stops is not None else nullcontext():
+                    _receive(conn, open_pipes, latest, done, errors, on_progress, on_note)
         except KeyboardInterrupt:
-            continue                  # the workers were interrupted too: collect what they ran
+            # Each worker stops as at its own Ctrl-C and sends what it ran: collect it.
+            _signal_all(workers, signal.SIGTERM)
+    if stops is not None:
+        stops.hold()                  # every result is in: a Ctrl-C now must not lose them
     for proc in workers:
         proc.join(timeout=30)
     for index, proc in enumerate(workers):

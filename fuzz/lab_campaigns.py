@@ -22,7 +22,7 @@ __all__ = ["hold_for_campaign", "run_places", "child_argv"]
 _PASSED = (("budget", "--budget"), ("seed", "--seed"), ("confirm", "--confirm"), ("profile", "--firmware"),
            ("families", "--families"), ("steps", "--steps"), ("batch", "--batch"), ("waits", "--waits"),
            ("fence_timeout", "--fence-timeout"), ("shrink_time", "--shrink-time"),
-           ("no_database", "--no-database"), ("quiet", "--quiet"))
+           ("check_time", "--check-time"), ("no_database", "--no-database"), ("quiet", "--quiet"))
 
 
 def hold_for_campaign(args: argparse.Namespace) -> Optional[Callable[[], None]]:
@@ -54,6 +54,8 @@ def child_argv(args: argparse.Namespace, url: str, out: str) -> List[str]:
 
 def run_places(args: argparse.Namespace) -> int:
     """One campaign per held place; one line each; the worst exit status (130, 2, 3, 1, 0)."""
+    from ..harness.parent_death import die_with_parent
+
     places = args.lab_hold.places
     children: Dict[str, subprocess.Popen] = {}
     for name, url in places:
@@ -61,7 +63,11 @@ def run_places(args: argparse.Namespace) -> int:
         # Made here, before the campaigns start: each child's check of its -o would otherwise make
         # and undo the shared parent at the same time as its siblings (a race that lost a campaign).
         os.makedirs(out, exist_ok=True)
-        children[name] = subprocess.Popen(child_argv(args, url, out))
+        # Each campaign in a session of its own: a terminal's Ctrl-C reaches this process alone, which
+        # passes it on once (SIGTERM, each campaign's Ctrl-C); a second would kill it (fuzz/stop_signals.py).
+        # The parent-death signal stops a campaign whose parent is gone, the same way.
+        children[name] = subprocess.Popen(child_argv(args, url, out), start_new_session=True,
+                                          preexec_fn=die_with_parent())
     print(f"fuzz: {len(children)} campaigns, one per labgrid place: {', '.join(children)}", flush=True)
     try:
         while any(p.poll() is None for p in children.values()):

@@ -40,10 +40,11 @@ def _script(base: Script, steps: List[List[Action]]) -> Script:
                   source=base.source, explicit_devices=dict(base.explicit_devices))
 
 
-def reduce_finding(script: Script, finding: Finding, replay: Replay,
-                   time_limit: float = 30.0) -> Tuple[Script, Finding]:
+def reduce_finding(script: Script, finding: Finding, replay: Replay, time_limit: float = 30.0,
+                   on_smaller: Optional[Callable[[Script, Finding], None]] = None) -> Tuple[Script, Finding]:
     """The smallest script found (by whole steps, then lines) that still fails ``finding.oracle``,
-    and the finding its replay gave (``finding`` itself when nothing could be removed)."""
+    and the finding its replay gave (``finding`` itself when nothing could be removed).
+    ``on_smaller`` is told each smaller failing script as it is found (what an interrupt leaves)."""
     steps = steps_of(script)
     best: Finding = finding
     deadline = time.monotonic() + time_limit
@@ -62,6 +63,8 @@ def reduce_finding(script: Script, finding: Finding, replay: Replay,
         again = fails(trial)
         if again is not None:
             steps, best = trial, again
+            if on_smaller is not None:
+                on_smaller(_script(script, steps), best)
         i -= 1
     # Then the lines of each remaining step (never its fence: it ends the step).
     for i in range(len(steps) - 1, 0, -1):
@@ -73,5 +76,7 @@ def reduce_finding(script: Script, finding: Finding, replay: Replay,
                 again = fails(trial)
                 if again is not None:
                     steps, best = trial, again
+                    if on_smaller is not None:
+                        on_smaller(_script(script, steps), best)
             j -= 1
     return _script(script, steps), best

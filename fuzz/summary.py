@@ -92,7 +92,10 @@ def _findings(result: CampaignResult, files: Dict[str, Dict[str, str]]) -> None:
         print("  no findings")
     for f in result.findings:
         again = f", seen {f.also_seen} more time(s)" if f.also_seen else ""
-        print(f"  FINDING [{f.oracle}] (reproduced {f.reproduced}/{f.attempts}{again}): {f.finding.message}")
+        replays = f"reproduced {f.reproduced}/{f.attempts}" if f.attempts else "not replayed"
+        print(f"  FINDING [{f.oracle}] ({replays}{again}): {f.finding.message}")
+        if f.cut:
+            print(f"      checking cut short: {f.cut}")
         if not f.finding.details.get("fresh", True):
             print(f"      began on {KEPT_OPEN}")
         for what, path in files.get(f.oracle, {}).items():
@@ -107,12 +110,21 @@ def _findings(result: CampaignResult, files: Dict[str, Dict[str, str]]) -> None:
         print(f"  {n} run(s) could not start (the prelude was not answered; not a finding): {reason}")
 
 
+def _check_bound(result: CampaignResult) -> str:
+    """The bound on checking, when it cut a finding's checking short (the summary line says so)."""
+    if not result.check_cut or result.check_limit is None:
+        return ""
+    return (f", cut short at its bound, --check-time {result.check_limit:g}s: {result.check_cut} finding(s) "
+            "not fully checked")
+
+
 def print_summary(result: CampaignResult, stats: Stats, productions, files: Dict[str, Dict[str, str]],  # type: ignore[no-untyped-def]
                   junit: str, seed: int, chosen: bool, wire: bool, out_limit: Optional[int]) -> None:
     """The closing summary. ``wire``: the target is a paced or real 115200-baud wire (only then
     is a share of that wire worth printing)."""
     el = max(result.elapsed, 1e-9)
-    apart = ([f"{result.checking:.1f} s confirming findings"] if result.checking >= 0.05 else []) + \
+    apart = ([f"{result.checking:.1f} s confirming findings{_check_bound(result)}"]
+             if result.checking >= 0.05 or result.check_cut else []) + \
         ([f"{stats.startup_s:.1f} s starting targets"] if stats.startup_s >= 0.05 else [])
     checking = f" (and {', '.join(apart)})" if apart else ""
     print(f"fuzz: {result.runs} runs, {stats.executions} inputs ({stats.lines} lines, "
@@ -156,5 +168,6 @@ def print_summary(result: CampaignResult, stats: Stats, productions, files: Dict
     _findings(result, files)
     print(f"  junit: {junit}")
     if result.interrupted:
-        print("  interrupted (Ctrl-C): the figures and findings above cover what ran")
+        print("  interrupted (Ctrl-C or SIGTERM): the figures and findings above cover what ran; a finding "
+              "whose checking was cut short says so")
 
