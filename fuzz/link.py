@@ -114,28 +114,19 @@ class Link:
     def wait(self, ms: int) -> bytes:
         """Let ``ms`` HAT milliseconds pass; returns the output that arrived meanwhile."""
         self.trace.entries.append(("wait", self.now, ms))
-        out = bytearray(self._carry)
-        self._carry = b""
         if self._virtual:
             self.target.advance(ms)  # type: ignore[attr-defined]
-            data = self.target.read(0)
+            return self._since_wait(self._read_now())
+        out = bytearray()
+        end = time.monotonic() + ms / 1000.0 / self._scale
+        while True:
+            left = end - time.monotonic()
+            if left <= 0:
+                break
+            data = self.target.read(min(left, 0.05))
             self._got(data)
             out += data
-        else:
-            end = time.monotonic() + ms / 1000.0 / self._scale
-            while True:
-                left = end - time.monotonic()
-                if left <= 0:
-                    break
-                data = self.target.read(min(left, 0.05))
-                self._got(data)
-                out += data
-        # A line still arriving when the wait ends belongs to what comes next.
-        keep = _incomplete_tail(bytes(out), 0)
-        if keep:
-            self._carry = bytes(out[len(out) - keep:])
-            del out[len(out) - keep:]
-        return bytes(out)
+        return self._since_wait(bytes(out))
 
     def settle(self, min_ms: int, max_ms: int) -> bytes:
         """:meth:`wait` for a TX ring to drain before a fence: ``max_ms`` HAT ms, or less on a
@@ -146,18 +137,22 @@ class Link:
         if settle is None or min_ms >= max_ms:
             return self.wait(max_ms)
         at = self.now
-        out = bytearray(self._carry)
-        self._carry = b""
         waited = int(settle(min_ms, max_ms))
         self.trace.entries.append(("wait", at, waited))
+        return self._since_wait(self._read_now())
+
+    def _read_now(self) -> bytes:
         data = self.target.read(0)
         self._got(data)
-        out += data
-        keep = _incomplete_tail(bytes(out), 0)
-        if keep:
-            self._carry = bytes(out[len(out) - keep:])
-            del out[len(out) - keep:]
-        return bytes(out)
+        return data
+
+    def _since_wait(self, data: bytes) -> bytes:
+        """What a wait read, after what the last one carried over; a line still arriving when
+        the wait ends belongs to what comes next (carried over again)."""
+        out = self._carry + data
+        keep = _incomplete_tail(out, 0)
+        self._carry = out[len(out) - keep:] if keep else b""
+        return out[:len(out) - keep] if keep else out
 
     def exchange(self, data: bytes, fence_line: bytes, fences: int, extra_bytes: int = 0) -> bytes:
         """Send ``data`` + fence; read until ``fences`` copies of ``fence_line`` arrived."""
