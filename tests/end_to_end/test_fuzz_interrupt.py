@@ -33,6 +33,7 @@ pytestmark = [pytest.mark.skipif(not os.path.isdir("/proc"), reason="needs Linux
 
 EXE = os.path.join(os.path.dirname(sys.executable), "buildhat-conformance")
 STOP_S = 30          # a stop must take seconds; this bound holds on a loaded machine
+GRACE_S = 2.0        # what a target that ignores SIGTERM is given before SIGKILL (its close)
 PROGRESS = re.compile(r"^\[fuzz\] \d+/\d+ s: [1-9]\d* inputs", re.M)
 LONG = ["--budget", "10m", "--no-database", "--seed", "4"]
 
@@ -177,13 +178,20 @@ def test_ctrl_c_while_confirming_keeps_the_finding_marked_not_fully_checked(tmp_
 def test_a_second_ctrl_c_kills_at_once_and_still_leaves_nothing_running(tmp_path, jobs):
     """The target ignores SIGTERM, so closing it after the first Ctrl-C takes its 2 s grace before
     SIGKILL; the second Ctrl-C comes in that time, and the command ends there, writing nothing more."""
-    run = Fuzz(tmp_path, "-t", _proxy("sh -c 'trap \"\" TERM; exec \"$0\" \"$@\"' "), "--jobs", jobs, *LONG,
-               *CONFIRMING)
-    run.wait_for(re.compile(r"replaying it 100000 time\(s\) to confirm it"))
-    run.interrupt()
-    run.wait_for(re.compile(r"\[fuzz\] stopping"), within=STOP_S)
-    run.interrupt()
-    run.finish()
-    assert run.proc.returncode == 130, run.summary() + run.err()
+    for attempt in range(3):
+        run = Fuzz(tmp_path / str(attempt), "-t", _proxy("sh -c 'trap \"\" TERM; exec \"$0\" \"$@\"' "),
+                   "--jobs", jobs, *LONG, *CONFIRMING)
+        run.wait_for(re.compile(r"replaying it 100000 time\(s\) to confirm it"))
+        run.interrupt()
+        run.wait_for(re.compile(r"\[fuzz\] stopping"), within=STOP_S)
+        seen = time.monotonic()
+        run.interrupt()
+        late = time.monotonic() - seen     # a loaded machine may hold this test back past the grace
+        run.finish()
+        assert run.proc.returncode == 130, run.summary() + run.err()
+        run.check_nothing_left()
+        if late < GRACE_S / 2:
+            break
+    else:
+        pytest.fail(f"three times the second Ctrl-C could not be sent within {GRACE_S / 2:g} s of the first stop")
     assert not re.search(r"^fuzz: \d+ runs", run.summary(), re.M), "the second Ctrl-C waited for the summary"
-    run.check_nothing_left()
