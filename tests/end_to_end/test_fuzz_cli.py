@@ -15,6 +15,7 @@ import sys
 import xml.etree.ElementTree as ET
 
 import pytest
+from junit_props import properties
 from repo_paths import TESTS
 
 from buildhat_conformance.fuzz.campaign import Budget, parse_budget
@@ -51,8 +52,7 @@ def test_an_unseeded_run_prints_and_stores_its_seed_and_the_seed_repeats_it(tmp_
     assert res.returncode == 0, res.stdout + res.stderr
     seed = re.search(r"seed: (\d+) \(chosen at random; --seed \1 repeats this campaign\)", res.stdout)
     assert seed is not None, res.stdout
-    props = {p.get("name"): p.get("value")
-             for p in ET.parse(tmp_path / "a" / "junit.xml").getroot().iter("property")}
+    props = properties(ET.parse(tmp_path / "a" / "junit.xml").getroot())
     assert props["seed"] == seed.group(1)
     again = _fuzz("--budget", "2x", "--steps", "5", "--out", str(tmp_path / "b"), "--no-database",
                   "--seed", seed.group(1))
