@@ -7,6 +7,7 @@ import sys
 from typing import List
 
 import pytest
+from junit_props import properties
 from shared_material import need_shared
 
 TREE_NAME = "firmware-pico-1737564117"
@@ -42,7 +43,7 @@ def junit_verdicts(path: pathlib.Path) -> List[tuple]:
     import xml.etree.ElementTree as ET
     out = []
     for case in ET.parse(path).getroot().iter("testcase"):
-        props = {p.get("name"): p.get("value") for p in case.iter("property")}
+        props = properties(case)
         message = next((c.get("message") or "" for c in case if c.tag in ("failure", "error", "skipped")), "")
         out.append((case.get("name"), props.get("verdict"), message))
     return out

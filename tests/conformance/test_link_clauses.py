@@ -17,6 +17,7 @@ from typing import Dict, Tuple
 
 import pytest
 from faulty.wrong_hat import PortlessPrompt, first_command, no_echo, port_error, version_error
+from junit_props import properties
 from mutants.suite_run import REPO
 
 pytestmark = pytest.mark.timeout(300)
@@ -38,7 +39,7 @@ def _run(tmp, target: str, *args: str) -> Tuple[int, str, Cases]:
     cases: Cases = {}
     if os.path.isfile(junit):
         for case in ET.parse(junit).getroot().iter("testcase"):
-            props = {p.get("name") or "": p.get("value") or "" for p in case.iter("property")}
+            props = properties(case)
             problem = next((c for c in case if c.tag in ("failure", "error", "skipped")), None)
             message = "" if problem is None else problem.get("message", "")
             cases[case.get("name") or ""] = (props.get("verdict", ""), message, props)

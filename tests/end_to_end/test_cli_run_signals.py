@@ -11,49 +11,9 @@ import sys
 import time
 
 import pytest
+from process_tree import alive, cmdline, descendants, left_after
 
 pytestmark = pytest.mark.skipif(not os.path.isdir("/proc"), reason="needs Linux /proc")
-
-
-def _children() -> dict:
-    """pid -> parent pid of every process."""
-    out = {}
-    for name in os.listdir("/proc"):
-        if not name.isdigit():
-            continue
-        try:
-            with open(f"/proc/{name}/stat", encoding="utf-8") as fh:
-                stat = fh.read()
-        except OSError:
-            continue
-        fields = stat[stat.rindex(")") + 2:].split()
-        if fields[0] != "Z":
-            out[int(name)] = int(fields[1])
-    return out
-
-
-def _descendants(root: int) -> set:
-    tree = _children()
-    found, todo = set(), [root]
-    while todo:
-        parent = todo.pop()
-        for pid, ppid in tree.items():
-            if ppid == parent and pid not in found:
-                found.add(pid)
-                todo.append(pid)
-    return found
-
-
-def _cmdline(pid: int) -> str:
-    try:
-        with open(f"/proc/{pid}/cmdline", "rb") as fh:
-            return fh.read().replace(b"\0", b" ").decode(errors="replace")
-    except OSError:
-        return ""
-
-
-def _alive(pids: set) -> set:
-    return {p for p in pids if p in _children()}
 
 
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM, signal.SIGKILL], ids=lambda s: s.name)
@@ -66,22 +26,19 @@ def test_a_signal_ends_everything_the_run_started(tmp_path: pathlib.Path, sig):
     started: set = set()
     deadline = time.monotonic() + 90
     while time.monotonic() < deadline:
-        started |= _descendants(proc.pid)
-        emulators = [p for p in started if "buildhat-emulator" in _cmdline(p) and p in _children()]
+        started |= descendants(proc.pid)
+        emulators = [p for p in alive(started) if "buildhat-emulator" in cmdline(p)]
         if emulators and junit.exists() and "<testcase" in junit.read_text(encoding="utf-8"):
             break
         time.sleep(0.1)
     else:
         proc.kill()
         pytest.fail("the run did not start a case within 90 s")
-    assert any("pytest" in _cmdline(p) for p in started)
-    started |= _descendants(proc.pid)
+    assert any("pytest" in cmdline(p) for p in started)
+    started |= descendants(proc.pid)
     proc.send_signal(sig)
     out, err = proc.communicate(timeout=60)
-    end = time.monotonic() + 30
-    while _alive(started) and time.monotonic() < end:
-        time.sleep(0.1)
-    left = {p: _cmdline(p) for p in _alive(started)}
+    left = left_after(started, 30)
     assert not left, f"left running after {sig.name}: {left}"
     text = junit.read_text(encoding="utf-8")
     assert '<property name="partial" value="true"' in text, "an interrupted run's JUnit says it is partial"

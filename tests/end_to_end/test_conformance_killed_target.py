@@ -10,6 +10,7 @@ import time
 import xml.etree.ElementTree as ET
 
 import pytest
+from junit_props import properties
 from mutants.suite_run import MUTANT, REPO, SUITE, reported_case_count
 
 from buildhat_conformance.harness.transcript import read_transcript
@@ -36,14 +37,14 @@ def test_killing_the_target_mid_run(tmp_path) -> None:
     text = out.decode(errors="replace")
     assert child.returncode == 3, f"a run whose target died exits 3 (target faulted)\n{out[-800:]!r}"
     cases = list(ET.parse(junit).getroot().iter("testcase"))      # parses: the file is valid XML
-    verdicts = [{p.get("name"): p.get("value") for p in c.iter("property")}.get("verdict") for c in cases]
+    verdicts = [properties(c).get("verdict") for c in cases]
     # A dead HAT is a fault of the target, never a conformance failure (issue 13); the rest is not run.
     assert verdicts.count("pass") >= 5 and "target-fault" in verdicts and "fail" not in verdicts, verdicts
     assert verdicts[-1] == "not-run", verdicts
     assert "went away" in ET.tostring(ET.parse(junit).getroot(), encoding="unicode") or "Target" in text
     # One transcript per case; each is valid JSONL, and each passed case's holds the HAT's lines.
     for case, verdict in zip(cases, verdicts):
-        path = {p.get("name"): p.get("value") for p in case.iter("property")}.get("transcript")
+        path = properties(case).get("transcript")
         if path and os.path.exists(path):
             t = read_transcript(path)
             if verdict == "pass":

@@ -21,6 +21,7 @@ from dataclasses import dataclass, field
 from typing import Dict, List
 
 import pytest
+from junit_props import suite_properties
 from mutants.suite_run import REPO, SUITE, CaseResult, read_junit, reported_case_count
 
 pytestmark = pytest.mark.timeout(240)
@@ -90,7 +91,7 @@ def runs(tmp_path_factory) -> Dict[str, Run]:
         log = open(log_path, encoding="utf-8").read() if os.path.exists(log_path) else ""
         suite = ET.parse(junit).getroot().find("testsuite")
         assert suite is not None
-        props = {p.get("name"): p.get("value") or "" for p in suite.findall("properties/property")}
+        props = suite_properties(suite)
         out[name] = Run(proc.returncode, time.monotonic() - began, text.decode(errors="replace"), cases, log,
                         props.get("stopped", ""), [c.verdict for c in cases])
     return out

@@ -15,6 +15,7 @@ import sys
 import xml.etree.ElementTree as ET
 
 import pytest
+from junit_props import properties
 from repo_paths import TESTS
 
 from buildhat_conformance.fuzz.campaign import Budget, parse_budget
@@ -51,8 +52,7 @@ def test_an_unseeded_run_prints_and_stores_its_seed_and_the_seed_repeats_it(tmp_
     assert res.returncode == 0, res.stdout + res.stderr
     seed = re.search(r"seed: (\d+) \(chosen at random; --seed \1 repeats this campaign\)", res.stdout)
     assert seed is not None, res.stdout
-    props = {p.get("name"): p.get("value")
-             for p in ET.parse(tmp_path / "a" / "junit.xml").getroot().iter("property")}
+    props = properties(ET.parse(tmp_path / "a" / "junit.xml").getroot())
     assert props["seed"] == seed.group(1)
     again = _fuzz("--budget", "2x", "--steps", "5", "--out", str(tmp_path / "b"), "--no-database",
                   "--seed", seed.group(1))
@@ -144,15 +144,12 @@ def test_reproduce_says_reproduced_with_exit_1_and_not_reproduced_with_exit_0(tm
 def test_a_finding_is_confirmed_shell_quoted_and_saved_to_the_database_with_a_seed(tmp_path):
     """In-process with the planted `wrong` fault (fast); the URL has a space, `&` and `?`."""
     import argparse
-    import importlib.util
+
+    from planted.faults import FAULTS
 
     from buildhat_conformance.emulator.inprocess_target import InProcessTarget
     from buildhat_conformance.fuzz import cli, command
 
-    spec = importlib.util.spec_from_file_location("planted_faults", HERE / "planted" / "faults.py")
-    assert spec is not None and spec.loader is not None
-    faults = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(faults)
     empty = {0: None, 1: None, 2: None, 3: None}
     url = "inprocess:R7?device=2=passive 8&seed=3"
     parser = argparse.ArgumentParser()
@@ -163,7 +160,7 @@ def test_a_finding_is_confirmed_shell_quoted_and_saved_to_the_database_with_a_se
                               "--out", str(out), "--quiet", "--profile", "R7"])
     args.devices = empty
     result, files = command.run(args, primary=lambda: InProcessTarget("R7", devices=empty,
-                                                                  factory=faults.FAULTS["wrong"]))
+                                                                  factory=FAULTS["wrong"]))
     assert result.findings
     finding = result.findings[0]
     assert finding.attempts == 2 and 1 <= finding.reproduced <= 2

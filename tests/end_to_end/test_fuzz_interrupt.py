@@ -23,6 +23,7 @@ import xml.etree.ElementTree as ET
 from typing import Dict, Optional
 
 import pytest
+from junit_props import properties
 from process_tree import cmdline, descendants, left_after
 from repo_paths import TESTS
 
@@ -118,7 +119,7 @@ def _stopped_cleanly(run: Fuzz) -> None:
     assert re.search(r"^fuzz: \d+ runs, \d+ inputs", summary, re.M), summary
     assert "interrupted (Ctrl-C or SIGTERM)" in summary, summary
     suite = ET.parse(run.out / "junit.xml").getroot()
-    props = {p.get("name"): p.get("value") for p in suite.iter("property")}
+    props = properties(suite)
     assert props.get("partial") == "true", props
     run.check_nothing_left()
 

@@ -15,6 +15,7 @@ import time
 
 import pytest
 from lab_fixture import BIN, Lab, missing  # noqa: E402
+from process_tree import cmdline, parents
 
 SUBSET = "shortest_resolving_prefix"        # 28 short cases, about 13 s on a place
 # Runs at real time, one after another: generous on a loaded machine (the suite's timing is make bench's).
@@ -82,14 +83,8 @@ def test_an_interrupted_run_gives_its_place_back(lab, tmp_path, sig):
 
 
 def _orphans_of(junit: pathlib.Path) -> list:
-    found = []
-    for pid in filter(str.isdigit, os.listdir("/proc")):
-        try:
-            if str(junit).encode() in pathlib.Path(f"/proc/{pid}/cmdline").read_bytes():
-                found.append(pid)
-        except OSError:
-            pass
-    return found
+    """Every live process, whoever its parent, whose command line names ``junit``."""
+    return [pid for pid in parents() if str(junit) in cmdline(pid)]
 
 
 def test_a_place_left_by_a_killed_run_is_taken_back_by_the_next(lab, tmp_path):

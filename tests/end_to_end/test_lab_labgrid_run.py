@@ -15,6 +15,7 @@ import xml.etree.ElementTree as ET
 import pytest
 from end_to_end.test_run_reset_recovery import PI_SUBSET  # 14 cases; the hang comes in the 5th or 6th
 from firmware_images import files, image_of  # noqa: E402
+from junit_props import properties, suite_properties
 from lab_fixture import BIN, Lab, missing  # noqa: E402
 
 
@@ -42,10 +43,10 @@ def test_the_suite_runs_on_two_places_at_once_and_a_hung_hat_is_reset_through_la
     out = proc.stdout + proc.stderr
     assert "labgrid places: hat-a, hat-b" in out, out
     root = ET.parse(junit).getroot()
-    suite = {p.get("name", ""): p.get("value", "") for p in root.findall("testsuite/properties/property")}
+    suite = suite_properties(root)
     verdicts: dict = {"hat-a": [], "hat-b": []}
     for case in root.iter("testcase"):
-        props = {p.get("name", ""): p.get("value", "") for p in case.iter("property")}
+        props = properties(case)
         verdicts[props["target_name"]].append(props["verdict"])
         assert case.get("classname", "").startswith(props["target_name"] + "."), case.get("classname")
         assert props["target"].startswith(f"labgrid:{props['target_name']}?"), props

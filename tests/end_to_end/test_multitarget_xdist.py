@@ -8,6 +8,7 @@ import sys
 import xml.etree.ElementTree as ET
 
 import pytest
+from junit_props import properties, suite_properties
 
 from buildhat_conformance.conformance.plugin.multitarget import (
     _repeated_targets,
@@ -53,7 +54,7 @@ def test_merge_prefixes_each_case_with_its_target(tmp_path) -> None:
     assert suite is not None
     assert n == 2 and suite.get("tests") == "2" and suite.get("failures") == "1"
     assert [tc.get("classname") for tc in suite.iter("testcase")] == ["a.test_a", "b.test_a"]
-    props = {p.get("name", ""): p.get("value", "") for p in suite.findall("properties/property")}
+    props = suite_properties(suite)
     assert props["a:firmware"] == "fw-a" and props["missing:c"] == "emulator:R5"
 
 
@@ -75,7 +76,7 @@ def test_three_emulator_targets_merge_into_one_report(tmp_path) -> None:
     cases = list(suite.iter("testcase"))
     by_target = {}
     for tc in cases:
-        props = {p.get("name", ""): p.get("value", "") for p in tc.iter("property")}
+        props = properties(tc)
         assert tc.get("classname", "").startswith(props["target_name"] + ".")
         by_target.setdefault(props["target_name"], set()).add(props["profile"])
     # Every target ran every selected case, against its own firmware.

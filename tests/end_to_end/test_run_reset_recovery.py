@@ -21,6 +21,7 @@ import xml.etree.ElementTree as ET
 
 import pytest
 from firmware_images import files, image_of  # noqa: E402
+from junit_props import properties, suite_properties
 from repo_paths import TESTS  # noqa: E402
 
 BIN = pathlib.Path(sys.executable).parent
@@ -39,10 +40,10 @@ def run(tmp_path, name: str, target: str, *extra: str, env=None, keyword: str = 
                            "--max-target-faults", str(MAX_FAULTS), "--junit", str(junit), *extra],
                           capture_output=True, text=True, timeout=300, env=env)
     root = ET.parse(junit).getroot()
-    suite = {p.get("name", ""): p.get("value", "") for p in root.findall("testsuite/properties/property")}
+    suite = suite_properties(root)
     verdicts = {}
     for case in root.iter("testcase"):
-        props = {p.get("name", ""): p.get("value", "") for p in case.iter("property")}
+        props = properties(case)
         verdicts[case.get("name")] = props.get("verdict")
     return proc.returncode, proc.stdout + proc.stderr, suite, verdicts
 

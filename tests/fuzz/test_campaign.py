@@ -6,11 +6,11 @@ written script replays to the same oracle failure on a fresh target.
 from __future__ import annotations
 
 import argparse
-import importlib.util
 import pathlib
 import xml.etree.ElementTree as ET
 
 import pytest
+from planted.faults import FAULTS
 from repo_paths import TESTS
 
 from buildhat_conformance.emulator.inprocess_target import InProcessTarget
@@ -24,14 +24,6 @@ HERE = TESTS
 # A motor on port 0 (reports, drive), nothing else: the cheapest layout that has every behaviour.
 LAYOUT = {0: ("active", 0x30), 1: None, 2: None, 3: None}
 EMPTY = {0: None, 1: None, 2: None, 3: None}   # the planted faults are in the command port
-
-
-def _faults():
-    spec = importlib.util.spec_from_file_location("planted_faults", HERE / "planted" / "faults.py")
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
 
 
 def _args(out: pathlib.Path, *extra: str) -> argparse.Namespace:
@@ -63,7 +55,7 @@ def test_short_campaign_against_the_emulator_has_no_findings(tmp_path):
     ("drop", {"fate", "state", "hygiene", "liveness"}, None),
 ])
 def test_planted_fault_gives_a_shrunk_replayable_finding(tmp_path, kind, oracles, trigger):
-    factory = _faults().FAULTS[kind]
+    factory = FAULTS[kind]
     args = _args(tmp_path, "--budget", "60x", "--seed", "3", "--families", "valid", "--steps", "8",
                  "--shrink-time", "60", "--waits", "")
     args.devices = EMPTY
@@ -112,7 +104,7 @@ def _oracle_after(fault, line: bytes, wait_ms: int):
     against the emulator with ``fault`` planted (None: as it is)."""
     from buildhat_conformance.fuzz.oracles import Finding
     from buildhat_conformance.fuzz.runner import Runner
-    factory = _faults().FAULTS[fault] if fault else None
+    factory = FAULTS[fault] if fault else None
     runner = Runner([("target", _opener(factory), get_profile("R7"))], 0.3, True, devices=LAYOUT)
     try:
         runner.start()

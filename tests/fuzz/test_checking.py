@@ -6,12 +6,11 @@ or an interrupt can keep the checking short."""
 from __future__ import annotations
 
 import argparse
-import importlib.util
 import pathlib
 from typing import List
 
 import pytest
-from repo_paths import TESTS
+from planted.faults import FAULTS
 
 from buildhat_conformance.emulator.inprocess_target import InProcessTarget
 from buildhat_conformance.fuzz import cli, command
@@ -22,14 +21,6 @@ from buildhat_conformance.fuzz.reduce import steps_of
 EMPTY = {0: None, 1: None, 2: None, 3: None}
 
 
-def _wrong():
-    spec = importlib.util.spec_from_file_location("planted_faults", TESTS / "planted" / "faults.py")
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module.FAULTS["wrong"]
-
-
 def _run(tmp_path: pathlib.Path, *extra: str, opens: List[int]):
     parser = argparse.ArgumentParser()
     cli.add_arguments(parser)
@@ -37,7 +28,7 @@ def _run(tmp_path: pathlib.Path, *extra: str, opens: List[int]):
                               "--no-database", "--quiet", "--budget", "3x", "--seed", "4", "--steps", "6",
                               "--families", "valid", "--waits", "", *extra])
     args.devices = EMPTY
-    factory = _wrong()
+    factory = FAULTS["wrong"]
 
     def opener():
         opens.append(1)

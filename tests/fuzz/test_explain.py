@@ -4,11 +4,10 @@ for a differential finding, what each target printed."""
 from __future__ import annotations
 
 import argparse
-import importlib.util
 import pathlib
 from typing import Dict, Optional
 
-from repo_paths import TESTS
+from planted.faults import FAULTS
 
 from buildhat_conformance.emulator.inprocess_target import InProcessTarget
 from buildhat_conformance.fuzz import cli, command
@@ -16,16 +15,7 @@ from buildhat_conformance.fuzz.oracles import Finding
 from buildhat_conformance.fuzz.runner import Runner
 from buildhat_conformance.protocol.profiles import get_profile
 
-HERE = TESTS
 EMPTY: Dict[int, Optional[tuple]] = {0: None, 1: None, 2: None, 3: None}
-
-
-def _wrong_coast():
-    spec = importlib.util.spec_from_file_location("planted_faults", HERE / "planted" / "faults.py")
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module.FAULTS["wrong"]      # `coast` also prints Error
 
 
 def test_a_finding_line_and_its_script_name_the_step_and_the_differing_lines(tmp_path, capsys):
@@ -35,8 +25,9 @@ def test_a_finding_line_and_its_script_name_the_step_and_the_differing_lines(tmp
                               "--families", "valid", "--confirm", "1", "--shrink-time", "20", "--waits", "",
                               "--out", str(tmp_path), "--quiet", "--no-database"])
     args.devices = EMPTY
-    wrong = _wrong_coast()
-    result, files = command.run(args, primary=lambda: InProcessTarget("R7", devices=EMPTY, factory=wrong))
+    # the planted fault: `coast` also prints Error
+    result, files = command.run(args, primary=lambda: InProcessTarget("R7", devices=EMPTY,
+                                                                      factory=FAULTS["wrong"]))
     finding = result.finding("fate")
     assert finding is not None, [f.finding.message for f in result.findings]
     line = next(x for x in capsys.readouterr().out.splitlines() if x.startswith("  FINDING [fate]"))

@@ -9,7 +9,7 @@ from __future__ import annotations
 from typing import Dict, List, Optional
 
 import pytest
-from repo_paths import TESTS
+from planted.faults import FAULTS
 
 from buildhat_conformance.emulator.inprocess_target import InProcessTarget
 from buildhat_conformance.fuzz.oracles import Finding
@@ -65,14 +65,8 @@ def test_a_combi_the_run_cleared_is_known_again():
 def test_a_finding_says_whether_its_run_began_on_a_fresh_target(fresh):
     """The finding's script and summary say when the run began on a HAT earlier runs had left,
     where a fresh `fuzz --reproduce` may not reproduce it (fuzz/cli.py reads this flag)."""
-    import importlib.util
-    spec = importlib.util.spec_from_file_location(
-        "planted_faults", TESTS / "planted" / "faults.py")
-    assert spec is not None and spec.loader is not None
-    faults = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(faults)
     empty: Dict[int, Optional[tuple]] = {0: None, 1: None, 2: None, 3: None}
-    target = InProcessTarget("R7", devices=empty, factory=faults.FAULTS["wrong"])
+    target = InProcessTarget("R7", devices=empty, factory=FAULTS["wrong"])
     runner = Runner([("target", lambda: target, get_profile("R7"))], 0.3, fresh, devices=empty)
     with pytest.raises(Finding) as caught:
         runner.start()

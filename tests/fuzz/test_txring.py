@@ -7,12 +7,11 @@ does. That is no finding; a corrupted byte, or a byte lost where the ring had ro
 """
 from __future__ import annotations
 
-import importlib.util
 import re
 from typing import Dict, Optional
 
 import pytest
-from repo_paths import TESTS
+from planted.faults import DropsBytes
 
 from buildhat_conformance.emulator import Emulator
 from buildhat_conformance.emulator.inprocess_target import InProcessTarget
@@ -28,7 +27,6 @@ from buildhat_conformance.fuzz.txring import backlog, headroom
 from buildhat_conformance.protocol.profiles import get_profile
 from buildhat_conformance.transcripts.script import parse_script
 
-HERE = TESTS
 MOTORS: Dict[int, Optional[tuple]] = {p: ("active", 0x30) for p in range(4)}
 R7 = get_profile("R7")
 FENCE_ANSWER = f"\r\nFirmware version: {R7.version_string}\r\n".encode()
@@ -47,14 +45,6 @@ class CorruptsQuestionMark:
         if name.startswith("__") or name == "emu":
             raise AttributeError(name)
         return getattr(self.emu, name)
-
-
-def _drops_bytes():
-    spec = importlib.util.spec_from_file_location("planted_faults", HERE / "planted" / "faults.py")
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module.DropsBytes
 
 
 def _help_while_streaming(factory=None, stream: bool = True) -> tuple:
@@ -98,7 +88,7 @@ def test_help_cut_short_by_a_full_tx_ring_while_modes_stream_is_no_finding():
 
 @pytest.mark.parametrize("factory", [CorruptsQuestionMark, "drops"])
 def test_a_real_corruption_while_modes_stream_is_still_a_finding(factory):
-    planted = _drops_bytes() if factory == "drops" else factory
+    planted = DropsBytes if factory == "drops" else factory
     finding, _dropped, _lossy, _trace = _help_while_streaming(planted)
     assert finding is not None and finding.oracle in ("fate", "hygiene", "state"), finding
 

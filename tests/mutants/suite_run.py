@@ -13,6 +13,8 @@ import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from typing import Dict, List, Optional, Sequence
 
+from junit_props import properties
+
 REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 SUITE = os.path.join(REPO, "conformance", "cases")
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -31,7 +33,7 @@ class CaseResult:
 def read_junit(path: str) -> Dict[str, CaseResult]:
     out = {}
     for case in ET.parse(path).getroot().iter("testcase"):
-        props = {p.get("name", ""): p.get("value", "") for p in case.iter("property")}
+        props = properties(case)
         devs = [d for d in props.get("deviations", "").split(",") if d]
         found = (case.find(tag) for tag in ("failure", "error", "skipped"))
         problem = next((e for e in found if e is not None), None)
