@@ -194,5 +194,6 @@ def test_a_second_ctrl_c_kills_at_once_and_still_leaves_nothing_running(tmp_path
         if late < GRACE_S / 2:
             break
     else:
-        pytest.fail(f"three times the second Ctrl-C could not be sent within {GRACE_S / 2:g} s of the first stop")
+        pytest.fail(f"three times the second Ctrl-C could not be sent within {GRACE_S / 2:g} s of the "
+                    "first stop")
     assert not re.search(r"^fuzz: \d+ runs", run.summary(), re.M), "the second Ctrl-C waited for the summary"
