@@ -180,6 +180,7 @@ def test_a_second_ctrl_c_kills_at_once_and_still_leaves_nothing_running(tmp_path
     """The target ignores SIGTERM, so closing it after the first Ctrl-C takes its 2 s grace before
     SIGKILL; the second Ctrl-C comes in that time, and the command ends there, writing nothing more."""
     for attempt in range(3):
+        (tmp_path / str(attempt)).mkdir()
         run = Fuzz(tmp_path / str(attempt), "-t", _proxy("sh -c 'trap \"\" TERM; exec \"$0\" \"$@\"' "),
                    "--jobs", jobs, *LONG, *CONFIRMING)
         run.wait_for(re.compile(r"replaying it 100000 time\(s\) to confirm it"))
