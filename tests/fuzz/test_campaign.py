@@ -225,8 +225,8 @@ def test_a_run_on_a_kept_target_does_not_take_the_layout_for_granted():
     from buildhat_conformance.protocol.devices import DEFAULT_LAYOUT
 
     layout = dict(DEFAULT_LAYOUT)                       # the light matrix on port 1
-    config = CampaignConfig(open_primary=lambda: InProcessTarget("R7", devices=layout), profile=get_profile("R7"),
-                            keep_open=True, devices=layout)
+    config = CampaignConfig(open_primary=lambda: InProcessTarget("R7", devices=layout),
+                            profile=get_profile("R7"), keep_open=True, devices=layout)
     campaign = Campaign(config)
     runner = campaign._runner()
     assert runner.fresh and runner.sides[0].model.ports[1].device_modes > 0   # a new HAT: the layout holds
