@@ -108,6 +108,11 @@ class _Keeper:
         self.runs = 0             # runs since the last (re)open
         self.clean = False        # the last run on it ended without a finding
 
+    @property
+    def opens_new(self) -> bool:
+        """The next call hands out a target no earlier run has used."""
+        return not self.keep or self.target is None
+
     def __call__(self) -> Target:
         if not self.keep:
             return self.opener()
@@ -144,11 +149,14 @@ class Campaign:
         openers = [(c.labels[0], self.keepers[0], c.profile)]
         if self.against is not None:
             openers.append((c.labels[1], self.keepers[1], self.against[1]))
-        runner = Runner(openers, c.fence_s, c.fresh, c.stats, c.devices, keep_open=c.keep_open,
-                        tx_ring=c.tx_ring)
-        # A target kept open knows its layout only for the first run after it booted.
-        runner.fresh = c.fresh and all(k.runs <= 1 for k in self.keepers)
-        return runner
+        # A target kept open knows its layout only for the first run after it booted: an earlier
+        # run may have lost a device for good (a light matrix left without motor power stops
+        # talking until replugged), and a model built from the layout would judge that port's
+        # drive and reports as if the device were there (the sil `state` finding, issue 22). So
+        # this is settled before the Runner builds its models, not after.
+        fresh = c.fresh and all(k.opens_new for k in self.keepers)
+        return Runner(openers, c.fence_s, fresh, c.stats, c.devices, keep_open=c.keep_open,
+                      tx_ring=c.tx_ring)
 
     def run(self, seed: int, stop: Callable[[], bool] = lambda: False) -> None:
         """One run; raises the Finding of its first failed check. ``stop``: asked before each

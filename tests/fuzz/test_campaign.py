@@ -204,3 +204,41 @@ def test_kept_targets_that_took_a_set_up_in_part_are_started_anew():
     assert first.closed and second.closed           # type: ignore[attr-defined]
     assert all(k.target is None and not k.clean for k in campaign.keepers)
     assert not campaign._set_up_in_part()
+
+
+def test_a_run_on_a_kept_target_does_not_take_the_layout_for_granted():
+    """The sil `state` finding of issue 22 (60 sightings, never confirmed): an earlier run on a kept-open
+    HAT left the light matrix without motor power (`coast`), so it stopped talking for good and the port
+    reset drives it 0 (docs/FIRMWARE-BEHAVIOUR.md#fb-pwm-path: no device connected, drive 0). A later run's
+    model was built from the layout anyway and judged port 1's drive as if the matrix were there:
+    `port 1 drives 0; ... should drive 'coast'`. Only a run on a newly opened target knows the layout."""
+    from buildhat_conformance.fuzz.campaign import Campaign, CampaignConfig
+    from buildhat_conformance.fuzz.oracles import Finding
+    from buildhat_conformance.protocol.devices import DEFAULT_LAYOUT
+
+    layout = dict(DEFAULT_LAYOUT)                       # the light matrix on port 1
+    config = CampaignConfig(open_primary=lambda: InProcessTarget("R7", devices=layout),
+                            profile=get_profile("R7"), keep_open=True, devices=layout)
+    campaign = Campaign(config)
+    runner = campaign._runner()
+    assert runner.fresh and runner.sides[0].model.ports[1].device_modes > 0   # a new HAT: the layout holds
+    runner.start()
+    runner.exchange([b"port 1 ; coast\r"])
+    for _ in range(8):                                  # past the matrix's grace and the HAT's timeout
+        runner.wait(300)
+    runner.close()
+    runner = campaign._runner()                         # the same HAT, its matrix gone
+    runner.settled = True
+    assert not runner.fresh
+    try:
+        runner.start()
+        runner.exchange([b"port 1 ; on ; coast\r"])
+        runner.wait(60)
+    except Finding as finding:
+        pytest.fail(finding.message)
+    finally:
+        runner.close()
+    campaign.discard_targets()
+    runner = campaign._runner()                         # opened anew: the layout holds again
+    assert runner.fresh and runner.sides[0].model.ports[1].device_modes > 0
+    runner.close()
