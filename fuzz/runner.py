@@ -17,7 +17,7 @@ from .link import FENCE, Link, LinkTimeout
 from .lossymatch import match_lossy
 from .model import HatModel
 from .oracles import raise_finding
-from .reconnecting import Reconnecting
+from .reconnecting import for_target as reconnecting_on
 from .setup_loss import for_target
 from .statecheck import check_drive, expect_reports, follow_links, observe
 from .stepplan import plan_step
@@ -134,7 +134,6 @@ class Runner:
         self.tx_ring = any(self.rings)     # the inputs: every side receives the same bytes
         self._queued: List[int] = []   # per side: what streams may have queued in the TX ring
         self._apart: Set[int] = set()  # ports whose light matrix one side lost (not compared)
-        self._reconnecting = Reconnecting(len(openers))   # ports set up again (compared after)
         for label, opener, profile in openers:
             try:
                 target = opener()
@@ -361,7 +360,8 @@ class Runner:
         # an answer with none of them is not split into lines at all)
         if len(self.sides) == 2 and (b"connect" in out or b"established" in out or b"MQ overrun" in out):
             events = synchronous_part(out)[1]
-            self._reconnecting.feed(self.sides.index(side), events, side.link.now)
+            # (both kept per target: a kept-open target's next run still knows: reconnecting.py, setup_loss.py)
+            reconnecting_on(side.link.target).feed(events, side.link.target_now)
             for_target(side.link.target).feed(events)
 
     def _differential(self, datas: Sequence[bytes], answers: List[bytes]) -> None:
@@ -375,7 +375,8 @@ class Runner:
         settling: FrozenSet[int] = frozenset()
         if diff is not None:
             # A port one side is setting up again lists as its clock has it: timing (reconnecting.py).
-            settling = self._reconnecting.ports([side.link.now for side in self.sides])
+            settling = frozenset().union(*(reconnecting_on(side.link.target).ports(side.link.target_now)
+                                           for side in self.sides))
             if settling - self._apart:
                 diff = self._first_difference(a_cut, b_cut, settling)
                 self.stats.reconnect_apart += diff is None

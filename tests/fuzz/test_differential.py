@@ -7,7 +7,6 @@ from types import SimpleNamespace
 from buildhat_conformance.emulator.inprocess_target import InProcessTarget
 from buildhat_conformance.fuzz import cli, command
 from buildhat_conformance.fuzz.differential import compare_answers, first_difference, parted_matrix
-from buildhat_conformance.fuzz.reconnecting import Reconnecting
 from buildhat_conformance.fuzz.reduce import steps_of
 from buildhat_conformance.fuzz.replay import replay_script
 from buildhat_conformance.fuzz.runner import Runner, Stats
@@ -108,10 +107,9 @@ def test_a_light_matrix_gone_on_one_side_only_is_a_timing_boundary():
 def _runner_comparing(a: bytes, b: bytes) -> Runner:
     runner = Runner.__new__(Runner)
     sides = [SimpleNamespace(fence_line=b"Firmware version: x", label=label,
-                             link=SimpleNamespace(now=0.0, target=SimpleNamespace()))
+                             link=SimpleNamespace(now=0.0, target_now=0.0, target=SimpleNamespace()))
              for label in ("target", "against")]
     runner.sides, runner.stats, runner._apart = sides, Stats(), set()   # type: ignore[assignment]
-    runner._reconnecting = Reconnecting(2)
     found: list = []
     runner.fail = lambda oracle, message, details: found.append(oracle)    # type: ignore[method-assign]
     runner._differential([b"list\r"], [a, b])
@@ -148,7 +146,7 @@ def test_a_port_one_side_sets_up_again_is_not_compared_until_it_is_established()
     runner._differential([b"list\r"], [MOTOR_GONE, MOTOR_LISTED.replace(b"P3: no device", b"P3: no  device")])
     assert runner.found == ["differential"] * 2  # type: ignore[attr-defined]
     # established again: compared again
-    target.link.now = 2500.0   # type: ignore[misc]  # a SimpleNamespace standing in for the Link
+    target.link.target_now = 2500.0   # type: ignore[misc]  # a SimpleNamespace standing in for the Link
     runner._track(target, b"P0: connecting to active device\r\n"
                           b"P0: established serial communication with active ID 30\r\n")
     runner._differential([b"list\r"], [MOTOR_GONE, MOTOR_LISTED])
