@@ -373,7 +373,7 @@ class Runner:
         # an answer with none of them is not split into lines at all)
         if len(self.sides) == 2 and (b"connect" in out or b"established" in out or b"MQ overrun" in out):
             events = synchronous_part(out)[1]
-            # (both kept per target: a kept-open target's next run still knows: reconnecting.py, setup_loss.py)
+            # (both kept per target: a kept-open target's next run knows them; reconnecting.py, setup_loss.py)
             reconnecting_on(side.link.target).feed(events, side.link.target_now)
             for_target(side.link.target).feed(events)
 

@@ -201,7 +201,8 @@ def test_a_connect_dump_split_by_a_fence_is_put_back_together_for_the_next_compa
     runner._differential([b"se  ram -.48\r"], [SPLIT_REST, UNSPLIT], (leading, b""))
     assert runner.found == ["differential"]  # type: ignore[attr-defined]
     # a real difference after the dump still counts
-    runner._differential([b"se  ram -.48\r"], [SPLIT_REST, UNSPLIT.replace(b"Error\r\n", b"")], (leading, b""))
+    other = UNSPLIT.replace(b"Error\r\n", b"")
+    runner._differential([b"se  ram -.48\r"], [SPLIT_REST, other], (leading, b""))
     assert runner.found == ["differential"] * 2  # type: ignore[attr-defined]
 
 
