@@ -75,7 +75,7 @@ def test_target_now_goes_on_from_link_to_link_of_one_target():
     Link of its own, whose ``now`` starts anew on a wall-clock target."""
     hat = _RestingHat(rest_ms=0)
     hat.now = 1234
-    assert Link(hat, "target").target_now == 1234.0          # virtual: the HAT's own clock
+    assert Link(hat, "target").target_now == 1234.0  # type: ignore[arg-type]  # virtual: the HAT's clock
     wall = SimpleNamespace(time_scale=10.0, capabilities=frozenset())
     first = Link(wall, "target")   # type: ignore[arg-type]  # a stand-in: only its clock is read
     at = first.target_now
