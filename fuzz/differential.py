@@ -5,7 +5,9 @@ What must match exactly: every line a command printed in answer (its class and t
 within :data:`VIN_TOLERANCE_V`; numbers in data reports within :data:`VALUE_TOLERANCE`).
 What is not compared: asynchronous lines (reports, connects, debug), because their number and
 position depend on timing; each side's own hygiene and state oracles judge them. Nor, once the
-sides part on it, the `list` block of a port with the light matrix (:func:`parted_matrix`).
+sides part on it, the `list` block of a port with the light matrix (:func:`parted_matrix`). A connect
+dump (asynchronous) whose first lines a read took with the last answer is whole again in front of the
+next (:func:`open_dump`).
 """
 from __future__ import annotations
 
