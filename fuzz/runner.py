@@ -219,6 +219,9 @@ class Runner:
         replayed script says; None: as fuzz/txring.py reckons); only a side with a ring pauses:
         one without (our emulator unpaced) has nothing to drain, and on a wall-clock target the
         pause would idle the campaign. Returns each side's answer."""
+        # A port set up again is left out of the comparison if it was at any time in the step: its
+        # `established` may come in the same answer as a `list` printed before it (reconnecting.py).
+        settling = self._settling() if len(self.sides) == 2 else frozenset()
         # Where a ring applies, the debug streams it does not hold back are guarded too (fuzz/txring.py).
         mask = (1 | UNHELD_DEBUG if self.tx_ring else 1) if guard else 0
         before = [side.model.debug for side in self.sides]
@@ -299,7 +302,7 @@ class Runner:
             self._judge(side, res.problems, {"step": plan.blob, "expected": plan.expected, "received": got})
             self._check_records(side, before, plan.fates)
         if len(self.sides) == 2 and not lost:   # (drops, a raw trace: timing; each side judged its own)
-            self._differential(first.datas, compared, leading)
+            self._differential(first.datas, compared, leading, settling)
         return answers
 
     def _check_records(self, side: Side, start: int, fates: List[LineFate]) -> None:
@@ -377,10 +380,17 @@ class Runner:
             reconnecting_on(side.link.target).feed(events, side.link.target_now)
             for_target(side.link.target).feed(events)
 
+    def _settling(self) -> FrozenSet[int]:
+        """The ports a side is setting up again now (reconnecting.py)."""
+        return frozenset().union(*(reconnecting_on(side.link.target).ports(side.link.target_now)
+                                   for side in self.sides))
+
     def _differential(self, datas: Sequence[bytes], answers: List[bytes],
-                      leading: Sequence[bytes] = (b"", b"")) -> None:
+                      leading: Sequence[bytes] = (b"", b""),
+                      settling_at_start: FrozenSet[int] = frozenset()) -> None:
         """``leading``: per side, the first lines of a connect dump the last read ended inside of
-        (differential.open_dump), put back in front of the rest, which begins this answer."""
+        (differential.open_dump), put back in front of the rest, which begins this answer.
+        ``settling_at_start``: the ports a side was setting up again when the step began."""
         a_side, b_side = self.sides
         a, b = answers
         self.stats.count("differential")
@@ -391,8 +401,7 @@ class Runner:
         settling: FrozenSet[int] = frozenset()
         if diff is not None:
             # A port one side is setting up again lists as its clock has it: timing (reconnecting.py).
-            settling = frozenset().union(*(reconnecting_on(side.link.target).ports(side.link.target_now)
-                                           for side in self.sides))
+            settling = self._settling() | settling_at_start
             if settling - self._apart:
                 diff = self._first_difference(a_cut, b_cut, settling)
                 self.stats.reconnect_apart += diff is None
