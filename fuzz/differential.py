@@ -5,7 +5,9 @@ What must match exactly: every line a command printed in answer (its class and t
 within :data:`VIN_TOLERANCE_V`; numbers in data reports within :data:`VALUE_TOLERANCE`).
 What is not compared: asynchronous lines (reports, connects, debug), because their number and
 position depend on timing; each side's own hygiene and state oracles judge them. Nor, once the
-sides part on it, the `list` block of a port with the light matrix (:func:`parted_matrix`).
+sides part on it, the `list` block of a port with the light matrix (:func:`parted_matrix`). A connect
+dump (asynchronous) whose first lines a read took with the last answer is whole again in front of the
+next (:func:`open_dump`).
 """
 from __future__ import annotations
 
@@ -18,7 +20,7 @@ from ..harness.events import PORT_STATUS_KINDS, Event, classify, line_kind
 from .stream import ASYNC_KINDS
 
 __all__ = ["compare_answers", "first_difference", "VIN_TOLERANCE_V", "VALUE_TOLERANCE", "synchronous_part",
-           "parted_matrix", "MATRIX_ID"]
+           "parted_matrix", "MATRIX_ID", "open_dump"]
 
 VIN_TOLERANCE_V = 0.10
 VALUE_TOLERANCE = 0.05      # relative, for positions/speeds in data lines
@@ -129,6 +131,31 @@ def _split(data: bytes) -> Tuple[Tuple[bytes, ...], Tuple[Event, ...]]:
         sync.append(raw + (b"" if last else b"\r\n"))
     sync.extend(p for p, _k in block)
     return tuple(sync), tuple(async_events)
+
+
+_LEADING_PROMPTS = re.compile(rb"(?:P[0-3]>)*")
+
+
+def open_dump(data: bytes) -> bytes:
+    """The connect dump ``data`` (output no command answers: what came after a fence's answer, or
+    during a wait) ends inside of: its lines from the port's header on, else b"".
+
+    On a wire the dump a HAT prints when a device's set-up ends (fb-active: ``set baud rate``, the
+    dump, ``established``; ~1 KB) takes ~90 ms to cross; a read that stops at the fence's answer
+    takes its first lines, and the next step's answer begins with the rest, which without its
+    header reads as a `list` answer (a sil finding). The comparison of the next step puts these
+    lines back in front of it (fuzz/runner.py)."""
+    if b"connected to active ID" not in data:       # (most reads: no dump's header, nothing to split)
+        return b""
+    lines = data.split(b"\r\n")[:-1]          # (a line still arriving is the link's carry-over)
+    for i in range(len(lines) - 1, -1, -1):
+        line = _LEADING_PROMPTS.sub(b"", lines[i], count=1)     # (its first match is at the start)
+        kind = line_kind(line)
+        if kind == "established":
+            return b""
+        if kind == "list_port" and classify(line).fields.get("state") == "active":
+            return b"".join(raw + b"\r\n" for raw in [line] + lines[i + 1:])
+    return b""
 
 
 def _close(a: Event, b: Event) -> bool:

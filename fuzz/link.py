@@ -71,6 +71,14 @@ class Link:
             return float(self.target.now)  # type: ignore[attr-defined]
         return (time.monotonic() - self._t0) * 1000.0 * self._scale
 
+    @property
+    def target_now(self) -> float:
+        """HAT ms on a clock that the target keeps across links (:attr:`now` starts at this link's
+        first use on a wall-clock target): for what outlives a run on a kept-open target."""
+        if self._virtual:
+            return float(self.target.now)  # type: ignore[attr-defined]
+        return time.monotonic() * 1000.0 * self._scale
+
     def send(self, data: bytes) -> None:
         self.trace.entries.append(("send", self.now, bytes(data)))
         self.sent_bytes += len(data)

@@ -10,14 +10,14 @@ from typing import Callable, Dict, FrozenSet, List, Optional, Sequence, Set, Tup
 from ..harness.events import line_kind
 from ..harness.targets.base import Target, TargetError
 from ..protocol.profiles import Profile
-from .differential import first_difference, parted_matrix, synchronous_part
+from .differential import first_difference, open_dump, parted_matrix, synchronous_part
 from .expect import LineFate
 from .explain import differential_message, liveness_message, stream_message
 from .link import FENCE, Link, LinkTimeout
 from .lossymatch import match_lossy
 from .model import HatModel
 from .oracles import raise_finding
-from .reconnecting import Reconnecting
+from .reconnecting import for_target as reconnecting_on
 from .setup_loss import for_target
 from .statecheck import check_drive, expect_reports, follow_links, observe
 from .stepplan import plan_step
@@ -109,6 +109,12 @@ def _kinds_of(out: bytes) -> Set[str]:
     return kinds
 
 
+def _after_fence(out: bytes, fence_line: bytes) -> bytes:
+    """What came after the last fence's answer (not compared: no command printed it), or b""."""
+    at = out.rfind(fence_line)
+    return out[at + len(fence_line):] if at >= 0 else b""
+
+
 class Runner:
     """The sides of one run and the checks made after each step (raise a Finding on failure)."""
 
@@ -134,7 +140,8 @@ class Runner:
         self.tx_ring = any(self.rings)     # the inputs: every side receives the same bytes
         self._queued: List[int] = []   # per side: what streams may have queued in the TX ring
         self._apart: Set[int] = set()  # ports whose light matrix one side lost (not compared)
-        self._reconnecting = Reconnecting(len(openers))   # ports set up again (compared after)
+        # per side: the connect dump the last read ended inside of (differential.open_dump)
+        self._dump_open: List[bytes] = []
         for label, opener, profile in openers:
             try:
                 target = opener()
@@ -146,6 +153,7 @@ class Runner:
                 side.model = HatModel(profile, devices)
             self.sides.append(side)
             self._queued.append(0)
+            self._dump_open.append(b"")
             if target.is_open:
                 continue
             try:
@@ -169,6 +177,7 @@ class Runner:
                 self.fail("liveness", f"{side.label}: no answer after the prelude: {exc}",
                           {"step": prelude, "received": exc.received, "prelude": True})
             self._track(side, out)      # (what an earlier run's set-up printed may arrive here)
+            self._dump_open[self.sides.index(side)] = open_dump(_after_fence(out, side.fence_line))
             side.model.feed(prelude)
             side.model.feed(FENCE)
             if not self.fresh:
@@ -210,6 +219,9 @@ class Runner:
         replayed script says; None: as fuzz/txring.py reckons); only a side with a ring pauses:
         one without (our emulator unpaced) has nothing to drain, and on a wall-clock target the
         pause would idle the campaign. Returns each side's answer."""
+        # A port set up again is left out of the comparison if it was at any time in the step: its
+        # `established` may come in the same answer as a `list` printed before it (reconnecting.py).
+        settling = self._settling() if len(self.sides) == 2 else frozenset()
         # Where a ring applies, the debug streams it does not hold back are guarded too (fuzz/txring.py).
         mask = (1 | UNHELD_DEBUG if self.tx_ring else 1) if guard else 0
         before = [side.model.debug for side in self.sides]
@@ -239,6 +251,7 @@ class Runner:
             if pause:
                 self._send(side, FENCE, plan.blob)
         lost = False
+        leading = list(self._dump_open)      # a dump's first lines, read with the last answer
         answers: List[bytes] = []
         compared: List[bytes] = []       # what the differential oracle compares (echo made whole)
         for side, plan, before, keep, ahead, queue, pause in zip(self.sides, plans, records, keeps, early,
@@ -262,6 +275,7 @@ class Runner:
             answers.append(got)
             compared.append(got)
             self._track(side, got)
+            self._dump_open[len(answers) - 1] = open_dump(_after_fence(got, side.fence_line))
             self._note_kinds(got)
             if plan.debug & 1 and side.link.timed:
                 # The raw serial trace (debug bit 1, §7.4) has no line structure; where input
@@ -288,7 +302,7 @@ class Runner:
             self._judge(side, res.problems, {"step": plan.blob, "expected": plan.expected, "received": got})
             self._check_records(side, before, plan.fates)
         if len(self.sides) == 2 and not lost:   # (drops, a raw trace: timing; each side judged its own)
-            self._differential(first.datas, compared)
+            self._differential(first.datas, compared, leading, settling)
         return answers
 
     def _check_records(self, side: Side, start: int, fates: List[LineFate]) -> None:
@@ -316,10 +330,11 @@ class Runner:
         """Let HAT time pass; what arrives meanwhile must be asynchronous lines the state allows."""
         # A wait long enough for the ring to drain leaves only what still streams queued.
         self._queued = [0 if ms * WIRE_BYTES_PER_MS >= q else q for q in self._queued]
-        for side in self.sides:
+        for i, side in enumerate(self.sides):
             out = side.link.wait(ms)
             self._note_kinds(out)
             self._track(side, out)
+            self._dump_open[i] = open_dump(self._dump_open[i] + out)
             ports = [p.copy() for p in side.model.ports]
             if side.model.tainted:
                 continue
@@ -361,21 +376,32 @@ class Runner:
         # an answer with none of them is not split into lines at all)
         if len(self.sides) == 2 and (b"connect" in out or b"established" in out or b"MQ overrun" in out):
             events = synchronous_part(out)[1]
-            self._reconnecting.feed(self.sides.index(side), events, side.link.now)
+            # (both kept per target: a kept-open target's next run knows them; reconnecting.py, setup_loss.py)
+            reconnecting_on(side.link.target).feed(events, side.link.target_now)
             for_target(side.link.target).feed(events)
 
-    def _differential(self, datas: Sequence[bytes], answers: List[bytes]) -> None:
+    def _settling(self) -> FrozenSet[int]:
+        """The ports a side is setting up again now (reconnecting.py)."""
+        return frozenset().union(*(reconnecting_on(side.link.target).ports(side.link.target_now)
+                                   for side in self.sides))
+
+    def _differential(self, datas: Sequence[bytes], answers: List[bytes],
+                      leading: Sequence[bytes] = (b"", b""),
+                      settling_at_start: FrozenSet[int] = frozenset()) -> None:
+        """``leading``: per side, the first lines of a connect dump the last read ended inside of
+        (differential.open_dump), put back in front of the rest, which begins this answer.
+        ``settling_at_start``: the ports a side was setting up again when the step began."""
         a_side, b_side = self.sides
         a, b = answers
         self.stats.count("differential")
         # The fence's own answer names each release: compare up to it.
-        a_cut = a[:a.rfind(a_side.fence_line)] if a_side.fence_line in a else a
-        b_cut = b[:b.rfind(b_side.fence_line)] if b_side.fence_line in b else b
+        a_cut = leading[0] + (a[:a.rfind(a_side.fence_line)] if a_side.fence_line in a else a)
+        b_cut = leading[1] + (b[:b.rfind(b_side.fence_line)] if b_side.fence_line in b else b)
         diff = self._first_difference(a_cut, b_cut, frozenset())
         settling: FrozenSet[int] = frozenset()
         if diff is not None:
             # A port one side is setting up again lists as its clock has it: timing (reconnecting.py).
-            settling = self._reconnecting.ports([side.link.now for side in self.sides])
+            settling = self._settling() | settling_at_start
             if settling - self._apart:
                 diff = self._first_difference(a_cut, b_cut, settling)
                 self.stats.reconnect_apart += diff is None

@@ -14,14 +14,15 @@ compare the `list` block of such a port from the overrun to the port's next ``co
 (from there :mod:`.reconnecting` covers the new set-up).
 
 The loss outlives a run on a target kept open from run to run (its next runs list the same damaged
-block), so it is kept per target (:func:`for_target`), for as long as that target object lives.
+block), so it is kept per target (:data:`for_target`, fuzz/per_target.py), for as long as that target
+object lives.
 """
 from __future__ import annotations
 
-from typing import Dict, FrozenSet, Iterable, Set, Tuple
-from weakref import WeakKeyDictionary
+from typing import FrozenSet, Iterable, Set
 
 from ..harness.events import Event
+from .per_target import PerTarget
 
 __all__ = ["SetupLoss", "for_target", "SETUP_ENDS"]
 
@@ -55,21 +56,5 @@ class SetupLoss:
         return frozenset(self.lost)
 
 
-_BY_TARGET: WeakKeyDictionary[object, SetupLoss] = WeakKeyDictionary()
-_BY_ID: Dict[int, Tuple[object, SetupLoss]] = {}     # targets that cannot be weakly referenced
-
-
-def for_target(target: object) -> SetupLoss:
-    """The :class:`SetupLoss` of ``target`` (a new one for a target not seen before)."""
-    try:
-        loss = _BY_TARGET.get(target)
-        if loss is None:
-            loss = _BY_TARGET[target] = SetupLoss()
-        return loss
-    except TypeError:
-        kept = _BY_ID.get(id(target))
-        if kept is None or kept[0] is not target:
-            if len(_BY_ID) >= 64:          # (such a target is held here: keep only the recent ones)
-                _BY_ID.clear()
-            kept = _BY_ID[id(target)] = (target, SetupLoss())
-        return kept[1]
+# (kept per target object: fuzz/per_target.py)
+for_target: PerTarget[SetupLoss] = PerTarget(SetupLoss)

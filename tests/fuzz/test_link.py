@@ -2,6 +2,8 @@
 pace splits from its fence answer still completes that answer."""
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 from buildhat_conformance.emulator.api import Emulator
 from buildhat_conformance.emulator.inprocess_target import InProcessTarget
 from buildhat_conformance.fuzz.link import FENCE, Link
@@ -71,3 +73,17 @@ def test_a_target_that_cannot_tell_waits_the_whole_pause() -> None:
     link.settle(10, 500)
     assert hat.now == 500 and hat.calls == [("advance", 500)]
     assert link.trace.entries[-1] == ("wait", 0.0, 500)
+
+
+def test_target_now_goes_on_from_link_to_link_of_one_target():
+    """What outlives a run on a kept-open target is timed by it (fuzz/reconnecting.py): each run has a
+    Link of its own, whose ``now`` starts anew on a wall-clock target."""
+    hat = _RestingHat(rest_ms=0)
+    hat.now = 1234
+    assert Link(hat, "target").target_now == 1234.0  # type: ignore[arg-type]  # virtual: the HAT's clock
+    wall = SimpleNamespace(time_scale=10.0, capabilities=frozenset())
+    first = Link(wall, "target")   # type: ignore[arg-type]  # a stand-in: only its clock is read
+    at = first.target_now
+    second = Link(wall, "target")  # type: ignore[arg-type]
+    # a new link's now starts at 0, the target's clock goes on
+    assert second.now < 1000.0 <= at <= second.target_now

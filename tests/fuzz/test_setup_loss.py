@@ -11,7 +11,6 @@ from __future__ import annotations
 
 from types import SimpleNamespace
 
-from buildhat_conformance.fuzz.reconnecting import Reconnecting
 from buildhat_conformance.fuzz.runner import Runner, Stats
 from buildhat_conformance.fuzz.setup_loss import SetupLoss, for_target
 from buildhat_conformance.harness.events import classify
@@ -61,10 +60,9 @@ class _Target:
 def _runner(targets) -> Runner:
     runner = Runner.__new__(Runner)
     runner.sides = [SimpleNamespace(fence_line=b"Firmware version: x", label=label,   # type: ignore[assignment]
-                                    link=SimpleNamespace(now=0.0, target=target))
+                                    link=SimpleNamespace(now=0.0, target_now=0.0, target=target))
                     for label, target in zip(("target", "against"), targets)]
     runner.stats, runner._apart = Stats(), set()
-    runner._reconnecting = Reconnecting(2)
     runner.found = []              # type: ignore[attr-defined]
     runner.fail = (lambda oracle, message, details:         # type: ignore[method-assign]
                    runner.found.append(oracle))             # type: ignore[attr-defined]
