@@ -198,6 +198,7 @@ def _backward(tokens: List[Token], t0: int, actual: bytes, start: int, allowed: 
                         found, r = found + ((tokens[u - 1][0] if u else 0, ev),), q
                         break
                 if ev is not None:
+                    moved = True
                     continue
             for n, template in enumerate(templates):   # pushed first: tried after the prediction
                 j = _stray_place(template, left[n], actual[r - 1])
