@@ -25,22 +25,14 @@ def test_fuzz_link_completes_a_prompt_split_by_the_wire() -> None:
     assert answers[0].startswith(b"vin\r\n") and FENCE in answers[0]
 
 
-class _RestingHat:
-    """A virtual target whose command port comes to rest ``rest_ms`` after a settle begins."""
+class _PlainHat:
+    """A virtual target that cannot tell when its command port is at rest."""
 
     capabilities = frozenset({"virtual_time"})
     time_scale = None
 
-    def __init__(self, rest_ms: int, with_settle: bool = True):
+    def __init__(self, rest_ms: int):
         self.now, self.rest_ms, self.calls = 0, rest_ms, []
-        if not with_settle:
-            self.settle = None
-
-    def settle(self, min_ms: int, max_ms: int) -> int:
-        waited = min(max(min_ms, self.rest_ms), max_ms)
-        self.now += waited
-        self.calls.append(("settle", min_ms, max_ms))
-        return waited
 
     def advance(self, ms: int) -> None:
         self.now += ms
@@ -48,6 +40,16 @@ class _RestingHat:
 
     def read(self, timeout: float) -> bytes:
         return b""
+
+
+class _RestingHat(_PlainHat):
+    """A virtual target whose command port comes to rest ``rest_ms`` after a settle begins."""
+
+    def settle(self, min_ms: int, max_ms: int) -> int:
+        waited = min(max(min_ms, self.rest_ms), max_ms)
+        self.now += waited
+        self.calls.append(("settle", min_ms, max_ms))
+        return waited
 
 
 def test_a_pause_ends_when_the_port_is_at_rest_and_the_trace_keeps_what_passed() -> None:
@@ -60,7 +62,7 @@ def test_a_pause_ends_when_the_port_is_at_rest_and_the_trace_keeps_what_passed()
 
 
 def test_a_target_that_cannot_tell_waits_the_whole_pause() -> None:
-    hat = _RestingHat(rest_ms=40, with_settle=False)
+    hat = _PlainHat(rest_ms=40)
     link = Link(hat, "plain")  # type: ignore[arg-type]
     link.settle(10, 500)
     assert hat.now == 500 and hat.calls == [("advance", 500)]
