@@ -11,9 +11,10 @@ which the next byte written takes: input echoed as it arrives (at the wire's pac
 them, so what came is the prediction with many gaps, and a line the HAT prints by itself meanwhile
 may leave a few of its bytes among them, in order: the stall line of the slow pass (the `help` that
 filled the ring; sil findings: the `0` of `deltat=00000003` between two echoed bytes, its `d` after two
-of help's), and with `debug 4` a port scan's signature line (its `P` between two echoed digits); at
-most one line of each. A byte both the prediction and such a line can be is tried both ways. The
-fence's answer, sent after the ring drained, must come whole.
+of help's), the end of a pulse or a ramp (`P3: pulse done`: its `P` inside an echo), and with
+`debug 4` a port scan's signature line (its `P` between two echoed digits); at most one line of
+each. A byte both the prediction and such a line can be is tried both ways. The fence's answer,
+sent after the ring drained, must come whole.
 """
 from __future__ import annotations
 
@@ -104,9 +105,18 @@ def _line_before(actual: bytes, start: int, r: int) -> Optional[int]:
 # Lines a HAT prints by itself, never held back, that a slow pass may print into a full ring (the
 # freed places go to whatever is written next): their bytes in order, a set of bytes per place. The
 # stall line (fb-stall) of the pass that filled it; a passive-ID signature line (fb-debug, bit 4) of a
-# port scan meanwhile. Longest forms: a line that came in part is a subsequence of one of them.
+# port scan meanwhile; the end of a pulse or a ramp (fb-async). Longest forms: a line that came in
+# part is a subsequence of one of them.
 _HEX = frozenset(b"0123456789ABCDEF")
+
+
+def _port_line(text: bytes) -> List[frozenset]:
+    return [frozenset(b"P"), frozenset(b"0123")] + [frozenset((b,)) for b in text + b"\r\n"]
+
+
 _STRAYS = {
+    "pulse_done": _port_line(b": pulse done"),
+    "ramp_done": _port_line(b": ramp done"),
     "deltat": [frozenset((b,)) for b in b"deltat="] + [_HEX] * 8 + [frozenset(b"\r"), frozenset(b"\n")],
     "signature_debug": ([frozenset(b"P"), frozenset(b"0123")] + [frozenset((b,)) for b in b": D5 signature="]
                         + [_HEX] * 4 + [frozenset((b,)) for b in b" id="] + [frozenset(b"0123456789")] * 2
