@@ -132,6 +132,12 @@ def _stray_place(template: List[frozenset], left: int, byte: int) -> Optional[in
     return None
 
 
+def _stray_start(stub: bytes, templates: List[List[frozenset]]) -> bool:
+    """Whether ``stub`` is the start of a line a HAT prints by itself, whose rest the ring dropped
+    (a line that came whole once it drained may follow it)."""
+    return any(len(stub) <= len(t) and all(b in t[j] for j, b in enumerate(stub)) for t in templates)
+
+
 class _Tokens:
     """The predicted tokens, indexed for the backward walk: the latest token before ``u`` that a
     byte can be is found without scanning every byte between."""
@@ -206,6 +212,9 @@ def _backward(tokens: List[Token], t0: int, actual: bytes, start: int, allowed: 
                     ev = _async_at(actual, q, r - 2, allowed)
                     if ev is not None:
                         found, r = found + ((tokens[u - 1][0] if u else 0, ev),), q
+                        # The stub may end in the start of a line a HAT prints by itself, its
+                        # rest dropped by the ring: that part is no predicted output.
+                        r = next((b for b in range(begin, q) if _stray_start(actual[b:q], templates)), q)
                         break
                 if ev is not None:
                     moved = True
