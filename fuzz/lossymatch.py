@@ -8,14 +8,18 @@ predicted byte it can be: once the ring is full, what gets through is what was w
 drained, the later output. Lines the HAT prints once the ring drained (reports, stall lines) may
 follow the stub of a cut line. While the ring stays full every byte that leaves frees one place,
 which the next byte written takes: input echoed as it arrives (at the wire's pace too) gets most of
-them, so what came is the prediction with many gaps, and the stall line a slow pass (the `help` that
-filled the ring) prints by itself may leave a few of its bytes among them (a sil finding: `0` of
-`deltat=00000003` between two echoed bytes); at most one such line's bytes are allowed there. The
-fence's answer, sent after the ring drained, must come whole.
+them, so what came is the prediction with many gaps, and a line the HAT prints by itself meanwhile
+may leave a few of its bytes among them, in order: the stall line of the slow pass (the `help` that
+filled the ring; sil findings: the `0` of `deltat=00000003` between two echoed bytes, its `d` after two
+of help's), the end of a pulse or a ramp (`P3: pulse done`: its `P` inside an echo), and with
+`debug 4` a port scan's signature line (its `P` between two echoed digits); at most one line of
+each. A byte both the prediction and such a line can be is tried both ways. The fence's answer,
+sent after the ring drained, must come whole.
 """
 from __future__ import annotations
 
-from typing import List, Optional, Sequence, Tuple, Union
+from bisect import bisect_left, bisect_right
+from typing import Dict, List, Optional, Sequence, Tuple, Union
 
 from ..harness.events import Event, classify
 from .expect import Expect
@@ -98,53 +102,136 @@ def _line_before(actual: bytes, start: int, r: int) -> Optional[int]:
     return start if begin < 0 else begin + 2
 
 
-# The stall line (fb-stall) a slow pass prints into a full ring: its bytes, and how many of them there are.
-_STALL_BYTES = frozenset(b"deltat=0123456789ABCDEF\r\n")
-_STALL_LINE = len(b"deltat=00000000\r\n")
+# Lines a HAT prints by itself, never held back, that a slow pass may print into a full ring (the
+# freed places go to whatever is written next): their bytes in order, a set of bytes per place. The
+# stall line (fb-stall) of the pass that filled it; a passive-ID signature line (fb-debug, bit 4) of a
+# port scan meanwhile; the end of a pulse or a ramp (fb-async). Longest forms: a line that came in
+# part is a subsequence of one of them.
+_HEX = frozenset(b"0123456789ABCDEF")
+
+
+def _port_line(text: bytes) -> List[frozenset]:
+    return [frozenset(b"P"), frozenset(b"0123")] + [frozenset((b,)) for b in text + b"\r\n"]
+
+
+_STRAYS = {
+    "pulse_done": _port_line(b": pulse done"),
+    "ramp_done": _port_line(b": ramp done"),
+    "deltat": [frozenset((b,)) for b in b"deltat="] + [_HEX] * 8 + [frozenset(b"\r"), frozenset(b"\n")],
+    "signature_debug": ([frozenset(b"P"), frozenset(b"0123")] + [frozenset((b,)) for b in b": D5 signature="]
+                        + [_HEX] * 4 + [frozenset((b,)) for b in b" id="] + [frozenset(b"0123456789")] * 2
+                        + [frozenset(b"\r"), frozenset(b"\n")]),
+}
+
+
+def _stray_place(template: List[frozenset], left: int, byte: int) -> Optional[int]:
+    """The latest place before ``left`` in a stray line's ``template`` that ``byte`` can be."""
+    for j in range(left - 1, -1, -1):
+        if byte in template[j]:
+            return j
+    return None
+
+
+def _stray_start(stub: bytes, templates: List[List[frozenset]]) -> bool:
+    """Whether ``stub`` is the start of a line a HAT prints by itself, whose rest the ring dropped
+    (a line that came whole once it drained may follow it)."""
+    return any(len(stub) <= len(t) and all(b in t[j] for j, b in enumerate(stub)) for t in templates)
+
+
+class _Tokens:
+    """The predicted tokens, indexed for the backward walk: the latest token before ``u`` that a
+    byte can be is found without scanning every byte between."""
+
+    def __init__(self, tokens: List[Token]):
+        self.tokens = tokens
+        self.by_byte: Dict[int, List[int]] = {}
+        self.lines: List[int] = []               # pattern and listing items
+        for k, (_i, tok) in enumerate(tokens):
+            if isinstance(tok, int):
+                self.by_byte.setdefault(tok, []).append(k)
+            else:
+                self.lines.append(k)
+
+    def latest(self, byte: int, u: int, t0: int) -> int:
+        """The latest byte token equal to ``byte`` in ``[t0, u)``, or ``t0 - 1``."""
+        at = self.by_byte.get(byte, [])
+        k = bisect_left(at, u) - 1
+        return at[k] if k >= 0 and at[k] >= t0 else t0 - 1
+
+    def lines_between(self, lo: int, u: int) -> List[int]:
+        """Pattern and listing items in ``(lo, u)``, latest first."""
+        a, b = bisect_right(self.lines, lo), bisect_left(self.lines, u)
+        return self.lines[a:b][::-1]
+
+
+# The places tried at most (a bound on a search that fails: such a step is a finding).
+_SEARCH_MAX = 200_000
+State = Tuple[int, int, Tuple[int, ...], Tuple[Tuple[int, Event], ...]]   # r, u, stray places left, async
+
+
+def _predicted(idx: _Tokens, actual: bytes, start: int, r: int, u: int, t0: int,
+               begin: Optional[int]) -> Optional[Tuple[int, int]]:
+    """The prediction's reading of what ends at ``r``: (r, u) after the latest token it can be
+    (tokens after it are lost), or None when no token before ``u`` can be it."""
+    k = idx.latest(actual[r - 1], u, t0)
+    for line in idx.lines_between(k, u):         # a line item later than that byte token first
+        tok = idx.tokens[line][1]
+        assert isinstance(tok, Expect)
+        if tok.kind == "listing":
+            return (_listing_back(actual, start, r) if begin is not None else r), line
+        line_begin = _pattern_back(tok, actual, start, r)
+        if line_begin is not None:
+            return line_begin, line
+    return (r - 1, k) if k >= t0 else None
 
 
 def _backward(tokens: List[Token], t0: int, actual: bytes, start: int, allowed: frozenset,
               res: MatchResult) -> bool:
     """``actual[start:]`` is ``tokens[t0:]`` with some missing, and whole asynchronous lines
-    (perhaps after the stub of a cut line) between, and at most a stall line's bytes: matched
-    from the end."""
-    r, u = len(actual), len(tokens)
-    strays = _STALL_LINE if "deltat" in allowed else 0
-    while r > start:
-        begin = _line_before(actual, start, r)
-        if begin is not None:
-            skipped = False
-            for q in range(begin, r - 2):          # an asynchronous line, perhaps after a stub
-                ev = _async_at(actual, q, r - 2, allowed)
+    (perhaps after the stub of a cut line) between, and bytes of at most one stray line of each
+    kind (:data:`_STRAYS`) among them: matched from the end. A byte both readings allow is tried
+    as the prediction's first, then as a stray line's (a search; the latest token a byte can be
+    is the best choice for the prediction, so a place is tried again only with more left)."""
+    idx = _Tokens(tokens)
+    kinds = [k for k in _STRAYS if k in allowed]
+    templates = [_STRAYS[k] for k in kinds]
+    stack: List[State] = [(len(actual), len(tokens), tuple(len(t) for t in templates), ())]
+    seen: Dict[Tuple[int, Tuple[int, ...]], int] = {}
+    while stack:
+        r, u, left, found = stack.pop()
+        moved = True
+        while r > start:
+            if moved:
+                if seen.get((r, left), -1) >= u or len(seen) > _SEARCH_MAX:
+                    break                        # tried here with as much left, or more
+                seen[(r, left)] = u
+            begin = _line_before(actual, start, r)
+            if begin is not None:
+                ev = None
+                for q in range(begin, r - 2):    # an asynchronous line, perhaps after a stub
+                    ev = _async_at(actual, q, r - 2, allowed)
+                    if ev is not None:
+                        found, r = found + ((tokens[u - 1][0] if u else 0, ev),), q
+                        # The stub may end in the start of a line a HAT prints by itself, its
+                        # rest dropped by the ring: that part is no predicted output.
+                        r = next((b for b in range(begin, q) if _stray_start(actual[b:q], templates)), q)
+                        break
                 if ev is not None:
-                    res.asynchronous.append((tokens[u - 1][0] if u else 0, ev))
-                    r, skipped = q, True
-                    break
-            if skipped:
-                continue
-        before = u
-        while True:
-            u -= 1
-            if u < t0:
-                if strays and actual[r - 1] in _STALL_BYTES:
-                    strays, r, u = strays - 1, r - 1, before     # a byte of a stall line that got in
-                    break
-                return False                       # a byte the prediction does not have
-            i, tok = tokens[u]
-            if isinstance(tok, int):
-                if tok == actual[r - 1]:
-                    r -= 1
-                    break
-            elif tok.kind == "listing":
-                if begin is not None:
-                    r = _listing_back(actual, start, r)
+                    moved = True
+                    continue
+            for n, template in enumerate(templates):   # pushed first: tried after the prediction
+                j = _stray_place(template, left[n], actual[r - 1])
+                if j is not None:
+                    stack.append((r - 1, u, left[:n] + (j,) + left[n + 1:], found))
+            step = _predicted(idx, actual, start, r, u, t0, begin)
+            if step is None:
                 break
-            else:
-                line_begin = _pattern_back(tok, actual, start, r)
-                if line_begin is not None:
-                    r = line_begin
-                    break
-    return True
+            moved = step[0] != r                 # (a `list` dump with none of its lines left: same place)
+            r, u = step
+        else:
+            res.asynchronous.extend(found)
+            return True
+    return False
 
 
 # The bytes a pattern line (fuzz/expect.py) is made of: what is left of one the ring cut holds no other.

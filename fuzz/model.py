@@ -334,6 +334,7 @@ class HatModel:
         p = self._here()
         index = clamp(cur.need(cur.signed()), 0, 7)
         p.tampered = True
+        selected = p.mode
         if self._combi_clears:
             # §6.2 says combi sets the mode to -1; whether an odd list does so too is not said.
             p.mode = -1
@@ -346,6 +347,10 @@ class HatModel:
                 break
             if cur.signed() is None:             # odd count: the pairs so far are recorded
                 p.combi[index] = pairs
+                # Still unknown, but the mode stays a selection that may report: the firmware in
+                # the loop kept streaming after it (sil/README.md), and a port taken for silent
+                # held no room for its reports in the TX ring (fuzz/txring.py's backlog).
+                p.mode = selected
                 raise LineFailed()
             pairs += 1
             p.combi[index] = pairs

@@ -82,6 +82,7 @@ static struct {
     int rx_full;                       /* the receive holding register has a byte */
     uint8_t rx_byte;
     int tx_busy, tx_irq, entered_rx;
+    int entered_tx;                    /* a handler that saw room to send has not returned yet */
     uint64_t tx_done;
     uint8_t tx_byte;
 } cu = {.byte_ns = 86806};
@@ -115,7 +116,9 @@ static void host_out_add(uint64_t t, uint8_t b) {
  * handler has yet to see); bit 1: no byte from the host is on its way or unread. The world
  * reads it at each yield to let a TX ring drain no longer than it takes (fuzz pauses). */
 uint8_t periph_host_status(void) {
-    uint8_t tx_idle = !cu.tx_busy && !cu.tx_irq;
+    /* A stop may come inside the handler (time moves there): one that saw room to send may
+     * still write the next byte of the ring, so the port is not at rest until it returns. */
+    uint8_t tx_idle = !cu.tx_busy && !cu.tx_irq && !cu.entered_tx;
     uint8_t rx_idle = wire_next(&cu.rx) == UINT64_MAX && !cu.rx_full;
     return (uint8_t)(tx_idle | rx_idle << 1);
 }
@@ -597,6 +600,7 @@ void periph_irq_enter(uint num) {
         W32(u->dr) = cu.rx_byte;
     } else {
         cu.tx_irq = 0;
+        cu.entered_tx = !cu.tx_busy;
         W32(u->fr) = (cu.tx_busy ? 0u : 0x80u) | 0x10u;   /* TX empty?; RX empty */
         W32(u->dr) = DR_UNTOUCHED;
     }
@@ -606,6 +610,7 @@ void periph_irq_exit(uint num) {
     if (num != UART0_IRQ) return;
     uart_hw_t *u = &sil_uart_hw[0];
     if (cu.entered_rx) return;
+    cu.entered_tx = 0;
     uint32_t dr = u->dr;
     if (dr != DR_UNTOUCHED && !cu.tx_busy) {
         cu.tx_byte = (uint8_t)dr;

@@ -51,6 +51,56 @@ def test_more_than_a_stall_line_or_other_bytes_are_still_findings():
     tail = b"296;por 0\rPwmpx 1.001000 1.0000001\rversion" + FENCE_ANSWER + b"P0>"
     # a byte no output here has (the stall line's bytes are digits, A-F, `deltat=`, CR and LF)
     assert match_lossy(plan.expected, head + b"#" + tail, allowed, keep) is None
-    # more bytes than one stall line has
-    assert match_lossy(plan.expected, head + b"0" * 18 + tail, allowed, keep) is None
-    assert match_lossy(plan.expected, head + b"0" * 17 + tail, allowed, keep) is not None
+    # more bytes than the lines a HAT prints by itself have: a stall line's 8 hex digits, the port
+    # digit of a pulse's and a ramp's end (no signature lines without debug 4), in that order
+    assert match_lossy(plan.expected, head + b"0" * 11 + tail, allowed, keep) is None
+    assert match_lossy(plan.expected, head + b"0" * 10 + tail, allowed, keep) is not None
+    assert match_lossy(plan.expected, head + b"d=0" + tail, allowed, keep) is not None
+
+
+def test_a_stall_byte_that_the_prediction_could_also_be_is_tried_both_ways():
+    """The `fate` finding of seed 22 (10 min against emulator): `…4=signcgd`, then the step's later
+    lines. `c` (controller) and `g` (messages) are help's, `d` the first byte of the stall line the
+    help pass printed (`deltat=00000003` right after help in that run's first step); taken as the `d`
+    of help's `payload`, the closest the prediction has, it left `g` with nothing to be."""
+    plan, keep, head = _plan()
+    allowed = allowed_kinds(R7, 1)
+    tail = b"296;por 0\rPwmpx 1.001000 1.0000001\rversion" + FENCE_ANSWER + b"P0>"
+    assert match_lossy(plan.expected, head + b"cgd" + tail, allowed, keep) is not None
+
+
+def test_a_signature_line_of_debug_4_may_leave_bytes_among_the_echo():
+    """The related case of the seed-3 campaign (reproduced 3/3 then): with `debug 4`, a port scan's
+    `P<p>: D5 signature=… id=…` line printed into the full ring left its `P` between two echoed
+    digits (`42949672P9`). Here its `g` inside `plim`: nothing else here has a `g` late enough."""
+    plan, keep, head = _plan()
+    tail = b"m -.545 ; selrat  4294967296;;por 0\rPwmpx 1.001000 1.0000001\rversion" + FENCE_ANSWER + b"P0>"
+    seen = head + b"plig" + tail
+    assert match_lossy(plan.expected, seen, allowed_kinds(R7, 4 | 1), keep) is not None
+    assert match_lossy(plan.expected, seen, allowed_kinds(R7, 1), keep) is None      # debug 4 off
+    assert match_lossy(plan.expected, head + b"pli#" + tail, allowed_kinds(R7, 4 | 1), keep) is None
+
+
+def test_the_end_of_a_pulse_may_leave_bytes_among_the_echo():
+    """The `fate` finding of seed 22 (945 runs against emulator, after the fixes above): a `set pulse`
+    of length 0 in the step ended at once, and its `P3: pulse done` printed into the full ring left
+    its `P` inside a noise line's echo (`\\x90P\\x85`). Here inside `plim`, where the prompt's `P` is
+    too early for `pli`."""
+    plan, keep, head = _plan()
+    tail = b"m -.545 ; selrat  4294967296;;por 0\rPwmpx 1.001000 1.0000001\rversion" + FENCE_ANSWER + b"P0>"
+    seen = head + b"pliP" + tail
+    allowed = allowed_kinds(R7, 1)
+    assert match_lossy(plan.expected, seen, allowed, keep) is not None
+    assert match_lossy(plan.expected, seen, allowed - {"pulse_done", "ramp_done"}, keep) is None
+
+
+def test_the_start_of_a_line_a_hat_prints_by_itself_may_be_left_before_a_whole_one():
+    """The `fate` finding of seed 22 (945 runs, after the fixes above): with `debug 4`, a port
+    scan's signature line began in the full ring and lost the rest (`P1: D5 `), and once the ring
+    drained the next scan's line came whole. That start is no predicted output."""
+    plan, keep, head = _plan()
+    tail = b"296;por 0\rPwmpx 1.001000 1.0000001\rversion" + FENCE_ANSWER + b"P0>"
+    whole = b"P2: D5 signature=0C40 id=8\r\n"
+    allowed = allowed_kinds(R7, 4 | 1)
+    assert match_lossy(plan.expected, head + b"P1: D5 " + whole + tail, allowed, keep) is not None
+    assert match_lossy(plan.expected, head + b"P1: X5 " + whole + tail, allowed, keep) is None

@@ -191,3 +191,25 @@ def test_drive_oracle_allows_a_reverse_duty_flagged_forwards_by_clear_faults():
     m.feed(b"set 0.1\r")
     m.feed(b"clear_faults\r")
     assert not judge(m, 25) and judge(m, -25)        # a forward duty stays what it is
+
+
+def test_an_odd_combi_leaves_a_streaming_selection_counted_in_the_tx_ring():
+    """sil liveness finding (seed 22, 10 min against emulator): `selr` made port 0's combi 6
+    stream, then a `combi` with an odd count printed `Error`; the model took the port for silent,
+    reckoned nothing queued in the TX ring and sent the fence inside a step whose `help` filled it:
+    the fence's answer was lost. The facts leave open whether such a combi clears the selection
+    (fb-errors); the firmware in the loop went on reporting (`select 1`, `combi 0 1`: `Error`,
+    then `P0M1` lines as before). Unknown, then, but still a selection that may report."""
+    from buildhat_conformance.fuzz.stepplan import plan_step
+    from buildhat_conformance.fuzz.txring import THROTTLE, backlog
+
+    m, _out, fates = run("R7", b"select 1\rselrate 1\r")
+    plan = plan_step(m, [b"combi 0 1\r"])
+    assert plan.fates[0].failed == "combi"
+    p = m.ports[0]
+    assert not p.known and p.mode == 1                 # the facts do not say; the mode may still report
+    assert backlog(plan.states[-1:], 0, m.selrate_engine, True) >= THROTTLE
+    # a whole combi clears the selection (fb-reporting): nothing streams after it
+    m, _out, fates = run("R7", b"select 1\rselrate 1\rcombi 0 1 0\r")
+    assert not fates[-1].error and m.ports[0].known and m.ports[0].mode == -1
+    assert backlog([m.ports], 0, m.selrate_engine, True) == 0

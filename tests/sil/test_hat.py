@@ -127,6 +127,62 @@ def test_a_byte_that_arrives_inside_the_handler_is_read_after_it(tmp_path):
         hat.close()
 
 
+# A handler that takes its time before it sends the next byte of its ring: a stop of the firmware
+# (a world action due, a device's message out) may come while it runs.
+SLOW_SEND = r"""
+/* The test's program for the stand-in's command-port UART. */
+#include "pico/stdlib.h"
+#include "hardware/irq.h"
+#include "hardware/uart.h"
+
+static const char message[] = "%s";
+static volatile unsigned sent;
+
+static void on_uart(void) {
+    uart_hw_t *hw = uart_get_hw(uart0);
+    if (hw->fr & 0x80) {                       /* room to send */
+        busy_wait_us(300);                     /* then the next byte, or the interrupt off */
+        if (message[sent]) hw->dr = (uint8_t)message[sent++];
+        else hw->icr = 0x20;
+    }
+}
+
+int main(void) {
+    uart_init(uart0, 115200);
+    uart_set_fifo_enabled(uart0, false);
+    irq_set_exclusive_handler(UART0_IRQ, on_uart);
+    uart_get_hw(uart0)->imsc = 0x20;
+    irq_set_enabled(UART0_IRQ, true);
+    irq_set_pending(UART0_IRQ);
+    for (;;) sleep_ms(1);
+}
+"""
+
+
+def test_the_port_is_not_at_rest_while_a_handler_that_may_send_runs(tmp_path):
+    """The sil liveness of seed 22 (342 runs against emulator): a fuzz pause ended 32 ms into a
+    step whose `help` had filled the ring, and the fence's answer was cut. The stand-in said the
+    port was at rest at a stop that came inside the UART handler, after it took the interrupt
+    and before it wrote the next byte: nothing on the wire, no interrupt pending, yet the ring
+    full. Stopped every 13 us, the port must not say so until the whole message has gone."""
+    hat = _program(tmp_path, SLOW_SEND % MESSAGE.replace("\r", "\\r").replace("\n", "\\n"))
+    try:
+        proc = hat.proc
+        assert proc is not None
+        out = b""
+        quiet_inside = []
+        for _ in range(3000):                 # 39 ms; 18 bytes take 18 x (300 + 87) us
+            frames = proc.run(proc.now + 13_000, [], yield_on_host_idle=False)
+            out += b"".join(f.payload for f in frames if f.kind == "h")
+            if out and len(out) < len(MESSAGE) and proc.host_quiet:
+                quiet_inside.append((proc.now, len(out)))
+        assert out == MESSAGE.encode()
+        assert not quiet_inside, f"at rest with the message half sent: {quiet_inside[:5]}"
+        assert proc.host_quiet                # and at rest once it has gone
+    finally:
+        hat.close()
+
+
 def _booted_firmware_hat() -> SilHat:
     from sil_support import firmware_tree
     hat = SilHat(str(build_tree(str(firmware_tree())).program))
