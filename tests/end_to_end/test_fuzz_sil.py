@@ -74,13 +74,18 @@ FIRST_LIST = PRELUDE + """> list
 """
 
 
-def test_the_first_list_against_the_emulator_process_agrees(cache, tmp_path):
+def _differential_not_reproduced(cache, tmp_path, against: str, what: str, script: str) -> None:
+    """The finding's script, replayed on the firmware against ``against``, no longer differs."""
     path = tmp_path / "differential.script"
-    path.write_text(f"@name fuzz finding (differential): port 0 listed on one side only\n{FIRST_LIST}")
+    path.write_text(f"@name fuzz finding (differential): {what}\n{script}")
     done = cli("fuzz", "--reproduce", str(path), "--target", f"sil:{firmware_tree()}", "--against",
-               "emulator", "--confirm", "1", cache=cache)
+               against, "--confirm", "1", cache=cache)
     assert done.returncode == 0, done.stdout + done.stderr[-2000:]
     assert done.stdout.startswith("not reproduced (0/1 replays)"), done.stdout
+
+
+def test_the_first_list_against_the_emulator_process_agrees(cache, tmp_path):
+    _differential_not_reproduced(cache, tmp_path, "emulator", "port 0 listed on one side only", FIRST_LIST)
 
 
 # sil finding (`--against inprocess --seed 11`): a motor dropped after its selected combi was taken
@@ -100,12 +105,7 @@ SET_UP_AGAIN = PRELUDE + """> combi 7 1 0 2 0 3 0
 
 
 def test_a_port_set_up_again_is_not_compared_until_it_is_established(cache, tmp_path):
-    path = tmp_path / "differential.script"
-    path.write_text(f"@name fuzz finding (differential): port 0 set up again\n{SET_UP_AGAIN}")
-    done = cli("fuzz", "--reproduce", str(path), "--target", f"sil:{firmware_tree()}", "--against",
-               "inprocess", "--confirm", "1", cache=cache)
-    assert done.returncode == 0, done.stdout + done.stderr[-2000:]
-    assert done.stdout.startswith("not reproduced (0/1 replays)"), done.stdout
+    _differential_not_reproduced(cache, tmp_path, "inprocess", "port 0 set up again", SET_UP_AGAIN)
 
 
 def test_a_stream_an_odd_combi_left_running_holds_back_the_fence(cache, monkeypatch):
