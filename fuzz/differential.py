@@ -20,7 +20,7 @@ from ..harness.events import PORT_STATUS_KINDS, Event, classify, line_kind
 from .stream import ASYNC_KINDS
 
 __all__ = ["compare_answers", "first_difference", "VIN_TOLERANCE_V", "VALUE_TOLERANCE", "synchronous_part",
-           "parted_matrix", "MATRIX_ID", "open_dump"]
+           "parted_matrix", "MATRIX_ID", "open_dump", "sync_bytes_before"]
 
 VIN_TOLERANCE_V = 0.10
 VALUE_TOLERANCE = 0.05      # relative, for positions/speeds in data lines
@@ -234,6 +234,12 @@ def first_difference(a: bytes, b: bytes, apart: FrozenSet[int] = frozenset()
             continue
         return i, pa, pb
     return None
+
+
+def sync_bytes_before(answer: bytes, index: int, apart: FrozenSet[int] = frozenset()) -> int:
+    """The bytes of ``answer``'s synchronous pieces before piece ``index`` (as
+    :func:`first_difference` counts them, with the same ``apart``)."""
+    return sum(len(p) for p in _without_ports(synchronous_part(answer)[0], apart)[:index])
 
 
 def compare_answers(a: bytes, b: bytes, label_a: str = "A", label_b: str = "B") -> Optional[str]:

@@ -10,7 +10,7 @@ from typing import Callable, Dict, FrozenSet, List, Optional, Sequence, Set, Tup
 from ..harness.events import line_kind
 from ..harness.targets.base import Target, TargetError
 from ..protocol.profiles import Profile
-from .differential import first_difference, open_dump, parted_matrix, synchronous_part
+from .differential import first_difference, open_dump, parted_matrix, sync_bytes_before, synchronous_part
 from .expect import LineFate
 from .explain import differential_message, liveness_message, stream_message
 from .link import FENCE, Link, LinkTimeout
@@ -52,6 +52,7 @@ class Stats:
     matrix_apart: int = 0         # runs whose sides parted on a light matrix (differential.parted_matrix)
     reconnect_apart: int = 0      # steps that left out a port one side was setting up again (reconnecting.py)
     setup_loss_apart: int = 0     # steps that left out a port a side set up only in part (setup_loss.py)
+    ring_unjudged: int = 0        # steps a ring may have cut unjudged by a model: compared up to the cut
     on_progress: Optional[Callable[[Stats], None]] = None
     on_note: Optional[Callable[[str], None]] = None     # what the campaign is doing besides fuzzing
 
@@ -251,6 +252,10 @@ class Runner:
             if pause:
                 self._send(side, FENCE, plan.blob)
         lost = False
+        # Per side, the bytes of the step's output that fit in its ring, where a full ring may have
+        # dropped the rest and the model could not judge it (the facts leave the step unsettled):
+        # the differential oracle then compares up to there only.
+        unjudged: List[Optional[int]] = [None] * len(self.sides)
         leading = list(self._dump_open)      # a dump's first lines, read with the last answer
         answers: List[bytes] = []
         compared: List[bytes] = []       # what the differential oracle compares (echo made whole)
@@ -288,6 +293,7 @@ class Runner:
                 continue      # also on a side whose model cannot follow; the trace ends before the
                               # guard's `debug 0`, so before the fence line)
             if side.model.tainted:
+                unjudged[len(answers) - 1] = keep
                 continue   # the facts do not say what this line does: liveness only
             res = match_stream(plan.expected, got, self._allowed(side, plan.debug))
             if res.problems and keep is not None:
@@ -302,7 +308,7 @@ class Runner:
             self._judge(side, res.problems, {"step": plan.blob, "expected": plan.expected, "received": got})
             self._check_records(side, before, plan.fates)
         if len(self.sides) == 2 and not lost:   # (drops, a raw trace: timing; each side judged its own)
-            self._differential(first.datas, compared, leading, settling)
+            self._differential(first.datas, compared, leading, settling, unjudged)
         return answers
 
     def _check_records(self, side: Side, start: int, fates: List[LineFate]) -> None:
@@ -387,31 +393,46 @@ class Runner:
 
     def _differential(self, datas: Sequence[bytes], answers: List[bytes],
                       leading: Sequence[bytes] = (b"", b""),
-                      settling_at_start: FrozenSet[int] = frozenset()) -> None:
+                      settling_at_start: FrozenSet[int] = frozenset(),
+                      ring_keeps: Sequence[Optional[int]] = (None, None)) -> None:
         """``leading``: per side, the first lines of a connect dump the last read ended inside of
         (differential.open_dump), put back in front of the rest, which begins this answer.
-        ``settling_at_start``: the ports a side was setting up again when the step began."""
+        ``settling_at_start``: the ports a side was setting up again when the step began.
+        ``ring_keeps``: per side, the bytes of its answer that always fit in its TX ring where the
+        ring may have dropped the rest unjudged (None: all of it counts)."""
         a_side, b_side = self.sides
         a, b = answers
         self.stats.count("differential")
         # The fence's own answer names each release: compare up to it.
         a_cut = leading[0] + (a[:a.rfind(a_side.fence_line)] if a_side.fence_line in a else a)
         b_cut = leading[1] + (b[:b.rfind(b_side.fence_line)] if b_side.fence_line in b else b)
-        diff = self._first_difference(a_cut, b_cut, frozenset())
+        also: FrozenSet[int] = frozenset()
+        diff = self._first_difference(a_cut, b_cut, also)
         settling: FrozenSet[int] = frozenset()
         if diff is not None:
             # A port one side is setting up again lists as its clock has it: timing (reconnecting.py).
             settling = self._settling() | settling_at_start
             if settling - self._apart:
-                diff = self._first_difference(a_cut, b_cut, settling)
+                also = settling
+                diff = self._first_difference(a_cut, b_cut, also)
                 self.stats.reconnect_apart += diff is None
         if diff is not None:
             # A port whose set-up lost messages to a side's full queue (`MQ overrun!`) lists what that
             # side received, until it sets up again: timing (setup_loss.py).
             partial = frozenset().union(*(for_target(side.link.target).ports() for side in self.sides))
             if partial - self._apart - settling:
-                diff = self._first_difference(a_cut, b_cut, settling | partial)
+                also = settling | partial
+                diff = self._first_difference(a_cut, b_cut, also)
                 self.stats.setup_loss_apart += diff is None
+        if diff is not None and any(k is not None for k in ring_keeps):
+            # Past the bytes that always fit, a side's full ring may have dropped output (fuzz/txring.py)
+            # that its model, unsettled by the facts, could not judge: a difference there is no finding.
+            apart = frozenset(self._apart | also)
+            passed = [None if k is None else sync_bytes_before(cut, diff[0], apart) - len(lead)
+                      for k, cut, lead in zip(ring_keeps, (a_cut, b_cut), leading)]
+            if any(k is not None and n is not None and n >= k for k, n in zip(ring_keeps, passed)):
+                self.stats.ring_unjudged += 1
+                return
         if diff is not None:
             step = b"".join(datas) + FENCE
             message, more = differential_message((a_side.label, b_side.label), step, *diff)

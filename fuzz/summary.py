@@ -150,6 +150,10 @@ def print_summary(result: CampaignResult, stats: Stats, productions, files: Dict
     if stats.ring_lossy:
         print(f"  {stats.ring_lossy} step(s) lost output to a full TX ring while output streamed "
               "(allowed: docs/FIRMWARE-BEHAVIOUR.md#fb-tx-ring); judged on what a full ring leaves")
+    if stats.ring_unjudged:
+        print(f"  {stats.ring_unjudged} step(s) may have lost output to a full TX ring on one side where the "
+              "facts do not settle what the step prints (so no model could judge the loss): the sides "
+              "compared only up to the bytes the ring always keeps")
     if stats.matrix_apart:
         print(f"  {stats.matrix_apart} time(s) one side's light matrix stopped talking and the other's "
               "not (its 1 s without motor power ends at other instants on each side's clock): its "
