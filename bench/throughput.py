@@ -85,9 +85,11 @@ def baud_paced(seconds: float = 10.0, url: Optional[str] = None) -> Dict:
 
 
 def parallel_ptys(n: int = 3, seconds: float = 10.0) -> Dict:
-    """``n`` fuzz commands at once, each with its own emulator over its own pty: lines/s summed."""
+    """``n`` fuzz commands at once, each with its own emulator over its own pty: lines/s summed
+    (``--jobs 1`` each: ``n`` campaigns, not ``n`` times a worker per CPU)."""
     with ThreadPoolExecutor(max_workers=n) as pool:
-        results = list(pool.map(lambda i: fuzz_command(PTY_URL, seconds, seed=i), range(1, n + 1)))
+        results = list(pool.map(lambda i: fuzz_command(PTY_URL, seconds, seed=i, extra=["--jobs", "1"]),
+                                range(1, n + 1)))
     found = sum(len(r["findings"]) for r in results)
     return {"lines_per_s": sum(r["lines_per_s"] for r in results), "targets": n,
             "per_target": [r["lines_per_s"] for r in results],

@@ -25,6 +25,7 @@ from ..harness.targets.base import TargetError
 from ..transcripts.script import ScriptError
 from .command import DEFAULT_OUT, DEFAULT_TARGET, run
 from .generate import FAMILIES
+from .job_count import AUTO_JOBS_MAX, JOBS_ENV, jobs_value, resolve_jobs
 from .reproduce import reproduce
 from .target_kinds import is_fresh
 
@@ -81,10 +82,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "short is reported as far as it was checked, and the summary says so "
                              "(default: a quarter of a time budget; with a run budget, no bound beyond "
                              "--confirm and --shrink-time)")
-    parser.add_argument("--jobs", type=int, default=1, metavar="N",
+    parser.add_argument("--jobs", type=jobs_value, default="auto", metavar="N",
                         help="run N campaign workers at once, each with targets of its own, into one "
                              "summary (targets started anew at each open: inprocess, emulator, cmd:, "
-                             "sil:; for several real HATs use --places); default 1")
+                             "sil:; for several real HATs use --places); default auto: one per usable "
+                             f"CPU (at most {AUTO_JOBS_MAX}, or ${JOBS_ENV}) when every target is one this "
+                             "program starts (inprocess, emulator, sil:), else 1")
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress line")
     from ..harness.lab.selection import add_lab_arguments
 
@@ -110,10 +113,11 @@ def main(args: argparse.Namespace) -> int:
 
 
 def check_jobs(args: argparse.Namespace) -> None:
-    """``--jobs N`` needs targets that start a new HAT at every open (one per worker)."""
+    """``--jobs N`` needs targets that start a new HAT at every open (one per worker); ``auto``
+    becomes a number here (fuzz/job_count.py)."""
     from ..harness.cli_options import UsageError
 
-    jobs = getattr(args, "jobs", 1)
+    jobs = resolve_jobs(args, DEFAULT_TARGET)
     if jobs < 1:
         raise UsageError(f"--jobs takes a positive number of workers, got {jobs}")
     if jobs == 1:

@@ -18,6 +18,7 @@ from .explain import header_lines
 from .findings import write_finding, write_junit
 from .generate import check_families
 from .grammar import grammar_for
+from .job_count import resolve_jobs
 from .release import detect_profile, judged_profile
 from .stop_signals import StopSignals
 from .summary import KEPT_OPEN, Progress, print_summary
@@ -105,11 +106,13 @@ def _campaign(args: argparse.Namespace, config: CampaignConfig, budget: Budget,
     config.stats.on_progress = progress
     config.stats.on_note = progress.note
     database = None if args.no_database else (args.database or os.path.join(args.out, ".examples"))
+    jobs = resolve_jobs(args, DEFAULT_TARGET)
     if not args.quiet:
-        print(f"fuzz: seed {seed}" + (" (chosen at random)" if chosen else "") + f", budget {budget}",
-              file=sys.stderr, flush=True)
+        workers = (f", {jobs} workers" + (" (--jobs auto: one per usable CPU; --jobs 1 for one)"
+                                          if getattr(args, "jobs_auto", False) else "")) if jobs > 1 else ""
+        print(f"fuzz: seed {seed}" + (" (chosen at random)" if chosen else "")
+              + f", budget {budget}{workers}", file=sys.stderr, flush=True)
     kinds = f"{scheme(args.target or DEFAULT_TARGET)}>{scheme(args.against or '')}"
-    jobs = getattr(args, "jobs", 1) or 1
     if jobs > 1:
         from .jobs import run_jobs
         result, config.stats = run_jobs(config, budget, seed, jobs, database, kinds, progress, progress.note,

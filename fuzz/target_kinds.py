@@ -9,10 +9,11 @@ from ..harness.targets import make_target
 from ..harness.targets.base import Target
 
 __all__ = ["scheme", "is_fresh", "is_virtual", "is_wire", "has_tx_ring", "ring_sides", "sides_rings",
-           "opener_for", "fresh_boot_options", "FRESH_SCHEMES", "VIRTUAL_SCHEMES"]
+           "opener_for", "fresh_boot_options", "FRESH_SCHEMES", "VIRTUAL_SCHEMES", "OWN_SCHEMES"]
 
 FRESH_SCHEMES = ("inprocess", "emulator", "cmd", "sil")   # every open starts a new, freshly booted HAT
 VIRTUAL_SCHEMES = ("inprocess", "sil")     # HAT time, not wall time: the in-process emulator, the firmware
+OWN_SCHEMES = ("inprocess", "emulator", "sil")   # HATs this program starts itself (--jobs auto runs several)
 
 
 def scheme(url: str) -> str:

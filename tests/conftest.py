@@ -13,6 +13,11 @@ sys.path.insert(0, str(REPO / "tests"))     # the helpers beside the tests (shar
 
 from shared_material import SKIP_PREFIX  # noqa: E402
 
+# `fuzz --jobs auto` (the default) forks a worker per CPU; the tests already share the machine's
+# cores among pytest-xdist's workers, so their campaigns take one unless a test says otherwise
+# (tests/fuzz/test_jobs.py tests the default itself, without this).
+os.environ.setdefault("BUILDHAT_CONFORMANCE_JOBS", "1")
+
 
 def pytest_terminal_summary(terminalreporter: Any) -> None:
     """Say why tests skipped, one line per reason: ``3 skipped: no ../shared (the facts document

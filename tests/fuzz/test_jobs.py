@@ -70,3 +70,63 @@ def test_jobs_need_targets_started_anew_and_say_so_in_one_line(tmp_path):
     done = subprocess.run([EXE, "fuzz", "--jobs", "0", "-o", str(tmp_path)], capture_output=True, text=True,
                           timeout=60)
     assert done.returncode == 2 and len(done.stderr.strip().splitlines()) == 1, done.stderr
+
+
+def _auto(monkeypatch, cpus: int, *argv: str, env: str = "") -> int:
+    from buildhat_conformance.fuzz import job_count
+
+    monkeypatch.setattr(job_count, "_usable_cpus", lambda: cpus)
+    if env:
+        monkeypatch.setenv(job_count.JOBS_ENV, env)
+    else:
+        monkeypatch.delenv(job_count.JOBS_ENV, raising=False)
+    parser = argparse.ArgumentParser()
+    cli.add_arguments(parser)
+    return job_count.resolve_jobs(parser.parse_args(list(argv)), command.DEFAULT_TARGET)
+
+
+def test_jobs_auto_is_a_worker_per_cpu_for_hats_this_program_starts(monkeypatch):
+    sil = "sil:/some/tree"
+    assert _auto(monkeypatch, 2, "-t", sil, "--against", "emulator") == 2
+    assert _auto(monkeypatch, 4, "-t", "inprocess") == 4
+    assert _auto(monkeypatch, 2) == 2                              # the default target: the emulator
+    assert _auto(monkeypatch, 64, "-t", sil) == 8                  # at most AUTO_JOBS_MAX
+    assert _auto(monkeypatch, 1, "-t", sil) == 1
+    assert _auto(monkeypatch, 4, "-t", sil, env="3") == 3          # $BUILDHAT_CONFORMANCE_JOBS
+    assert _auto(monkeypatch, 4, "-t", sil, "--jobs", "1") == 1    # said outright
+    # One HAT (a port, a socket), or perhaps one (a user's cmd:): one worker.
+    assert _auto(monkeypatch, 4, "-t", "/dev/ttyAMA0") == 1
+    assert _auto(monkeypatch, 4, "-t", sil, "--against", "socket://pi:4000") == 1
+    assert _auto(monkeypatch, 4, "-t", "cmd:ssh pi hat-bridge") == 1
+    assert _auto(monkeypatch, 4, "-t", sil, "--reproduce", "x.script") == 1
+
+
+def test_a_bad_jobs_value_is_one_line_and_exit_2(monkeypatch):
+    from buildhat_conformance.harness.cli_options import UsageError
+
+    try:
+        _auto(monkeypatch, 4, "-t", "inprocess", env="0")
+    except UsageError as exc:
+        assert "BUILDHAT_CONFORMANCE_JOBS" in str(exc)
+    else:
+        raise AssertionError("$BUILDHAT_CONFORMANCE_JOBS=0 was taken")
+    env = {k: v for k, v in os.environ.items() if k != "BUILDHAT_CONFORMANCE_JOBS"}
+    done = subprocess.run([EXE, "fuzz", "-t", "inprocess", "--jobs", "two"], capture_output=True,
+                          text=True, env=env, timeout=60)
+    assert done.returncode == 2 and done.stderr.count("\n") == 1, done.stderr
+    assert "a number of workers or 'auto', not 'two'" in done.stderr
+
+
+def test_the_default_command_runs_a_worker_per_cpu_and_says_so(tmp_path):
+    """Through the user's command, with nothing set: a fuzz of the in-process emulator runs one
+    worker per usable CPU (at most 8), and its first line and summary say how many."""
+    env = {k: v for k, v in os.environ.items() if k != "BUILDHAT_CONFORMANCE_JOBS"}
+    done = subprocess.run([EXE, "fuzz", "-t", "inprocess", "--budget", "4x", "--seed", "3", "--no-database",
+                           "--out", str(tmp_path)], capture_output=True, text=True, env=env, timeout=120)
+    assert done.returncode == 0, done.stderr + done.stdout
+    cpus = min(len(os.sched_getaffinity(0)), 8)
+    if cpus > 1:
+        assert f", {cpus} workers (--jobs auto" in done.stderr, done.stderr
+        assert f"  {cpus} workers: " in done.stdout, done.stdout
+    else:
+        assert "workers" not in done.stderr + done.stdout
