@@ -219,11 +219,20 @@ def _backward(tokens: List[Token], t0: int, actual: bytes, start: int, allowed: 
                 if ev is not None:
                     moved = True
                     continue
-            for n, template in enumerate(templates):   # pushed first: tried after the prediction
-                j = _stray_place(template, left[n], actual[r - 1])
-                if j is not None:
-                    stack.append((r - 1, u, left[:n] + (j,) + left[n + 1:], found))
+            strays = [(r - 1, u, left[:n] + (j,) + left[n + 1:], found)
+                      for n, template in enumerate(templates)
+                      for j in (_stray_place(template, left[n], actual[r - 1]),) if j is not None]
             step = _predicted(idx, actual, start, r, u, t0, begin)
+            if step is not None and strays and step[1] < u - 1:
+                # The prediction's reading skips output (a gap) where a stray line's byte fits with
+                # none: the stray first. (The other way round, a byte taken for the prompt a whole
+                # line back sent the search through every digit a signature line could be.)
+                stack.append((step[0], step[1], left, found))
+                stack.extend(strays[1:])
+                r, u, left, found = strays[0]
+                moved = True
+                continue
+            stack.extend(strays)                 # pushed first: tried after the prediction
             if step is None:
                 break
             moved = step[0] != r                 # (a `list` dump with none of its lines left: same place)
