@@ -177,13 +177,16 @@ def test_ctrl_c_while_confirming_keeps_the_finding_marked_not_fully_checked(tmp_
 
 @pytest.mark.parametrize("jobs", ["1", "2"])
 def test_a_second_ctrl_c_kills_at_once_and_still_leaves_nothing_running(tmp_path, jobs):
-    """The target ignores SIGTERM (and the Ctrl-C its process group gets too: dead of it, the
-    target was closed at once, ~1 run in 3), so closing it after the first Ctrl-C takes its 2 s
-    grace before SIGKILL; the second Ctrl-C comes in that time, and the command ends there,
-    writing nothing more."""
+    """The target ignores SIGTERM and SIGINT, and outlives its stdin (the proxy inside it ends when
+    its stdin closes, the first thing a close does: that made the close instant, about 1 run in 3),
+    staying until its parent is gone. So closing it after the first Ctrl-C takes its 2 s grace
+    before SIGKILL; the second Ctrl-C comes in that time, and the command ends there, writing
+    nothing more."""
     for attempt in range(3):
         (tmp_path / str(attempt)).mkdir()
-        run = Fuzz(tmp_path / str(attempt), "-t", _proxy("sh -c 'trap \"\" TERM INT; exec \"$0\" \"$@\"' "),
+        stays = ("sh -c 'trap \"\" TERM INT; \"$0\" \"$@\"; "
+                 "while kill -0 $PPID 2>/dev/null; do sleep 0.1; done' ")
+        run = Fuzz(tmp_path / str(attempt), "-t", _proxy(stays),
                    "--jobs", jobs, *LONG, *CONFIRMING)
         run.wait_for(re.compile(r"replaying it 100000 time\(s\) to confirm it"))
         run.interrupt()
