@@ -47,6 +47,15 @@ class CorruptsQuestionMark:
         return getattr(self.emu, name)
 
 
+def _stream_four_motors(runner: Runner) -> None:
+    """Four moving motors with combi selections: reports keep the ring half full."""
+    runner.exchange([b"plimit 1\r"])
+    for p in range(4):
+        runner.exchange([f"port {p}\r".encode(), b"pwm\r", b"set 1\r", b"combi 0 1 0 2 0 3 0\r",
+                         b"select 0\r", b"selrate 0\r"])
+    runner.wait(300)
+
+
 def _help_while_streaming(factory=None, stream: bool = True) -> tuple:
     """(the finding or None, bytes the emulator's ring dropped, steps judged lossy, the trace)."""
     target = InProcessTarget("R7", devices=MOTORS, baud=115200, factory=factory)
@@ -59,11 +68,7 @@ def _help_while_streaming(factory=None, stream: bool = True) -> tuple:
     try:
         runner.start()
         if stream:
-            runner.exchange([b"plimit 1\r"])
-            for p in range(4):
-                runner.exchange([f"port {p}\r".encode(), b"pwm\r", b"set 1\r", b"combi 0 1 0 2 0 3 0\r",
-                                 b"select 0\r", b"selrate 0\r"])
-            runner.wait(300)
+            _stream_four_motors(runner)
         for _ in range(3):
             runner.exchange([b"help\r"])
     except Finding as exc:
@@ -211,11 +216,7 @@ def _unsettled_help_against_unpaced(factory=None) -> tuple:
     finding: Optional[Finding] = None
     try:
         runner.start()
-        runner.exchange([b"plimit 1\r"])
-        for p in range(4):
-            runner.exchange([f"port {p}\r".encode(), b"pwm\r", b"set 1\r", b"combi 0 1 0 2 0 3 0\r",
-                             b"select 0\r", b"selrate 0\r"])
-        runner.wait(300)
+        _stream_four_motors(runner)
         for _ in range(3):
             runner.exchange([b"help\r", b"x" * 300 + b"\x08\r"])
     except Finding as exc:
