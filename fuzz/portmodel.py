@@ -6,12 +6,17 @@ this state is :class:`~.model.HatModel`.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Dict, FrozenSet, Optional, Tuple, Union
+from typing import Dict, FrozenSet, Optional, Sequence, Tuple, Union
 
 from ..protocol.profiles import Profile
 from .lineparse import f32
 
-__all__ = ["PortModel", "expected_duty", "established", "mode_count"]
+__all__ = ["PortModel", "expected_duty", "established", "mode_count", "UNKNOWN_Q16", "PWMMODE_UNKNOWN"]
+
+# A drive setting an earlier run may have left on a kept-open HAT (PortModel.forget_drive): no Q16
+# value a command can store, and no controller mode.
+UNKNOWN_Q16 = -(1 << 48)
+PWMMODE_UNKNOWN = -1
 
 
 @dataclass
@@ -65,6 +70,18 @@ class PortModel:
             return (f"C{self.mode}", f"M{self.mode}")
         return (f"M{self.mode}",)
 
+    def forget_drive(self, commands: Sequence[str]) -> None:
+        """The drive settings may hold anything (a run on a HAT an earlier run left): the prelude
+        resets none of them, so the duty is not judged until this run sets each one again. Only
+        those the release's ``commands`` can set (`bias` R1-R5, `pwmparams` R6+)."""
+        self.pwmmode = PWMMODE_UNKNOWN
+        if "bias" in commands:
+            self.bias = UNKNOWN_Q16
+        if "pwmparams" in commands:
+            self.pwmparams = (UNKNOWN_Q16, UNKNOWN_Q16)
+        self.plimit = UNKNOWN_Q16
+        self.forward_flag = True          # (a clear_faults then may have flagged it forwards)
+
     def forget_combis(self) -> None:
         """The combi table may hold anything (a run on a HAT an earlier run left)."""
         self.combi.clear()
@@ -94,11 +111,13 @@ def expected_duty(profile: Profile, p: PortModel, global_plimit: int) -> Optiona
     if p.coast:
         return "coast"
     if p.pwmmode != 0 or p.constant is None or p.bias or p.pwmparams != (0, 0):
-        return None
+        return None                    # (an unknown mode, bias or pwmparams: these too)
     x = min(max(p.constant, -1.0), 1.0)
     t = int(f32(x * 131072.0))                 # trunc toward zero
     u = int((t + 1) / 2)                       # C integer division: toward zero
     limit = p.plimit if profile.feature("plimit_scope") == "per_port" else global_plimit
+    if limit == UNKNOWN_Q16:
+        return None
     v = min(max(u, -limit), limit)
     return (v * 255 + 127) >> 16               # arithmetic shift: floor
 

@@ -7,7 +7,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Callable, Dict, FrozenSet, List, Optional, Sequence, Set, Tuple, Union
 
-from ..harness.events import line_kind
+from ..harness.events import classify, line_kind
 from ..harness.targets.base import Target, TargetError
 from ..protocol.profiles import Profile
 from .differential import first_difference, open_dump, parted_matrix, sync_bytes_before, synchronous_part
@@ -17,6 +17,7 @@ from .link import FENCE, Link, LinkTimeout
 from .lossymatch import match_lossy
 from .model import HatModel
 from .oracles import raise_finding
+from .portmodel import UNKNOWN_Q16, mode_count
 from .reconnecting import for_target as reconnecting_on
 from .setup_loss import for_target
 from .statecheck import check_drive, expect_reports, follow_links, observe
@@ -28,6 +29,10 @@ __all__ = ["Runner", "Side", "Stats", "PRELUDE"]
 
 # Puts any HAT into a state the model knows: echo and debug off, no selection, port 0.
 PRELUDE = b"echo 0\rdebug 0\rport 3\rselect\rport 2\rselect\rport 1\rselect\rport 0\rselect\r"
+# On a HAT earlier runs left open the layout is not taken for granted (a device may have gone, or
+# come): the prelude ends with `list`, and its answer says which active devices are there.
+LIST = b"list\r"
+LIST_ANSWER_MAX = 6000      # four ports' blocks (a motor's about 1 KB): the prelude's deadline allows it
 _PRIORITY = ("liveness", "hygiene", "fate", "state")
 
 
@@ -166,13 +171,16 @@ class Runner:
         """Drain the start-up output and send the prelude (not judged: the state before it is unknown).
         A target that a clean run just left (``settled``) answers at once: no drain, no sync; what
         is still on its way ends up in the prelude's answer."""
+        if not self.fresh and not prelude.endswith(LIST):     # (a replayed script's has it)
+            prelude += LIST
+        listing = LIST_ANSWER_MAX if prelude.endswith(LIST) else 0
         for side in self.sides:
             try:
                 drained = b""
                 if not self.settled:
                     drained = side.link.drain()
                     side.link.sync(side.fence_line)
-                out = drained + side.link.exchange(prelude, side.fence_line, 1)
+                out = drained + side.link.exchange(prelude, side.fence_line, 1, listing)
             except LinkTimeout as exc:
                 # Not a finding: no fuzzed input was sent yet (the campaign counts these apart).
                 self.fail("liveness", f"{side.label}: no answer after the prelude: {exc}",
@@ -183,10 +191,26 @@ class Runner:
             side.model.feed(FENCE)
             if not self.fresh:
                 # An earlier run left this HAT: the prelude resets the selections, not the combi
-                # tables (a report may come as C<m> where this run set no combi).
+                # tables (a report may come as C<m> where this run set no combi), nor the drive
+                # settings (mode, bias, pwmparams, plimit: the duty is judged once this run set them).
                 for p in side.model.ports:
                     p.known = False
                     p.forget_combis()
+                    p.forget_drive(side.profile.commands)
+                side.model.plimit = UNKNOWN_Q16
+                self._listed_devices(side, out[:max(0, out.rfind(side.fence_line))])
+
+    def _listed_devices(self, side: Side, answer: bytes) -> None:
+        """The active devices the prelude's `list` names, on ports not being set up again (whose
+        lines are the set-up's, not a device's that is there): the drive and report checks
+        (statecheck.py) judge them from this run's first step, as on a fresh HAT."""
+        setting_up = reconnecting_on(side.link.target).ports(side.link.target_now)
+        for raw in answer.split(b"\r\n"):
+            ev = classify(raw)
+            if ev.kind == "list_port" and ev.port in range(4) and ev.port not in setting_up:
+                ident = ev.fields.get("id")
+                active = ev.fields.get("state") == "active" and isinstance(ident, int)
+                side.model.ports[ev.port].device_modes = mode_count(ident) if active else 0
 
     @property
     def tainted(self) -> bool:

@@ -73,3 +73,76 @@ def test_a_finding_says_whether_its_run_began_on_a_fresh_target(fresh):
         runner.exchange([b"co\r"])          # the planted fault: `coast` answers Error
     runner.close()
     assert caught.value.details["fresh"] is fresh
+
+
+def _second_run(factory, first: List[bytes], second: List[bytes], unplug: Optional[int] = None,
+                wait_ms: int = 400) -> tuple:
+    """As :func:`_runs`, on a target made by ``factory`` (a planted fault), perhaps with a device
+    unplugged between the runs; (the second run's finding or None, its model's device modes)."""
+    profile = get_profile("R7")
+    target = InProcessTarget("R7", devices=LAYOUT, factory=factory)
+    target.open()
+    modes: List[int] = []
+    try:
+        runner = Runner([("target", lambda: target, profile)], 0.3, True, devices=LAYOUT, keep_open=True)
+        runner.start()
+        runner.exchange(first)
+        runner.close()
+        if unplug is not None:
+            target.control.action(f"@unplug {unplug}")   # the world action, as a script's
+            target.advance(2000)                          # (the HAT notices it gone)
+        runner = Runner([("target", lambda: target, profile)], 0.3, False, keep_open=True)
+        try:
+            runner.start()
+            modes = [p.device_modes for p in runner.sides[0].model.ports]
+            runner.exchange(second)
+            runner.wait(wait_ms)
+        except Finding as finding:
+            return finding, modes
+        finally:
+            runner.close()
+    finally:
+        target.close()
+    return None, modes
+
+
+def test_a_later_run_knows_the_devices_its_prelude_lists():
+    """A run on a HAT an earlier run left open takes no layout for granted (a device may have
+    gone: the sil finding of `--seed 22`), but its prelude's `list` names the devices that are
+    there, so the drive and report checks judge them from its first step. Before, they waited for
+    an `established` line, which a device that stays never prints again: a wrong drive passed."""
+    from planted.faults import IgnoresPlimit
+
+    # (what an earlier run may have left, and the prelude does not reset, is set again first)
+    step = [b"plimit 0.1\r", b"port 0\r", b"pwm\r", b"pwmparams 0 0\r", b"set 0.5\r"]
+    finding, modes = _second_run(None, [b"vin\r"], step)
+    assert finding is None, finding.message
+    assert modes[0] > 0 and modes[1:] == [0, 0, 0], modes          # the motor; nothing elsewhere
+    finding, _modes = _second_run(IgnoresPlimit, [b"vin\r"], step)
+    assert finding is not None and finding.oracle == "state", finding
+    assert "port 0 drives" in finding.message, finding.message
+
+
+def test_a_device_gone_since_the_last_run_is_not_taken_for_there():
+    finding, modes = _second_run(None, [b"vin\r"], [b"port 0\r", b"pwm\r", b"set 0.5\r"], unplug=0)
+    assert finding is None, finding.message
+    assert modes == [0, 0, 0, 0], modes
+
+
+_LEFT = {   # a drive setting run 1 leaves on port 0, and run 2's step, which sets every other one
+    "plimit": (b"plimit 1\r", [b"port 0\r", b"pwm\r", b"pwmparams 0 0\r", b"set 0.3\r"]),
+    "pwmparams": (b"pwmparams 0.5 0.2\r", [b"plimit 1\r", b"port 0\r", b"pwm\r", b"set 0.3\r"]),
+    "pid": (b"pid 0 0 0 s1 1 0 3 0 0 0 0\r", [b"plimit 1\r", b"port 0\r", b"pwmparams 0 0\r", b"set 0.3\r"]),
+}
+
+
+@pytest.mark.parametrize("left", sorted(_LEFT))
+def test_drive_settings_an_earlier_run_left_are_not_taken_for_defaults(left):
+    """The `state` finding of the 10-minute campaign once the prelude's `list` let the drive check
+    judge later runs (`--seed 22`, reproduced 3/3 on the kept target, 0/3 on new ones): `port 0
+    drives 1` where `on` at full plimit should drive 255. The prelude resets no drive setting, and
+    the model took the defaults. An earlier run's plimit, pwmparams or controller mode now leaves
+    the duty unjudged until this run sets it (run 2 sets every other one)."""
+    setting, again = _LEFT[left]
+    finding, _modes = _second_run(None, [b"port 0\r", setting], again)
+    assert finding is None, finding.message
