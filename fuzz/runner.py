@@ -207,10 +207,12 @@ class Runner:
         setting_up = reconnecting_on(side.link.target).ports(side.link.target_now)
         for raw in answer.split(b"\r\n"):
             ev = classify(raw)
-            if ev.kind == "list_port" and ev.port in range(4) and ev.port not in setting_up:
-                ident = ev.fields.get("id")
-                active = ev.fields.get("state") == "active" and isinstance(ident, int)
-                side.model.ports[ev.port].device_modes = mode_count(ident) if active else 0
+            port, ident = ev.port, ev.fields.get("id")
+            if ev.kind != "list_port" or port is None or not 0 <= port <= 3 or port in setting_up:
+                continue
+            active = ev.fields.get("state") == "active"
+            modes = mode_count(ident) if active and isinstance(ident, int) else 0
+            side.model.ports[port].device_modes = modes
 
     @property
     def tainted(self) -> bool:
