@@ -17,6 +17,7 @@ __all__ = ["PortModel", "expected_duty", "established", "mode_count", "UNKNOWN_Q
 # value a command can store, and no controller mode.
 UNKNOWN_Q16 = -(1 << 48)
 PWMMODE_UNKNOWN = -1
+DEFAULT_PLIMIT = 6554                  # 0.1 in Q16: a port's limit after a port reset (R6+)
 
 
 @dataclass
@@ -34,7 +35,7 @@ class PortModel:
     known: bool = True            # False after an event the model cannot follow exactly
     pwmmode: int = 0              # 0 direct PWM, 1 PID, 2 PID on the derivative
     coast: bool = False
-    plimit: int = 6554            # R6+ per-port limit (Q16); reset with the port (§4.2)
+    plimit: int = DEFAULT_PLIMIT  # R6+ per-port limit (Q16); reset with the port (§4.2)
     constant: Optional[float] = None  # the constant setpoint, when the generator holds one we know
     bias: int = 0                 # R1-R5 bias (Q16)
     pwmparams: Tuple[int, int] = (0, 0)   # R6+ (pwmthresh, minpwm), Q16
@@ -94,13 +95,17 @@ class PortModel:
 
     def link_changed(self, type_id: Optional[int] = None) -> None:
         """A device connected, went away or failed (§5): the select state resets (the model no
-        longer knows it) and the port reset (§4.2) drops the setpoint. ``type_id``: a device
+        longer knows it) and the port reset (§4.2) drops the setpoint; short of ``established``,
+        it also puts the controller, bias, pwmparams and limit back to their defaults. ``type_id``: a device
         with this type id finished its setup (``established``)."""
         self.known = False
         self.constant = None
         if type_id is None:
             self.device_modes = 0
             self.clear_combis()     # a new connection clears the table (§8); none reports before it
+            # The port reset (fb-port-reset): what a disconnect, or a scan of an empty port, puts back.
+            self.pwmmode, self.coast, self.bias, self.pwmparams = 0, False, 0, (0, 0)
+            self.plimit = DEFAULT_PLIMIT
         else:
             established(self, type_id)
 

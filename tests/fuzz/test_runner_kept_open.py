@@ -146,3 +146,26 @@ def test_drive_settings_an_earlier_run_left_are_not_taken_for_defaults(left):
     setting, again = _LEFT[left]
     finding, _modes = _second_run(None, [b"port 0\r", setting], again)
     assert finding is None, finding.message
+
+
+def test_a_reconnect_puts_the_drive_settings_back_to_their_defaults():
+    """FIRMWARE-BEHAVIOUR fb-port-reset: a disconnect resets the port's controller, its bias or
+    pwmparams and (R6+) its limit to 0.1. A run that set `plimit 1`, then saw its motor go and come
+    back, judges `set 0.5` at the default limit (25), not the one it set (127)."""
+    profile = get_profile("R7")
+    target = InProcessTarget("R7", devices=LAYOUT)
+    runner = Runner([("target", lambda: target, profile)], 0.3, True, devices=LAYOUT)
+    try:
+        runner.start()
+        runner.exchange([b"plimit 1\r", b"port 0\r", b"pwm\r"])
+        target.control.action("@unplug 0")
+        runner.wait(600)                                    # "P0: disconnected"
+        target.control.action("@plug 0 0x30")
+        runner.wait(3000)                                   # ... "established ... ID 30"
+        assert runner.sides[0].model.ports[0].device_modes > 0, "the motor did not connect again"
+        runner.exchange([b"port 0\r", b"set 0.5\r"])
+        runner.wait(200)
+    except Finding as finding:
+        pytest.fail(finding.message)
+    finally:
+        runner.close()
