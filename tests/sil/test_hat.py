@@ -24,24 +24,31 @@ pytestmark = pytest.mark.timeout(300)
 
 MESSAGE = "0123456789abcdef\r\n"
 
-SEND = r"""
+def _sender(wait_before: str = "", wait_after: str = "", enter_again: str = "") -> str:
+    """The test's program for the stand-in's command-port UART: its interrupt handler sends
+    :data:`MESSAGE` a byte at a time, with C statements of its own before or after each byte."""
+    message = MESSAGE.replace("\r", "\\r").replace("\n", "\\n")
+    return (SENDER.replace("@MESSAGE@", message).replace("@BEFORE@", wait_before)
+            .replace("@AFTER@", wait_after).replace("@AGAIN@", enter_again))
+
+
+SENDER = r"""
 /* The test's program for the stand-in's command-port UART. */
 #include "pico/stdlib.h"
 #include "hardware/irq.h"
 #include "hardware/uart.h"
 
-static const char message[] = "%s";
+static const char message[] = "@MESSAGE@";
 static volatile unsigned sent;
 
 static void on_uart(void) {
     uart_hw_t *hw = uart_get_hw(uart0);
     if (hw->fr & 0x80) {                       /* room to send */
+        @BEFORE@
         if (message[sent]) hw->dr = (uint8_t)message[sent++];
         else hw->icr = 0x20;
     }
-    for (volatile int spin = 0; spin < 4000; spin++) {
-        /* longer than a byte on the wire at 115200 (86.8 us) */
-    }
+    @AFTER@
 }
 
 int main(void) {
@@ -51,10 +58,15 @@ int main(void) {
     uart_get_hw(uart0)->imsc = 0x20;
     irq_set_enabled(UART0_IRQ, true);
     irq_set_pending(UART0_IRQ);                /* the first byte starts */
-    irq_set_pending(UART0_IRQ);                /* entered again while it is on the wire */
+    @AGAIN@
     for (;;) sleep_ms(1);
 }
 """
+
+# A handler that spins after each byte for longer than a byte takes on the wire at 115200 (86.8 us),
+# and is entered again while the first is on the wire.
+SPINS_AFTER = "for (volatile int spin = 0; spin < 4000; spin++) { }"
+ENTERED_AGAIN = "irq_set_pending(UART0_IRQ);"
 
 
 ECHO = r"""
@@ -108,7 +120,7 @@ def _program(tmp_path, source: str) -> SilHat:
 
 
 def test_a_byte_that_ends_inside_the_handler_raises_the_tx_interrupt_again(tmp_path):
-    hat = _program(tmp_path, SEND % MESSAGE.replace("\r", "\\r").replace("\n", "\\n"))
+    hat = _program(tmp_path, _sender(wait_after=SPINS_AFTER, enter_again=ENTERED_AGAIN))
     try:
         hat.advance(20)              # 18 bytes take 1.6 ms on the wire (the handler's spins more)
         assert hat.read() == MESSAGE.encode()
@@ -129,34 +141,7 @@ def test_a_byte_that_arrives_inside_the_handler_is_read_after_it(tmp_path):
 
 # A handler that takes its time before it sends the next byte of its ring: a stop of the firmware
 # (a world action due, a device's message out) may come while it runs.
-SLOW_SEND = r"""
-/* The test's program for the stand-in's command-port UART. */
-#include "pico/stdlib.h"
-#include "hardware/irq.h"
-#include "hardware/uart.h"
-
-static const char message[] = "%s";
-static volatile unsigned sent;
-
-static void on_uart(void) {
-    uart_hw_t *hw = uart_get_hw(uart0);
-    if (hw->fr & 0x80) {                       /* room to send */
-        busy_wait_us(300);                     /* then the next byte, or the interrupt off */
-        if (message[sent]) hw->dr = (uint8_t)message[sent++];
-        else hw->icr = 0x20;
-    }
-}
-
-int main(void) {
-    uart_init(uart0, 115200);
-    uart_set_fifo_enabled(uart0, false);
-    irq_set_exclusive_handler(UART0_IRQ, on_uart);
-    uart_get_hw(uart0)->imsc = 0x20;
-    irq_set_enabled(UART0_IRQ, true);
-    irq_set_pending(UART0_IRQ);
-    for (;;) sleep_ms(1);
-}
-"""
+WAITS_BEFORE = "busy_wait_us(300);"
 
 
 def test_the_port_is_not_at_rest_while_a_handler_that_may_send_runs(tmp_path):
@@ -165,7 +150,7 @@ def test_the_port_is_not_at_rest_while_a_handler_that_may_send_runs(tmp_path):
     port was at rest at a stop that came inside the UART handler, after it took the interrupt
     and before it wrote the next byte: nothing on the wire, no interrupt pending, yet the ring
     full. Stopped every 13 us, the port must not say so until the whole message has gone."""
-    hat = _program(tmp_path, SLOW_SEND % MESSAGE.replace("\r", "\\r").replace("\n", "\\n"))
+    hat = _program(tmp_path, _sender(wait_before=WAITS_BEFORE))
     try:
         proc = hat.proc
         assert proc is not None
