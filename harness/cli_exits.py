@@ -49,7 +49,8 @@ EXIT_STATUSES: Dict[str, Tuple[Tuple[int, str], ...]] = {
     "sil build": ((0, "built (or up to date)"),
                   (2, "usage error: not a firmware tree, files that clash, a compile or link error, "
                       "no C compiler"), _CTRL_C),
-    "sil serve": ((0, "the host side ended"), (2, "usage error (bad option, not a firmware tree, a build error)"),
+    "sil serve": ((0, "the host side ended"),
+                  (2, "usage error (bad option, not a firmware tree, a build error)"),
                   (3, "the firmware crashed, exited or never finished its start-up"),
                   (130, "interrupted (Ctrl-C); 143 after SIGTERM")),
     "sil mutate": ((0, "the campaign ran (survivors are in its report, not the status)"), (2, _USAGE),

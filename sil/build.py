@@ -5,8 +5,9 @@ compile or link is one line with the tool's own cause (``build_messages.py``).
 
 The result is cached by the content of the tree (its .c/.h/.pio files, its CMakeLists.txt and
 the sources it names elsewhere in the tree), the stand-in's sources, the flags and the
-compiler's version, under ``$BUILDHAT_SIL_CACHE`` or ``~/.cache/buildhat-conformance/sil``. Options: sanitizers (``address``, ``undefined``) and
-gcov coverage (the firmware's files only; the data is written when the program exits).
+compiler's version, under ``$BUILDHAT_SIL_CACHE`` or ``~/.cache/buildhat-conformance/sil``.
+Options: sanitizers (``address``, ``undefined``) and gcov coverage (the firmware's files only;
+the data is written when the program exits).
 """
 from __future__ import annotations
 

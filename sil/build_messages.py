@@ -17,7 +17,8 @@ __all__ = ["link_failure", "compile_failure", "defined_in"]
 # GNU ld, with the objects' line tables (-g): FILE:LINE: ..., or OBJECT:(.text+0x12): ... without.
 _WHERE = r"(?P<where>\S+?):(?:(?P<line>\d+)|\([^)]*\))"
 _QUOTED = r"[`'‘\"](?P<sym>[^'’`\"]+)['’`\"]"
-_MULTIPLE = re.compile(_WHERE + r": multiple definition of " + _QUOTED + r"; (?P<first>\S+?):(?:(?P<fline>\d+)|\([^)]*\)): first defined here")
+_MULTIPLE = re.compile(_WHERE + r": multiple definition of " + _QUOTED
+                       + r"; (?P<first>\S+?):(?:(?P<fline>\d+)|\([^)]*\)): first defined here")
 _UNDEFINED = re.compile(_WHERE + r": undefined reference to " + _QUOTED)
 _UNDECLARED = re.compile(r"(?P<where>[^\s:]+):(?P<line>\d+):\d+: error: (?:implicit declaration of function|"
                          r"call to undeclared function) " + _QUOTED)

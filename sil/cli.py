@@ -86,7 +86,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                      help="where the page, the JSON and survivors' transcripts go (default %(default)s)")
     cov = sub.add_parser("coverage", help="the firmware's line and branch coverage (a --coverage build)",
                          description="The firmware's line and branch coverage from the runs of a tree "
-                                     "built with --coverage (gcovr).", epilog=exit_status_help("sil coverage"))
+                                     "built with --coverage (gcovr).",
+                         epilog=exit_status_help("sil coverage"))
     cov.add_argument("tree", metavar="TREE", help="the firmware tree the build was made from")
     cov.add_argument("--sanitize", type=_sanitizers, default=[], metavar="LIST", help="as given to sil build")
     cov.add_argument("--reset", action="store_true", help="clear the counts (before a run)")

@@ -5,11 +5,11 @@ It follows what CMake files of the firmware's years write: comments (``#`` and `
 argument per line or many, quoted and bracket arguments, ``set``/``list(APPEND)`` variables and
 ``${...}`` (nested), ``file(GLOB)`` in the tree, ``add_executable`` and ``add_library``,
 ``target_sources``, ``target_compile_definitions``/``add_compile_definitions``/``add_definitions``,
-``target_include_directories``/``include_directories``, ``pico_add_extra_outputs``, and a library of the file linked into an
-executable (``target_link_libraries``). Every branch of an ``if()`` counts (the reader does not
-evaluate conditions); ``add_subdirectory`` is not followed. A value that needs what only a real
-configure knows (``${PICO_SDK_PATH}``, a generator expression ``$<...>``) is set aside as
-unresolved, never guessed.
+``target_include_directories``/``include_directories``, ``pico_add_extra_outputs``, and a library
+of the file linked into an executable (``target_link_libraries``). Every branch of an ``if()``
+counts (the reader does not evaluate conditions); ``add_subdirectory`` is not followed. A value
+that needs what only a real configure knows (``${PICO_SDK_PATH}``, a generator expression
+``$<...>``) is set aside as unresolved, never guessed.
 """
 from __future__ import annotations
 
@@ -142,7 +142,8 @@ def _expand(value: str, variables: Dict[str, str]) -> str:
         if m is None:
             break
         got = variables.get(m.group(1))
-        value = value[:m.start()] + (got if got is not None else _UNKNOWN + m.group(1) + _UNKNOWN) + value[m.end():]
+        got = got if got is not None else _UNKNOWN + m.group(1) + _UNKNOWN
+        value = value[:m.start()] + got + value[m.end():]
     return value
 
 
@@ -254,7 +255,8 @@ def _set_aside_unknown(target: Target, tree: Path) -> None:
     """Values this reader cannot know leave the lists for ``unresolved`` (said, never guessed)."""
     def known(value: str) -> bool:
         if _UNKNOWN in value or "$<" in value:
-            target.unresolved.append(re.sub(_UNKNOWN + r"([^" + _UNKNOWN + r"]*)" + _UNKNOWN, r"${\1}", value))
+            said = re.sub(_UNKNOWN + r"([^" + _UNKNOWN + r"]*)" + _UNKNOWN, r"${\1}", value)
+            target.unresolved.append(said)
             return False
         return True
 

@@ -76,7 +76,8 @@ def test_the_steps_run_on_a_tree_with_a_stray_test_program(tmp_path: pathlib.Pat
     assert build.stdout.count("left out: test.c ") == 3, build.stdout
     suite = run_step(steps["The conformance suite, virtual time, with firmware coverage"], checkout, cache)
     assert suite.returncode == 0, suite.stdout[-2000:] + suite.stderr
-    for name in ("A short fuzz campaign with sanitizers", "A short fuzz campaign against the reference emulator"):
+    for name in ("A short fuzz campaign with sanitizers",
+                 "A short fuzz campaign against the reference emulator"):
         script = re.sub(r"--budget \S+", "--budget 1x --seed 1", steps[name])
         fuzz = run_step(script, checkout, cache)
         # 0 no findings, 1 findings (what the campaign is for); never a usage error or a dead target

@@ -27,28 +27,33 @@ def test_gcc_14_and_clang_refusing_an_undeclared_sdk_function(tmp_path):
 def test_an_undeclared_function_the_tree_defines_in_a_left_out_file(tmp_path):
     t = tree(tmp_path, {"ports.c": PORTS, "extra.c": "int pio_sm_xxx(int a, int b)\n{\n  return a + b;\n}\n"})
     stderr = f"{t}/ports.c:4:3: error: implicit declaration of function 'pio_sm_xxx'\n"
-    assert compile_failure(stderr, t, [t / "ports.c"], [t / "extra.c"], "CMakeLists.txt's add_executable(main)") \
-        == "`pio_sm_xxx()`, called in ports.c:4, is defined in extra.c, which " \
-           "CMakeLists.txt's add_executable(main) leaves out"
+    origin = "CMakeLists.txt's add_executable(main)"
+    assert compile_failure(stderr, t, [t / "ports.c"], [t / "extra.c"], origin) == \
+        "`pio_sm_xxx()`, called in ports.c:4, is defined in extra.c, which " \
+        "CMakeLists.txt's add_executable(main) leaves out"
 
 
 def test_a_missing_header_of_the_sdk_and_the_trees_own_error(tmp_path):
     t = tree(tmp_path, {"ports.c": PORTS})
-    gcc = f"{t}/ports.c:1:10: fatal error: hardware/dma.h: No such file or directory\ncompilation terminated.\n"
+    gcc = (f"{t}/ports.c:1:10: fatal error: hardware/dma.h: No such file or directory\n"
+           "compilation terminated.\n")
     clang = f"{t}/ports.c:1:10: fatal error: 'hardware/dma.h' file not found\n"
     for stderr in (gcc, clang):
         assert compile_failure(stderr, t, [t / "ports.c"], [], "x") == \
             "the stand-in has no `hardware/dma.h`, included in ports.c:1"
-    assert compile_failure(f"{t}/ports.c:3:1: error: expected ';' before '}}' token\n", t, [], [], "x") is None
+    own = f"{t}/ports.c:3:1: error: expected ';' before '}}' token\n"
+    assert compile_failure(own, t, [], [], "x") is None
 
 
 def test_the_linker_without_line_tables_names_the_objects_sources(tmp_path):
-    t = tree(tmp_path, {"main.c": "int main(void) { return 0; }\n", "test-send.c": "int main(void) { return 1; }\n"})
+    t = tree(tmp_path, {"main.c": "int main(void) { return 0; }\n",
+                        "test-send.c": "int main(void) { return 1; }\n"})
     objects = {"fw_main.o": "main.c", "fw_test-send.o": "test-send.c"}
     stderr = ("/usr/bin/ld: /cache/ab/fw_test-send.o: in function `main':\n"
               "fw_test-send.o:(.text+0x0): multiple definition of `main'; /cache/ab/fw_main.o:(.text+0x0): "
               "first defined here\ncollect2: error: ld returned 1 exit status\n")
-    assert link_failure(stderr, t, objects, [], [], "x") == "multiple definition of `main': test-send.c and main.c"
+    assert link_failure(stderr, t, objects, [], [], "x") == \
+        "multiple definition of `main': test-send.c and main.c"
     stderr = ("/usr/bin/ld: /cache/ab/fw_main.o: in function `main':\n"
               "main.c:(.text+0x12): undefined reference to `pio_sm_xxx'\n"
               "collect2: error: ld returned 1 exit status\n")

@@ -24,8 +24,8 @@ def test_the_executable_that_becomes_a_chip_image_is_the_firmware(tmp_path):
     plan = plan_sources(t)
     assert names(plan.sources) == ["main.c", "util.c"] and plan.clash == []
     assert names(plan.left_out) == ["scratch.c", "test.c"]
-    assert plan.left_out_line() == ("left out: scratch.c, test.c (not in CMakeLists.txt's add_executable(main) "
-                                    "(the firmware of its 2 executables))")
+    assert plan.left_out_line() == ("left out: scratch.c, test.c (not in CMakeLists.txt's "
+                                    "add_executable(main) (the firmware of its 2 executables))")
 
 
 def test_the_one_linked_with_the_sdk_before_a_host_tool(tmp_path):
