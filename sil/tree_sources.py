@@ -20,6 +20,7 @@ from .cmake_sources import CMakeError, Target, read_targets
 __all__ = ["SourcePlan", "plan_sources", "defines_main", "CMAKELISTS"]
 
 CMAKELISTS = "CMakeLists.txt"
+EVERY_FILE = "every C file of the folder"       # the rule without a usable CMakeLists.txt
 _MAIN = re.compile(r"^[ \t]*(?:int|void)[ \t\n]+main[ \t]*\(", re.MULTILINE)
 
 
@@ -29,7 +30,7 @@ class SourcePlan:
     left_out: List[Path] = field(default_factory=list)    # the tree's other C files
     definitions: List[str] = field(default_factory=list)  # NAME or NAME=VALUE
     include_dirs: List[Path] = field(default_factory=list)
-    origin: str = "every C file of the folder"            # what chose the sources
+    origin: str = EVERY_FILE                # what chose the sources
     note: Optional[str] = None              # why the CMakeLists.txt was not used, or what it left unsaid
     clash: List[Path] = field(default_factory=list)       # files that each define main()
 
@@ -42,11 +43,10 @@ class SourcePlan:
     def said(self) -> List[str]:
         """What ``sil build`` says beyond its first line: the files left out, and what of the
         CMakeLists.txt was not taken or why it was not used (nothing for a tree without one)."""
-        lines = [self.left_out_line()] if self.left_out else []
+        lines = [self.left_out_line() or ""] if self.left_out else []
         if self.note:
-            lines.append(f"{self.note}" + ("" if self.left_out or self.origin != SourcePlan.origin
-                                          else ": building every C file of the folder"))
-        return [ln for ln in lines if ln]
+            lines.append(self.note + (f": building {EVERY_FILE}" if self.origin == EVERY_FILE else ""))
+        return lines
 
     def clash_line(self) -> str:
         return (f"{len(self.clash)} files define main(): {', '.join(p.name for p in self.clash)}; "
