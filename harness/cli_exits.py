@@ -45,6 +45,18 @@ EXIT_STATUSES: Dict[str, Tuple[Tuple[int, str], ...]] = {
     "sil": ((0, "built (or served until the host side ended, or coverage printed)"),
             (2, "usage error: not a firmware tree, a compile error, no C compiler, no coverage data"),
             (3, "sil serve: the firmware crashed, exited or never finished its start-up"), _CTRL_C),
+    # sil's actions: each --help ends with its own (sil/cli.py)
+    "sil build": ((0, "built (or up to date)"),
+                  (2, "usage error: not a firmware tree, files that clash, a compile or link error, "
+                      "no C compiler"), _CTRL_C),
+    "sil serve": ((0, "the host side ended"),
+                  (2, "usage error (bad option, not a firmware tree, a build error)"),
+                  (3, "the firmware crashed, exited or never finished its start-up"),
+                  (130, "interrupted (Ctrl-C); 143 after SIGTERM")),
+    "sil mutate": ((0, "the campaign ran (survivors are in its report, not the status)"), (2, _USAGE),
+                   (3, "the unmutated tree does not build or does not pass the suite"), _CTRL_C),
+    "sil coverage": ((0, "coverage printed (or cleared)"),
+                     (2, "usage error: not a --coverage build, no counts yet, gcovr missing"), _CTRL_C),
     "buildhat-emulator": ((0, "the host side ended or the emulator was stopped"), (2, _USAGE),
                           (3, "with --strict-host: a host-lint finding"),
                           (130, "interrupted (Ctrl-C); 128+N after signal N (SIGTERM, SIGHUP)")),

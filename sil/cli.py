@@ -2,7 +2,9 @@
 
 ``sil build TREE [--sanitize address,undefined] [--coverage]`` compiles a firmware tree (a
 ``firmware-pico/`` folder or a checkout with one) against the project's stand-in and prints
-one line: where the program is and the target URL that runs it. The build is cached.
+one line: where the program is and the target URL (``sil:TREE`` with the options) that runs it;
+and one more naming the tree's C files its CMakeLists.txt leaves out, if any. The build is cached.
+Each action's ``--help`` ends with its own exit statuses (harness/cli_exits.py).
 ``sil coverage PROGRAM`` prints the firmware's line and branch coverage from the runs of a
 program built with ``--coverage`` (``--reset`` clears it first, for one run's figure).
 """
@@ -13,8 +15,9 @@ import os
 import sys
 from pathlib import Path
 
+from ..harness.cli_exits import exit_status_help
 from ..harness.cli_options import UsageError
-from .build import SANITIZERS, BuildError, build_tree, find_tree
+from .build import SANITIZERS, Build, BuildError, build_tree, find_tree
 from .mutants import DEFAULT_FILES, KINDS
 
 __all__ = ["add_arguments", "main"]
@@ -28,11 +31,23 @@ def _sanitizers(text: str) -> list:
     return names
 
 
+def _serve_help() -> str:
+    """``sil serve``'s own help (its options are sil/serve.py's), ending with its exit statuses."""
+    from .serve import build_parser as serve_parser
+    parser = serve_parser()
+    parser.epilog = " ".join(filter(None, [parser.epilog, exit_status_help("sil serve")]))
+    return parser.format_help()
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     sub = parser.add_subparsers(dest="sil_command", metavar="ACTION")
     build = sub.add_parser("build", help="build a firmware tree for this host (cached)",
-                           description="Compile every C file of a Build HAT firmware tree, unchanged, "
-                                       "against the project's stand-in for the pico-sdk.")
+                           description="Compile the C files a Build HAT firmware tree's CMakeLists.txt "
+                                       "makes the firmware of (with its compile definitions and include "
+                                       "folders; without one, every C file of the folder), unchanged, "
+                                       "against the project's stand-in for the pico-sdk. The C files it "
+                                       "leaves out are named.",
+                           epilog=exit_status_help("sil build"))
     build.add_argument("tree", metavar="TREE", help="a firmware-pico/ folder, or a checkout containing one")
     build.add_argument("--sanitize", type=_sanitizers, default=[], metavar="LIST",
                        help="build with sanitizers: address, undefined (comma-separated)")
@@ -42,10 +57,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                            help="serve a firmware at wall-clock pace on a pty/TCP/stdio "
                                 "(see sil serve --help)")
     serve.add_argument("rest", nargs=argparse.REMAINDER)
+    # its options are parsed by sil/serve.py; -h first (REMAINDER takes none) asks it for its help
+    serve.add_argument("-h", "--help", dest="serve_help", action="store_true", help=argparse.SUPPRESS)
     mut = sub.add_parser("mutate", help="plant single-site changes in a tree and run the suite on each",
                          description="Seeded single-site mutants of a firmware tree, each built and run "
                                      "against the suite in virtual time: killed, survived, "
-                                     "likely equivalent.")
+                                     "likely equivalent.",
+                         epilog=exit_status_help("sil mutate"))
     mut.add_argument("tree", metavar="TREE", help="a firmware-pico/ folder, or a checkout containing one")
     mut.add_argument("--files", default=",".join(DEFAULT_FILES), metavar="LIST",
                      help="the C files to mutate, comma-separated (default: %(default)s)")
@@ -66,7 +84,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                      help="also run this hand-made mutant (the first OLD in FILE becomes NEW)")
     mut.add_argument("-o", "--output", default=os.path.join("reports", "mutation"), metavar="DIR",
                      help="where the page, the JSON and survivors' transcripts go (default %(default)s)")
-    cov = sub.add_parser("coverage", help="the firmware's line and branch coverage (a --coverage build)")
+    cov = sub.add_parser("coverage", help="the firmware's line and branch coverage (a --coverage build)",
+                         description="The firmware's line and branch coverage from the runs of a tree "
+                                     "built with --coverage (gcovr).",
+                         epilog=exit_status_help("sil coverage"))
     cov.add_argument("tree", metavar="TREE", help="the firmware tree the build was made from")
     cov.add_argument("--sanitize", type=_sanitizers, default=[], metavar="LIST", help="as given to sil build")
     cov.add_argument("--reset", action="store_true", help="clear the counts (before a run)")
@@ -79,6 +100,9 @@ def main(args: argparse.Namespace) -> int:
     if args.sil_command == "mutate":
         return _mutate(args)
     if args.sil_command == "serve":
+        if args.serve_help or any(a in ("-h", "--help") for a in args.rest):
+            print(_serve_help(), end="")
+            return 0
         from .serve import main as serve_main
         return serve_main(args.rest)
     try:
@@ -89,7 +113,9 @@ def main(args: argparse.Namespace) -> int:
     if args.sil_command == "build":
         what = "up to date" if build.cached else "built"
         extra = "".join(f" +{s}" for s in build.sanitize) + (" +coverage" if build.coverage else "")
-        print(f"{what}: {build.tree}{extra} -> {build.program} (target: sil:{build.program})")
+        print(f"{what}: {build.tree}{extra} -> {build.program} (target: {target_url(build)})")
+        for line in build.plan.said() if build.plan is not None else []:
+            print(line)
         return 0
     from .coverage import coverage_summary, reset_counts
     if args.reset:
@@ -102,6 +128,13 @@ def main(args: argparse.Namespace) -> int:
         print(f"buildhat-conformance sil: {exc}", file=sys.stderr)
         return 2
     return 0
+
+
+def target_url(build: Build) -> str:
+    """The ``sil:`` URL that runs this build: the tree and the options it was built with."""
+    options = ([f"sanitize={','.join(build.sanitize)}"] if build.sanitize else []) + \
+        (["coverage=1"] if build.coverage else [])
+    return f"sil:{build.tree}" + (f"?{'&'.join(options)}" if options else "")
 
 
 def _mutate(args: argparse.Namespace) -> int:
