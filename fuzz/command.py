@@ -19,7 +19,7 @@ from .findings import write_finding, write_junit
 from .generate import check_families
 from .grammar import grammar_for
 from .job_count import resolve_jobs
-from .release import detect_profile, judged_profile
+from .release import detect_profile, judged_note, judged_profile
 from .stop_signals import StopSignals
 from .summary import KEPT_OPEN, Progress, print_summary
 from .target_kinds import has_tx_ring, is_fresh, is_virtual, is_wire, opener_for, scheme, sides_rings
@@ -112,6 +112,9 @@ def _campaign(args: argparse.Namespace, config: CampaignConfig, budget: Budget,
                                           if getattr(args, "jobs_auto", False) else "")) if jobs > 1 else ""
         print(f"fuzz: seed {seed}" + (" (chosen at random)" if chosen else "")
               + f", budget {budget}{workers}", file=sys.stderr, flush=True)
+        unknown = judged_note(config.profile)
+        if unknown:
+            print(f"fuzz: {unknown}", file=sys.stderr, flush=True)
     kinds = f"{scheme(args.target or DEFAULT_TARGET)}>{scheme(args.against or '')}"
     if jobs > 1:
         from .jobs import run_jobs

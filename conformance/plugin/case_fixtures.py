@@ -75,12 +75,12 @@ def _conformance_case(request: Any, _run: Run) -> Any:
     p = hat.profile
     item.user_properties.extend([
         ("firmware", firmware_of(hat)),
-        ("profile", p.name if hat.profile_exact else f"{p.name} (nearest earlier)"), ("transcript", path)])
+        ("profile", hat.profile_label), ("transcript", path)])
     if between:
         verdict.note(f"unknown build between {between[0].name} and {between[1].name}: judged by the "
                      "document; where they differ, informational")
     elif not hat.profile_exact:
-        verdict.note(f"unknown firmware version; judged as {p.name}, the nearest earlier release")
+        verdict.note(f"judged as {p.name}: {hat.profile_why or 'unknown firmware version'}")
     writer = TranscriptWriter(path, {"firmware": firmware_of(hat), "target": _run.url, "case": item.nodeid,
                                      "requirements": ids, "profile": p.name})
     _run.tee.switch(writer)
