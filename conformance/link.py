@@ -67,7 +67,8 @@ class Hat(Resync):
         if self.profile_exact:
             return self.profile.name
         head = str(getattr(self.session, "version_string", "") or "").split()[:1]
-        return f"{self.profile.name} ({'nearest earlier' if head and head[0].isdigit() else 'version unreadable'})"
+        basis = "nearest earlier" if head and head[0].isdigit() else "version unreadable"
+        return f"{self.profile.name} ({basis})"
 
     @property
     def between(self) -> Optional[tuple[Profile, Profile]]:
