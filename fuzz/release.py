@@ -18,7 +18,7 @@ from typing import Any, Callable, List, NamedTuple, Optional, Tuple
 from ..harness.targets.base import Target, TargetError
 from ..protocol.profiles import Profile, get_profile, load_profiles, resolve_version
 
-__all__ = ["ReleaseMismatch", "detect_profile", "judged_profile", "judged_note"]
+__all__ = ["ReleaseMismatch", "detect_profile", "judged_profile", "judged_note", "against_release"]
 
 
 class ReleaseMismatch(TargetError):
@@ -127,3 +127,23 @@ def judged_note(profile: Profile) -> Optional[str]:
         f"a version line with no number ({profile.version_string!r})"
     return (f"{build} is no release the profiles know: judged as {profile.name}, with its own help text and "
             "signature (--profiles FILE describes a build, docs/PROFILES.md)")
+
+
+def against_release(url: str, profile: Profile) -> Tuple[str, Optional[str]]:
+    """``--against URL`` as the campaign opens it: an emulator that names no release (``emulator``,
+    ``inprocess``, ``emulator:?speed=10``) runs the release the target reports, ``profile`` (or
+    the nearest one the profiles know, for a build they do not), and one line says so. Any other
+    URL, or one that names its release, is kept as given (with no line)."""
+    scheme, colon, rest = url.partition(":")
+    release, question, query = rest.partition("?")
+    if scheme not in ("emulator", "inprocess") or release:
+        return url, None
+    new = f"{scheme}:{profile.name}" + (f"?{query}" if question else "")
+    head = profile.version_string.split()[:1]
+    if head and head[0] == str(profile.number):
+        why = f"the release the target reports ({profile.number})"
+    elif head and head[0].isdigit():
+        why = f"the nearest earlier release the profiles know: the target reports {head[0]}"
+    else:
+        why = f"the target's version line gives no number ({profile.version_string!r})"
+    return new, f"--against {url} runs as {profile.name}: {why}"

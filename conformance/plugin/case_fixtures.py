@@ -69,7 +69,10 @@ def _conformance_case(request: Any, _run: Run) -> Any:
     hat = _run.open()
     assert _run.tee is not None
     between = hat.between
-    verdict = Verdict(hat.profile.name, (between[0].name, between[1].name) if between else None)
+    # A build of the user's profiles file deviates from the document as the release it starts from.
+    verdict = Verdict(hat.profile.base or hat.profile.name,
+                      (between[0].base or between[0].name, between[1].base or between[1].name) if between
+                      else None)
     item.stash[_verdict_key] = verdict
     path = os.path.join(_run.transcripts, transcript_name(item.nodeid) + ".jsonl")
     p = hat.profile
