@@ -49,7 +49,7 @@ SUBCOMMANDS = {
 
 PROG = "buildhat-conformance"
 # The commands that choose a profile: each takes --profiles FILE, builds the package does not know
-# (docs/formats/PROFILES.md), for itself and every process it starts.
+# (docs/PROFILES.md), for itself and every process it starts.
 PROFILE_COMMANDS = ("run", "script", "fuzz", "record", "replay", "targets")
 _EPILOG = ("Every COMMAND takes --help, which ends with the exit statuses it returns. -t URL: the target; "
            "by default emulator, which means emulator:latest?speed=10 (the reference emulator, latest "
@@ -102,7 +102,7 @@ def command_parser(name: str, module: ModuleType) -> argparse.ArgumentParser:
     if name in PROFILE_COMMANDS:
         parser.add_argument("--profiles", default=None, metavar="FILE",
                             help="builds the package does not know, each a release it starts from and "
-                                 "what it changes (docs/formats/PROFILES.md): a target that reports one "
+                                 "what it changes (docs/PROFILES.md): a target that reports one "
                                  "is judged by it, and emulator:NAME runs it (default: "
                                  "$BUILDHAT_CONFORMANCE_PROFILES)")
     # the command's own notes (if any), then its exit statuses

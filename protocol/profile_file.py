@@ -1,4 +1,4 @@
-"""A user's profiles file (``--profiles FILE``, docs/formats/PROFILES.md): builds the package does not
+"""A user's profiles file (``--profiles FILE``, docs/PROFILES.md): builds the package does not
 know, each described as a known release it starts from and what it changes, checked with one line
 per mistake (the file and the key), and turned into entries of the form ``profiles.json`` has.
 
@@ -98,7 +98,7 @@ def _check_entry(where: str, number: str, entry: Any, raw: Mapping[str, Any],
                            + ", ".join(sorted(seen)))
         elif not key.startswith("_"):
             out.append(f"{at}: unknown key; an entry takes {', '.join(ENTRY_KEYS)} or a per-release "
-                       "behaviour (docs/formats/PROFILES.md lists them)")
+                       "behaviour (docs/PROFILES.md lists them)")
     return out
 
 
@@ -133,7 +133,7 @@ def read_profile_file(path: str, raw: Mapping[str, Any]) -> Dict[str, Dict[str, 
     names = {num: p["name"] for num, p in raw["profiles"].items()}
     if not isinstance(data, dict) or not isinstance(data.get("profiles"), dict) or not data["profiles"]:
         raise ProfileFileError([f"{path}: must be an object whose `profiles` maps each build's version "
-                                "number to what it is (docs/formats/PROFILES.md)"])
+                                "number to what it is (docs/PROFILES.md)"])
     mistakes = [f"{path}: {key}: unknown key; the file takes `profiles` (and `_about`)"
                 for key in data if key not in ("profiles",) and not key.startswith("_")]
     features = _features(raw)

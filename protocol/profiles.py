@@ -4,7 +4,7 @@ The JSON beside this module is transcribed from the facts: FIRMWARE-BEHAVIOUR.md
 #fb-command-table, #fb-help, #fb-versions.
 A new firmware release is a new entry in ``profiles.json``, not new code. A build the package does
 not know is described by the user in a profiles file (``--profiles FILE``, or the environment variable
-``BUILDHAT_CONFORMANCE_PROFILES``; docs/formats/PROFILES.md, protocol/profile_file.py): this module is
+``BUILDHAT_CONFORMANCE_PROFILES``; docs/PROFILES.md, protocol/profile_file.py): this module is
 the one loader, and merges its entries with the releases above.
 """
 from __future__ import annotations

@@ -5,7 +5,7 @@ whose `version.h` (and help text) a test changes, through the user's own command
   expected, not R7's), and `--against emulator` runs the emulator as the nearest release, said in one line;
 - a version line broken by one character fails the version clause first, a handful of cases in all,
   the run says truthfully which profile judged it, and the report's first screen names the clause;
-- a profiles file describing the build (`--profiles FILE`, docs/formats/PROFILES.md) judges it: its
+- a profiles file describing the build (`--profiles FILE`, docs/PROFILES.md) judges it: its
   changed help text passes; without the file the help cases fail in the suite's own words.
 """
 import json

@@ -1,4 +1,4 @@
-"""A user's profiles file (protocol/profile_file.py, docs/formats/PROFILES.md; issue #33): a build the
+"""A user's profiles file (protocol/profile_file.py, docs/PROFILES.md; issue #33): a build the
 package does not know, described as a release it starts from and what it changes, read by the one
 loader (protocol/profiles.py) for this process and those it starts; every mistake is one line naming
 the file and the key, and the command exits 2."""
