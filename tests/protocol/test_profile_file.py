@@ -24,11 +24,14 @@ def _write(tmp_path, entries: dict) -> str:
 
 
 @pytest.fixture
-def user_profiles(monkeypatch):
+def user_profiles():
     """Whatever a test loads is forgotten afterwards (the loader is cached per process)."""
-    monkeypatch.delenv(profiles.PROFILES_ENV, raising=False)
+    before = os.environ.pop(profiles.PROFILES_ENV, None)
+    profiles.load_profiles.cache_clear()
     yield
-    monkeypatch.delenv(profiles.PROFILES_ENV, raising=False)
+    os.environ.pop(profiles.PROFILES_ENV, None)
+    if before is not None:
+        os.environ[profiles.PROFILES_ENV] = before
     profiles.load_profiles.cache_clear()
 
 
