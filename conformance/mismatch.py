@@ -30,16 +30,8 @@ def shown(line: Optional[bytes]) -> str:
 
 def _lines(data: bytes) -> List[bytes]:
     """``data`` cut after each CRLF; a last piece without one (a prompt) is a line of its own."""
-    out, start = [], 0
-    while True:
-        end = data.find(b"\r\n", start)
-        if end < 0:
-            break
-        out.append(data[start:end + 2])
-        start = end + 2
-    if start < len(data):
-        out.append(data[start:])
-    return out
+    *ended, rest = data.split(b"\r\n")
+    return [line + b"\r\n" for line in ended] + ([rest] if rest else [])
 
 
 def first_difference(expected: bytes, got: bytes) -> str:
