@@ -5,6 +5,7 @@ replay of a finding's script (fuzz/replay.py), so a replay judges exactly as the
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import Callable, Dict, FrozenSet, List, Optional, Sequence, Set, Tuple, Union
 
 from ..harness.events import classify, line_kind
@@ -177,7 +178,11 @@ class Runner:
                 target.open()
             except TargetError as exc:
                 self.fail("liveness", f"{label}: the target could not be opened: {exc}", {"prelude": True})
-        self._identity = _identity_lines(self.sides)
+
+    @cached_property
+    def _identity(self) -> FrozenSet[bytes]:
+        """What the differential oracle leaves out as naming each side's build (:func:`_identity_lines`)."""
+        return _identity_lines(self.sides)
 
     def start(self, prelude: bytes = PRELUDE) -> None:
         """Drain the start-up output and send the prelude (not judged: the state before it is unknown).
