@@ -48,6 +48,9 @@ SUBCOMMANDS = {
 }
 
 PROG = "buildhat-conformance"
+# The commands that choose a profile: each takes --profiles FILE, builds the package does not know
+# (docs/PROFILES.md), for itself and every process it starts.
+PROFILE_COMMANDS = ("run", "script", "fuzz", "record", "replay", "targets")
 _EPILOG = ("Every COMMAND takes --help, which ends with the exit statuses it returns. -t URL: the target; "
            "by default emulator, which means emulator:latest?speed=10 (the reference emulator, latest "
            "release, ten times real time; add ?speed=1 for real time), but in fuzz inprocess (the emulator "
@@ -96,9 +99,31 @@ def command_parser(name: str, module: ModuleType) -> argparse.ArgumentParser:
     """The parser of sub-command ``name`` (``module`` its imported module), as ``main`` uses it."""
     parser = OneLineParser(prog=f"{PROG} {name}", description=SUBCOMMANDS[name][1])
     module.add_arguments(parser)
+    if name in PROFILE_COMMANDS:
+        parser.add_argument("--profiles", default=None, metavar="FILE",
+                            help="builds the package does not know, each a release it starts from and "
+                                 "what it changes (docs/PROFILES.md): a target that reports one "
+                                 "is judged by it, and emulator:NAME runs it (default: "
+                                 "$BUILDHAT_CONFORMANCE_PROFILES)")
     # the command's own notes (if any), then its exit statuses
     parser.epilog = " ".join(filter(None, [parser.epilog, exit_status_help(name)]))
     return parser
+
+
+def _use_profiles(path: Optional[str]) -> List[str]:
+    """Take the user's profiles file (``--profiles``, else the environment's): its mistakes, one
+    line each, or none."""
+    from .protocol.profile_file import ProfileFileError
+    from .protocol.profiles import PROFILES_ENV, use_profiles_file
+
+    path = path or os.environ.get(PROFILES_ENV)
+    if not path:
+        return []
+    try:
+        use_profiles_file(path)
+    except ProfileFileError as exc:
+        return exc.lines
+    return []
 
 
 def main(argv: Optional[Sequence[str]] = None) -> int:
@@ -121,6 +146,11 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
             return EXIT_USAGE
         raise
     args = parse(module, command_parser(name, module), argv[1:])
+    mistakes = _use_profiles(getattr(args, "profiles", None))
+    if mistakes:
+        for line in mistakes:
+            _say(name, line)
+        return EXIT_USAGE
     try:
         return int(module.main(args) or 0)
     except UsageError as exc:

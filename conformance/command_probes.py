@@ -12,6 +12,7 @@ from dataclasses import dataclass
 from typing import Callable, Dict, List, Optional
 
 from .link import Hat, Reply
+from .mismatch import first_difference
 from .oracles.listing import parse_list
 from .probes import TickClock, data_lines, pid_lines, reports_after, start_quiet_pid
 
@@ -38,7 +39,11 @@ def _reply(r: Reply, ran: bool) -> Outcome:
 def _exact(expected: Callable[[Hat], bytes]) -> Callable[[Ctx, str], Outcome]:
     def run(ctx: Ctx, token: str) -> Outcome:
         r = ctx.hat.exchange_quiet(token)
-        return _reply(r, r.raw == expected(ctx.hat))
+        want = expected(ctx.hat)
+        if r.raw == want or r.errors:
+            return _reply(r, r.raw == want)
+        # It answered, but not byte for byte: say where (conformance/mismatch.py).
+        return Outcome(False, False, f"its answer differs at {first_difference(want, r.raw)}")
     return run
 
 

@@ -56,6 +56,21 @@ class Hat(Resync):
         return bool(getattr(self.session, "profile_exact", True))
 
     @property
+    def profile_why(self) -> str:
+        """How the profile was chosen when the target's version did not name it (one line), else ""."""
+        return str(getattr(self.session, "profile_why", "") or "")
+
+    @property
+    def profile_label(self) -> str:
+        """The profile's name as the report shows it: ``R7``, ``R7 (nearest earlier)`` or, for a
+        version line with no readable number, ``R7 (version unreadable)``."""
+        if self.profile_exact:
+            return self.profile.name
+        head = str(getattr(self.session, "version_string", "") or "").split()[:1]
+        basis = "nearest earlier" if head and head[0].isdigit() else "version unreadable"
+        return f"{self.profile.name} ({basis})"
+
+    @property
     def between(self) -> Optional[tuple[Profile, Profile]]:
         """For an unknown build between two known releases (the session detected it, it was not
         forced with ``--firmware``): those two releases; else None."""

@@ -62,6 +62,8 @@ def pytest_argv(args: argparse.Namespace) -> List[str]:
     argv = [sys.executable, "-m", "pytest", suite_dir(), "-p", "no:cacheprovider", "--rootdir", suite_dir(),
             *[a for t in targets for a in ("--target", t)], "--conformance-junit", junit,
             "--transcripts", transcripts, "--import-mode=importlib", "-q",
+            # A case says what failed in its own words (conformance/mismatch.py), never pytest's rewriting.
+            "--assert=plain",
             # The suite uses no Hypothesis (a dev dependency only); where it is installed, its pytest
             # plugin imports the library in the terminal summary, two seconds of every run (H10 profile).
             "-p", "no:hypothesispytest",

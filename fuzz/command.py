@@ -19,7 +19,7 @@ from .findings import write_finding, write_junit
 from .generate import check_families
 from .grammar import grammar_for
 from .job_count import resolve_jobs
-from .release import detect_profile, judged_profile
+from .release import against_release, detect_profile, judged_note, judged_profile
 from .stop_signals import StopSignals
 from .summary import KEPT_OPEN, Progress, print_summary
 from .target_kinds import has_tx_ring, is_fresh, is_virtual, is_wire, opener_for, scheme, sides_rings
@@ -52,6 +52,10 @@ def _config(args: argparse.Namespace, target: str, primary: Optional[Callable[[]
     open_primary = primary or opener_for(target)
     # Read first what the target runs: a release other than --firmware stops here (exit 3).
     profile = judged_profile(open_primary, args.profile, args.fence_timeout)
+    if args.against and secondary is None:
+        args.against, said = against_release(args.against, profile)
+        if said:
+            print(f"fuzz: {said}", file=sys.stderr, flush=True)
     open_secondary, secondary_profile = secondary, None
     if open_secondary is None and args.against:
         open_secondary = opener_for(args.against)
@@ -112,6 +116,9 @@ def _campaign(args: argparse.Namespace, config: CampaignConfig, budget: Budget,
                                           if getattr(args, "jobs_auto", False) else "")) if jobs > 1 else ""
         print(f"fuzz: seed {seed}" + (" (chosen at random)" if chosen else "")
               + f", budget {budget}{workers}", file=sys.stderr, flush=True)
+        unknown = judged_note(config.profile)
+        if unknown:
+            print(f"fuzz: {unknown}", file=sys.stderr, flush=True)
     kinds = f"{scheme(args.target or DEFAULT_TARGET)}>{scheme(args.against or '')}"
     if jobs > 1:
         from .jobs import run_jobs

@@ -196,6 +196,18 @@ def parted_matrix(pa: Optional[bytes], pb: Optional[bytes]) -> Optional[int]:
     return ea.port if states == {"none", "active"} and ids == {MATRIX_ID} else None
 
 
+_IDENTITY_KINDS = frozenset({"version", "signature", "help"})
+
+
+def _without_identity(pieces: List[bytes], identity: FrozenSet[bytes]) -> List[bytes]:
+    """``pieces`` without the lines that name a build (``identity``: its help texts; and every
+    `version` and `signature` line); all of them when ``identity`` is empty (the same build)."""
+    if not identity:
+        return pieces
+    return [p for p in pieces if p.rstrip(b"\r\n") not in identity
+            and line_kind(p.rstrip(b"\r\n")) not in _IDENTITY_KINDS]
+
+
 def _without_ports(pieces: List[bytes], ports: FrozenSet[int]) -> List[bytes]:
     """``pieces`` without the `list` blocks (a port's header and its lines) of ``ports``."""
     if not ports:
@@ -213,15 +225,17 @@ def _without_ports(pieces: List[bytes], ports: FrozenSet[int]) -> List[bytes]:
     return out
 
 
-def first_difference(a: bytes, b: bytes, apart: FrozenSet[int] = frozenset()
+def first_difference(a: bytes, b: bytes, apart: FrozenSet[int] = frozenset(),
+                     identity: FrozenSet[bytes] = frozenset()
                      ) -> Optional[Tuple[int, Optional[bytes], Optional[bytes]]]:
     """(index, A's piece, B's piece) of the first answer piece that differs beyond tolerance
     (a missing piece is None); None when the answers agree. The `list` blocks of the ports in
-    ``apart`` are left out on both sides (:func:`parted_matrix`)."""
+    ``apart`` are left out on both sides (:func:`parted_matrix`); so are, for two different
+    builds, the lines that say which build each is (``identity``, fuzz/runner.py)."""
     if a == b:
         return None                       # (most steps: nothing to split)
-    sync_a = _without_ports(synchronous_part(a)[0], apart)
-    sync_b = _without_ports(synchronous_part(b)[0], apart)
+    sync_a = _without_identity(_without_ports(synchronous_part(a)[0], apart), identity)
+    sync_b = _without_identity(_without_ports(synchronous_part(b)[0], apart), identity)
     for i in range(max(len(sync_a), len(sync_b))):
         pa = sync_a[i] if i < len(sync_a) else None
         pb = sync_b[i] if i < len(sync_b) else None

@@ -5,6 +5,7 @@ replay of a finding's script (fuzz/replay.py), so a replay judges exactly as the
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import Callable, Dict, FrozenSet, List, Optional, Sequence, Set, Tuple, Union
 
 from ..harness.events import classify, line_kind
@@ -63,6 +64,17 @@ class Stats:
 
     def count(self, oracle: str, n: int = 1) -> None:
         self.checks[oracle] = self.checks.get(oracle, 0) + n
+
+
+def _identity_lines(sides: Sequence[Side]) -> FrozenSet[bytes]:
+    """When the sides are different builds (their `version` lines differ: a build no profile knows
+    against the emulator of the nearest release), the lines that only say which build each is: the
+    sides' help texts (each side's own, fuzz/release.py). Each side's own model judges them; the
+    differential oracle leaves them (and `version` and `signature` lines) out. Empty otherwise."""
+    if len(sides) < 2 or len({side.fence_line for side in sides}) == 1:
+        return frozenset()
+    return frozenset(line.encode("utf-8") for side in sides for line in side.profile.help_lines if line) \
+        | {b"Firmware version:"}
 
 
 class Side:
@@ -166,6 +178,11 @@ class Runner:
                 target.open()
             except TargetError as exc:
                 self.fail("liveness", f"{label}: the target could not be opened: {exc}", {"prelude": True})
+
+    @cached_property
+    def _identity(self) -> FrozenSet[bytes]:
+        """What the differential oracle leaves out as naming each side's build (:func:`_identity_lines`)."""
+        return _identity_lines(self.sides)
 
     def start(self, prelude: bytes = PRELUDE) -> None:
         """Drain the start-up output and send the prelude (not judged: the state before it is unknown).
@@ -470,7 +487,7 @@ class Runner:
         side has lost: a timing boundary (differential.parted_matrix), whose port's `list` block is
         not compared for the rest of the run (found here, whichever port's difference came first)."""
         while True:
-            diff = first_difference(a, b, frozenset(self._apart | also))
+            diff = first_difference(a, b, frozenset(self._apart | also), self._identity)
             port = None if diff is None else parted_matrix(diff[1], diff[2])
             if port is None or port in self._apart:
                 return diff

@@ -6,9 +6,10 @@ events); kept apart because choosing a profile and explaining a silent link are 
 """
 from __future__ import annotations
 
+import re
 from typing import TYPE_CHECKING, Any, List, Optional
 
-from ..protocol.profiles import Profile, get_profile, resolve_version
+from ..protocol.profiles import Profile, get_profile, load_profiles, resolve_version
 from .errors import BrokenClause, ExpectTimeout, NeedsCapability, TargetError
 from .events import Event
 from .hat_evidence import FLOOD_WINDOW_MS, broken_version, power_fault_flood
@@ -19,8 +20,22 @@ __all__ = ["Identification", "OPEN_ATTEMPTS"]
 OPEN_ATTEMPTS = 3      # like the Python library, `version` is resent when nothing answers
 
 
+def _unreadable(version_text: str) -> tuple[Profile, str]:
+    """The profile for a `version` line with no number where the document puts it (the version
+    clause fails, conformance/cases/test_link_clauses.py), and one line saying why that one:
+    the release whose number the line holds elsewhere (``v1737564117``), else the latest."""
+    for digits in re.findall(r"[0-9]+", version_text):
+        known = load_profiles().get(int(digits))
+        if known is not None:
+            return known, (f"its version line has no number where the number goes; the number {digits} "
+                           f"in it is {known.name}'s")
+    latest = get_profile(None)
+    return latest, f"its version line has no version number: {latest.name} is the latest release"
+
+
 class Identification:
-    """Mixin: ``profile``, ``profile_exact``, ``in_bootloader``, ``version_string``, ``notes``."""
+    """Mixin: ``profile``, ``profile_exact``, ``profile_why``, ``in_bootloader``, ``version_string``,
+    ``notes``."""
 
     if TYPE_CHECKING:   # provided by Session
         target: Any
@@ -45,6 +60,7 @@ class Identification:
 
     profile: Optional[Profile]
     profile_exact: bool
+    profile_why: str          # how the profile was chosen when the version did not name it; else ""
     in_bootloader: bool
     version_string: Optional[str]
     notes: List[str]
@@ -58,6 +74,7 @@ class Identification:
         self.in_bootloader = False
         self.version_string = str(answer.fields.get("version", ""))
         number = answer.fields.get("number")
+        self.profile_why = ""
         if self._requested_profile is not None:
             self.profile, self.profile_exact = self._requested_profile, True
             if number is not None and number != self._requested_profile.number:
@@ -65,14 +82,17 @@ class Identification:
                              "was requested; using the requested profile")
             return
         if not isinstance(number, int):
-            self._remark(f"cannot read a version number from {answer.text!r}; using the latest profile")
-            self.profile, self.profile_exact = get_profile(None), False
+            profile, why = _unreadable(self.version_string)
+            self._remark(f"{answer.text!r}: {why}; judged as {profile}")
+            self.profile, self.profile_exact, self.profile_why = profile, False, why
             return
         profile, exact = resolve_version(number)
         if not exact and (self.profile is None or self.profile.number != profile.number
                           or self.profile_exact):
             self._remark(f"unknown firmware version {number}; using the nearest earlier profile {profile}")
         self.profile, self.profile_exact = profile, exact
+        if not exact:
+            self.profile_why = f"unknown version {number}: {profile.name} is the nearest earlier release"
 
     def _remark(self, text: str) -> None:
         if text not in self.notes:

@@ -81,6 +81,7 @@ class Session(Identification, Conversation):
             not isinstance(profile, Profile) else profile
         self.profile: Optional[Profile] = self._requested_profile
         self.profile_exact = True
+        self.profile_why = ""                # why this profile, when no release was named (identify.py)
         self.in_bootloader = False
         self.version_string: Optional[str] = None
         self.notes: List[str] = []          # remarks for the report, e.g. an unknown firmware version

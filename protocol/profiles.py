@@ -2,17 +2,22 @@
 
 The JSON beside this module is transcribed from the facts: FIRMWARE-BEHAVIOUR.md#fb-releases,
 #fb-command-table, #fb-help, #fb-versions.
-A new firmware release is a new entry in ``profiles.json``, not new code.
+A new firmware release is a new entry in ``profiles.json``, not new code. A build the package does
+not know is described by the user in a profiles file (``--profiles FILE``, or the environment variable
+``BUILDHAT_CONFORMANCE_PROFILES``; docs/PROFILES.md, protocol/profile_file.py): this module is
+the one loader, and merges its entries with the releases above.
 """
 from __future__ import annotations
 
 import json
+import os
 from dataclasses import dataclass, field
 from functools import cache, cached_property, lru_cache
 from importlib import resources
 from typing import Any, Optional
 
-__all__ = ["Profile", "load_profiles", "get_profile", "resolve_version", "neighbours", "undecided_features",
+__all__ = ["Profile", "load_profiles", "use_profiles_file", "PROFILES_ENV", "get_profile", "resolve_version",
+           "neighbours", "undecided_features",
            "profile_numbers", "bootloader_data", "passive_signature_ids", "DEFAULT_FIRMWARE"]
 
 
@@ -24,6 +29,8 @@ def _raw() -> dict:
 
 
 DEFAULT_FIRMWARE: int = int(_raw()["default"])
+#: the user's profiles file, for this process and the ones it starts (the suite's pytest, emulators)
+PROFILES_ENV = "BUILDHAT_CONFORMANCE_PROFILES"
 
 
 @dataclass(frozen=True)
@@ -40,6 +47,7 @@ class Profile:
     image_size: int
     image_checksum: int
     features: dict = field(default_factory=dict)
+    base: str = ""            # a build of a profiles file: the release it starts from; else ""
 
     def has(self, command: str) -> bool:
         return command in self.commands
@@ -63,26 +71,44 @@ class Profile:
 
 
 _CORE_KEYS = {"name", "number", "version_string", "commands", "set_keywords", "help_text",
-              "signature", "image_size", "image_checksum"}
+              "signature", "image_size", "image_checksum", "help_lines", "base"}
 
 
 @cache
 def load_profiles() -> dict:
-    """All known profiles, keyed by release number, in release order."""
+    """All known profiles, keyed by release number, in release order: the releases of
+    profiles.json, and the builds of the user's profiles file (:func:`use_profiles_file`)."""
     raw = _raw()
+    entries = dict(raw["profiles"])
+    path = os.environ.get(PROFILES_ENV)
+    if path:
+        from .profile_file import read_profile_file
+        entries.update(read_profile_file(path, raw))
     out = {}
     # Model values every profile gets unless it sets its own (cost model, device timing ...).
     defaults = {k: v for k, v in raw.get("model_defaults", {}).items() if not k.startswith("_")}
-    for num, p in raw["profiles"].items():
+    for num, p in entries.items():
         sig = bytes.fromhex(p["signature"]) if p.get("signature") else None
+        help_lines = p["help_lines"] if "help_lines" in p else raw["help_texts"][p["help_text"]]
         out[int(num)] = Profile(
             name=p["name"], number=int(num), version_string=p["version_string"],
             commands=tuple(p["commands"]), set_keywords=tuple(p["set_keywords"]),
-            help_lines=tuple(raw["help_texts"][p["help_text"]]), signature=sig,
+            help_lines=tuple(help_lines), signature=sig,
             image_size=p["image_size"], image_checksum=p["image_checksum"],
             features={**defaults, **{k: v for k, v in p.items() if k not in _CORE_KEYS}},
+            base=p.get("base", ""),
         )
     return dict(sorted(out.items()))
+
+
+def use_profiles_file(path: str) -> None:
+    """Judge by the builds ``path`` describes too, here and in every process started from now on.
+    Raises :class:`~.profile_file.ProfileFileError` (one line per mistake) when the file is wrong."""
+    from .profile_file import read_profile_file
+    path = os.path.abspath(os.path.expanduser(path))
+    read_profile_file(path, _raw())
+    os.environ[PROFILES_ENV] = path
+    load_profiles.cache_clear()
 
 
 def profile_numbers() -> list:
@@ -100,7 +126,7 @@ def get_profile(spec: int | str | None = None) -> Profile:
         return profiles[DEFAULT_FIRMWARE]
     s = str(spec).strip()
     for p in profiles.values():
-        if s.upper() == p.name:
+        if s.upper() == p.name.upper():
             return p
     try:
         return profiles[int(s.split()[0])]

@@ -27,7 +27,9 @@ ALL_AMBIGUOUS: List[str] = sorted({prefix for p in load_profiles().values()
 
 def _expect_runs(hat: Hat, port: int, token: str, command: str) -> None:
     out = probe(hat, port, command, token)
-    assert out.ran, f"`{token}` should run {command}; seen {out.seen}"
+    if out.error:
+        raise AssertionError(f"sent `{token}`: expected it to run {command}; came `Error` ({out.seen})")
+    assert out.ran, f"sent `{token}`: expected it to run {command}; it answered, but {out.seen}"
 
 
 def _expect_error(hat: Hat, token: str) -> None:
@@ -59,7 +61,8 @@ def test_shortest_resolving_prefix_runs_the_command(hat: Hat, motor_port: int, v
     if shorter:
         # One character less must not run this command: it is someone else's, or nothing.
         owner = resolve(shorter, table)
-        assert owner != command
+        assert owner != command, \
+            f"`{shorter}` must not resolve to {command} (its shortest prefix is `{token}`)"
         if owner is None:
             _expect_error(hat, shorter)
         else:
@@ -79,12 +82,12 @@ def test_ambiguous_prefix_resolves_by_table_order(hat: Hat, motor_port: int, ver
     out = probe(hat, motor_port, first, prefix)
     if len(names) < 2 or prefix in names:
         # Unique here, or the full name of a command: the document is satisfied by running it.
-        assert out.ran, f"`{prefix}` should run {first}; seen {out.seen}"
+        assert out.ran, f"sent `{prefix}`: expected it to run {first}; came {out.seen}"
         return
     # The document says nothing about ambiguous prefixes: an observation, not a verdict on the
     # document, but it must be what the facts say this release does (FW-ABBREV-ORDER).
     assert out.ran, (f"`{prefix}` (prefix of {', '.join(names)}) should run {first}, the earliest in "
-                     f"the table (docs/FIRMWARE-BEHAVIOUR.md#fb-matching); seen {out.seen}")
+                     f"the table (docs/FIRMWARE-BEHAVIOUR.md#fb-matching); came {out.seen}")
     verdict.inform(f"`{prefix}` is a prefix of {', '.join(names)}: the document leaves it open; "
                    f"{hat.profile.name} runs {first}, the earliest in its table")
 
@@ -121,6 +124,8 @@ def test_matching_is_case_sensitive(hat: Hat, token: str) -> None:
 def test_write2_must_be_typed_in_full(hat: Hat, motor_port: int) -> None:
     # Every shorter prefix of write2 is write1's (FACTS §2): `write 44 11 22` is write1.
     for n in range(1, len("write2")):
-        assert resolve("write2"[:n], hat.commands) == "write1"
+        assert resolve("write2"[:n], hat.commands) == "write1", \
+            f"`{'write2'[:n]}` must be write1's in {hat.profile.name}'s table " \
+            "(docs/FIRMWARE-BEHAVIOUR.md#fb-matching)"
     _expect_runs(hat, motor_port, "write", "write1")
     _expect_runs(hat, motor_port, "write2", "write2")

@@ -7,6 +7,7 @@ import re
 import pytest
 
 from ..link import Hat
+from ..mismatch import rejected, same
 from ..needs import World
 from ..oracles.vin import adc_to_mv, vin_text
 from ..verdict import Verdict
@@ -22,7 +23,8 @@ def test_help_prints_the_synopsis_of_this_release(hat: Hat, command: str) -> Non
                                                                   re.M)]
     assert not missing, f"help does not mention {missing}"
     # FIRMWARE-FACTS §4.3: the exact text of this release.
-    assert raw == b"\r\n" + hat.help_bytes
+    same(raw, b"\r\n" + hat.help_bytes, "this release's help text (docs/FIRMWARE-BEHAVIOUR.md#fb-help)",
+         sent=command)
 
 
 @pytest.mark.req("CMD-VERSION")
@@ -31,7 +33,8 @@ def test_version_prints_the_firmware_version(hat: Hat, verdict: Verdict) -> None
     m = re.fullmatch(rb"\r\nFirmware version: ([0-9]+) (\S+)\r\n", raw)
     assert m, f"version answered {raw!r}"
     if hat.profile_exact and int(m.group(1)) == hat.profile.number:
-        assert raw == b"\r\nFirmware version: " + hat.profile.version_string.encode() + b"\r\n"
+        same(raw, b"\r\nFirmware version: " + hat.profile.version_string.encode() + b"\r\n",
+             f"{hat.profile.name}'s version line (docs/FIRMWARE-BEHAVIOUR.md#fb-version)", sent="version")
     else:
         verdict.inform(f"version {m.group(1).decode()} is not a known release; judged as {hat.profile}")
 
@@ -83,7 +86,7 @@ def test_port_sets_the_current_port(hat: Hat, text: str, port: int, error: bool)
     # A negative port is an Error and leaves the port (FACTS §3, §12.16).
     raw = _port_line(hat, text)
     expected = text.encode() + b"\r\n" + (b"Error\r\n" if error else b"") + f"P{port}>".encode()
-    assert raw == expected
+    same(raw, expected, sent=text)
 
 
 @pytest.mark.req("CMD-PORT", "FW-PORT-CLAMP")
@@ -100,7 +103,7 @@ def test_port_above_3_is_clamped_to_3(hat: Hat, text: str) -> None:
 def test_four_ports_numbered_0_to_3(hat: Hat) -> None:
     lines = hat.exchange_quiet("list").list_lines()
     heads = [ln[:3] for ln in lines if re.match(r"P[0-9a-f]: ", ln)]
-    assert heads == ["P0:", "P1:", "P2:", "P3:"]
+    assert heads == ["P0:", "P1:", "P2:", "P3:"], f"sent `list`: expected ports P0: to P3:, came {heads}"
 
 
 @pytest.mark.req("CMD-LEDMODE")
@@ -116,7 +119,7 @@ def test_ledmode_accepts_its_values_silently(hat: Hat, verdict: Verdict, mode: s
 @pytest.mark.req("CMD-LEDMODE", "FW-ERROR")
 @pytest.mark.parametrize("line", ["ledmode", "ledmode x", "ledmode +-1"])
 def test_ledmode_without_a_number_is_an_error(hat: Hat, line: str) -> None:
-    assert hat.exchange(line).raw == b"\r\nError\r\n"
+    rejected(hat.exchange(line))
     hat.exchange("ledmode -1")
 
 
@@ -126,7 +129,9 @@ def test_signature_prints_64_bytes(hat: Hat) -> None:
     m = re.fullmatch(rb"\r\nFirmware signature:((?: [0-9A-F]{2}){64})\r\n", raw)
     assert m, f"signature answered {raw!r}"
     if hat.profile_exact and hat.profile.signature is not None:
-        assert bytes.fromhex(m.group(1).decode()) == hat.profile.signature
+        assert bytes.fromhex(m.group(1).decode()) == hat.profile.signature, \
+            f"sent `signature`: expected {hat.profile.name}'s signature " \
+            f"(docs/FIRMWARE-BEHAVIOUR.md#fb-signature), came {raw!r}"
 
 
 @pytest.mark.req("CMD-DEBUG")
@@ -134,18 +139,18 @@ def test_signature_prints_64_bytes(hat: Hat) -> None:
 def test_debug_accepts_a_code(hat: Hat, code: str) -> None:
     raw = hat.exchange(f"debug {code}").raw
     hat.exchange("debug 0")
-    assert raw == b"\r\n"
+    same(raw, b"\r\n", sent=f"debug {code}")
 
 
 @pytest.mark.req("CMD-DEBUG", "FW-ERROR")
 def test_debug_needs_its_code(hat: Hat) -> None:
-    assert hat.exchange("debug").raw == b"\r\nError\r\n"
+    rejected(hat.exchange("debug"))
 
 
 @pytest.mark.req("FW-ERROR")
 @pytest.mark.parametrize("line", ["bogus", "vinx", "ports", "x", "-", "1", "versions", "helpme"])
 def test_unknown_command_prints_exactly_error(hat: Hat, line: str) -> None:
-    assert hat.exchange(line).raw == b"\r\nError\r\n"
+    rejected(hat.exchange(line))
 
 
 @pytest.mark.req("FW-ERROR", "LINK-PROMPT")
@@ -153,7 +158,7 @@ def test_error_with_echo_is_followed_by_the_prompt(hat: Hat) -> None:
     hat.exchange("echo 1")
     raw = hat.exchange("bogus").raw
     hat.exchange("echo 0")
-    assert raw == b"bogus\r\nError\r\nP0>"
+    same(raw, b"bogus\r\nError\r\nP0>", sent="bogus")
 
 
 @pytest.mark.req("FW-ERROR")
@@ -162,4 +167,5 @@ def test_error_with_echo_is_followed_by_the_prompt(hat: Hat) -> None:
 def test_junk_after_a_command_that_cannot_fail(hat: Hat, command: str) -> None:
     # FACTS §3: these never fail, but a following token is a new command, so junk is an Error.
     lines = hat.exchange_quiet(f"{command} junk").lines
-    assert lines[-1] == "Error" and lines.count("Error") == 1
+    assert lines[-1] == "Error" and lines.count("Error") == 1, \
+        f"sent `{command} junk`: expected {command}'s answer, then one `Error` for `junk`; came {lines[-4:]}"

@@ -12,6 +12,7 @@ from typing import Optional
 import pytest
 
 from ..link import Hat
+from ..mismatch import rejected
 from ..needs import World
 from ..probes import data_lines, pid_lines, reports_after, start_quiet_pid
 from ..verdict import Verdict
@@ -175,7 +176,7 @@ def test_pwmparams_shape_the_drive(hat: Hat, world: World, motor_port: int, para
                                    duties: set, mean: float) -> None:
     p = motor_port
     if not hat.has("pwmparams"):
-        assert hat.exchange(f"port {p} ; pwmparams {params}").raw == b"\r\nError\r\n"
+        rejected(hat.exchange(f"port {p} ; pwmparams {params}"))
         return
     drive(hat, p, f"pwm ; plimit 1 ; pwmparams {params} ; set {setpoint}")
     try:

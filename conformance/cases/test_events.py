@@ -33,7 +33,10 @@ def test_active_device_connect_messages(hat: Hat, world: World, empty_port: int)
     start = texts.index(f"P{p}: connecting to active device")
     block = render_active(p, catalogue()[f"0x{SENSOR:02X}"])
     expected = ["set baud rate to 115200"] + block + [done]
-    assert texts[start + 1:start + 1 + len(expected)] == expected
+    got = texts[start + 1:start + 1 + len(expected)]
+    differs = next(((a, b) for a, b in zip(expected, got) if a != b), (done, got[-1:]))
+    assert got == expected, (f"after `connecting to active device`: expected {len(expected)} lines ending "
+                             f"{done!r}; first difference: expected {differs[0]!r}, came {differs[1]!r}")
 
 
 @pytest.mark.req("EVT-CONNECT")
@@ -95,13 +98,16 @@ def test_unplug_says_disconnected(hat: Hat, world: World, verdict: Verdict, empt
     said = f"P{p}: disconnected" in texts
     if spec[0] == "active":
         # FACTS §5: the data-phase watchdog (>500 ms) notices an active device is gone.
-        assert f"P{p}: timeout during data phase: disconnecting" in texts
+        assert f"P{p}: timeout during data phase: disconnecting" in texts, \
+            f"unplugged an active device: expected `P{p}: timeout during data phase: disconnecting`, " \
+            f"came {texts[:8]}"
         r1_way = not said
     else:
         r1_way = not said and not any(t.startswith(f"P{p}:") for t in texts[-3:])
     verdict.document(said, key="NO-DISCONNECTED-LINE", firmware_ok=r1_way,
                      seen=f"lines after unplug: {texts[:8]!r}")
-    assert texts.count(f"P{p}: disconnected") <= 1
+    assert texts.count(f"P{p}: disconnected") <= 1, \
+        f"one unplug: expected at most one `P{p}: disconnected`, came {texts[:8]}"
 
 
 @pytest.mark.req("EVT-DISCONNECT", "FW-SETUP-TIMEOUT")
@@ -118,7 +124,8 @@ def test_device_gone_during_setup_times_out(hat: Hat, world: World, empty_port: 
     hat.wait_for(lambda e: e.text == line, 1, 4000)
     texts = _texts(hat.since(mark))
     assert line in texts, f"no {line!r} after the device went mid-set-up: {texts[-8:]!r}"
-    assert not any(t.startswith(f"P{p}: established") for t in texts), texts
+    assert not any(t.startswith(f"P{p}: established") for t in texts), \
+        f"a device gone mid-set-up must not be established; came {texts[-8:]}"
 
 
 @pytest.mark.req("DEV-PORTS", "EVT-CONNECT")

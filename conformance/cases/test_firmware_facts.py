@@ -5,6 +5,7 @@ from __future__ import annotations
 import pytest
 
 from ..link import Hat
+from ..mismatch import rejected
 from ..needs import World
 from ..oracles.startup import START_UP, start_up_after_reset
 from ..probes import TickClock, data_lines, pid_lines, reports_after, start_quiet_pid
@@ -25,7 +26,8 @@ def test_select_minus_one_selects_mode_0(hat: Hat, motor_port: int) -> None:
 def test_select_with_offset_but_no_format_turns_reporting_off(hat: Hat, motor_port: int) -> None:
     p = motor_port
     hat.exchange(f"port {p} ; select 1")
-    assert data_lines(hat.wait_for(lambda e: e.text.startswith(f"P{p}M1:"), 2, 1500), p)
+    assert data_lines(hat.wait_for(lambda e: e.text.startswith(f"P{p}M1:"), 2, 1500), p), \
+        f"sent `select 1` on port {p}: expected `P{p}M1:` lines, none came in 1.5 s"
     reply = hat.exchange("select 0 5")
     after = data_lines(hat.collect_ms(400), p)
     assert reply.raw == b"\r\nError\r\n" and not after, f"{reply.raw!r}; then {after[:3]}"
@@ -59,7 +61,9 @@ def test_button_events(hat: Hat, world: World) -> None:
     texts = [e.text for e in hat.since(mark)]
     events = [t for t in texts if t in (f"P{p}: button pressed", f"P{p}: button released")]
     if hat.feature("button_events"):
-        assert events == [f"P{p}: button pressed", f"P{p}: button released"], events
+        assert events == [f"P{p}: button pressed", f"P{p}: button released"], \
+            f"pressed and released the button: expected `P{p}: button pressed`, then `released`; " \
+            f"came {events}"
     else:
         assert not events, "R1 reports no button events (docs/FIRMWARE-BEHAVIOUR.md#fb-button)"
 
@@ -68,7 +72,7 @@ def test_button_events(hat: Hat, world: World) -> None:
 def test_port_plimit_limits_one_port(hat: Hat, motor_port: int, second_motor_port: int) -> None:
     a, b = motor_port, second_motor_port
     if not hat.has("port_plimit"):
-        assert hat.exchange(f"port {a} ; port_plimit 0.1").raw == b"\r\nError\r\n"
+        rejected(hat.exchange(f"port {a} ; port_plimit 0.1"))
         return
     drive(hat, a, "pwm ; plimit 1 ; port_plimit 0.1 ; set 1")
     drive(hat, b, "pwm ; set 1")
@@ -82,7 +86,7 @@ def test_port_plimit_limits_one_port(hat: Hat, motor_port: int, second_motor_por
 def test_set_var_takes_the_setpoint_from_a_sensor(hat: Hat, world: World, motor_port: int) -> None:
     p = motor_port
     if "var" not in hat.set_keywords:
-        assert hat.exchange(f"port {p} ; set var 0 1 1 0 {p} 3 0 s2 1 0").raw == b"\r\nError\r\n"
+        rejected(hat.exchange(f"port {p} ; set var 0 1 1 0 {p} 3 0 s2 1 0"))
         return
     world.require("data", "control of the motor's reported position (world @data)")
     world.action(f"@data {p} 3 2C 01")                       # APOS = 300

@@ -10,6 +10,7 @@ import re
 import pytest
 
 from ..link import Hat
+from ..mismatch import rejected, same
 from ..verdict import Verdict
 
 
@@ -25,7 +26,8 @@ def test_link_carries_clean_text_both_ways(hat: Hat, verdict: Verdict) -> None:
     # A wrong baud rate, parity or stop bit setting garbles every byte; the version answer
     # arriving byte-exact through this link is what a host can observe of 115200 8N1.
     raw = hat.exchange_quiet("version").raw
-    assert re.fullmatch(rb"\r\nFirmware version: [0-9]+ [0-9T:+-]+\r\n", raw), raw
+    assert re.fullmatch(rb"\r\nFirmware version: [0-9]+ [0-9T:+-]+\r\n", raw), \
+        f"sent `version`: expected `Firmware version: <number> <date>` byte for byte, came {raw!r}"
     if not re.match(r"(serial:|/dev/)", hat.url):
         verdict.inform(f"the framing itself (115200 8N1) is not observable through {hat.url}")
 
@@ -46,9 +48,9 @@ def test_output_is_plain_text_lines(hat: Hat, command: str) -> None:
 def test_echo_and_prompt_as_in_appendix_a(hat: Hat) -> None:
     # FIRMWARE-FACTS Appendix A: echo 1 -> CRLF then the prompt; typed text echoed; the prompt
     # shows the port selected at the end of the line; `c` runs clear_faults, which prints nothing.
-    assert hat.exchange("echo 1").raw == b"\r\nP0>"
-    assert hat.exchange("p 2").raw == b"p 2\r\nP2>"
-    assert hat.exchange("c").raw == b"c\r\nP2>"
+    same(hat.exchange("echo 1"), b"\r\nP0>")
+    same(hat.exchange("p 2"), b"p 2\r\nP2>")
+    same(hat.exchange("c"), b"c\r\nP2>")
     assert hat.exchange("echo 0").raw == b"echo 0\r\n", "echo 0 must stop the prompt at once"
     assert hat.exchange("port 0").raw == b"\r\n", "with echo off nothing is echoed and no prompt"
 
@@ -58,24 +60,24 @@ def test_echo_defaults_off_and_any_nonzero_enables(hat: Hat) -> None:
     assert hat.exchange("").raw == b"\r\n", "echo is off by default (only the CRLF every CR gives)"
     assert hat.exchange("echo 5").raw == b"\r\nP0>", \
         "any non-zero value enables echo (docs/FIRMWARE-BEHAVIOUR.md#fb-echo)"
-    assert hat.exchange("").raw == b"\r\nP0>"
+    same(hat.exchange(""), b"\r\nP0>")
     hat.exchange("echo 0")
 
 
 @pytest.mark.req("FW-LINE-CR-CRLF")
 def test_cr_always_answers_crlf(hat: Hat) -> None:
     line = vin_line(hat)
-    assert hat.exchange_quiet("vin").raw == b"\r\n" + line
-    assert hat.exchange("").raw == b"\r\n"
-    assert hat.exchange(b"\r\r").raw == b"\r\n\r\n"
+    same(hat.exchange_quiet("vin"), b"\r\n" + line)
+    same(hat.exchange(""), b"\r\n")
+    same(hat.exchange(b"\r\r"), b"\r\n\r\n")
 
 
 @pytest.mark.req("FW-LINE-LF-ORDINARY", "SYN-SEMICOLON")
 def test_crlf_from_the_host_breaks_the_next_line(hat: Hat) -> None:
     # The CRLF pitfall (FACTS §1, Appendix A): LF is stored, so the next line starts with it.
     line = vin_line(hat)
-    assert hat.exchange_quiet(b"vin\r\nvin\r").raw == b"\r\n" + line + b"\r\nError\r\n"
-    assert hat.exchange(b"vin\n\r").raw == b"\r\nError\r\n"
+    same(hat.exchange_quiet(b"vin\r\nvin\r"), b"\r\n" + line + b"\r\nError\r\n")
+    rejected(hat.exchange(b"vin\n\r"))
 
 
 @pytest.mark.req("FW-LINE-LF-ORDINARY", "LINK-PROMPT")
@@ -83,13 +85,13 @@ def test_crlf_pitfall_with_echo_appendix_a(hat: Hat) -> None:
     hat.exchange("echo 1")
     raw = hat.exchange(b"port 1\r\nlist\r").raw
     hat.exchange("echo 0 ; port 0")
-    assert raw == b"port 1\r\nP1>\nlist\r\nError\r\nP1>"
+    same(raw, b"port 1\r\nP1>\nlist\r\nError\r\nP1>", "Appendix A's answer", sent=b"port 1\r\nlist")
 
 
 @pytest.mark.req("FW-LINE-SEPARATORS")
 @pytest.mark.parametrize("line", [b"\tvin\r", b"VIN\r", b"Vin\r", b"vin\t\r"])
 def test_tab_and_upper_case_are_not_commands(hat: Hat, line: bytes) -> None:
-    assert hat.exchange(line).raw == b"\r\nError\r\n"
+    rejected(hat.exchange(line))
 
 
 @pytest.mark.req("FW-LINE-EDITING", "LINK-PROMPT")
@@ -101,7 +103,7 @@ def test_backspace_and_delete_edit_the_line(hat: Hat, erase: bytes) -> None:
     empty = hat.exchange(erase + b"\r").raw
     hat.exchange("echo 0 ; port 0")
     # FACTS §1 echo example: the edited line is `vi`, which resolves to vin.
-    assert raw == b"vinx\x08 \x08\x08 \x08\r\n" + line + b"P1>"
+    same(raw, b"vinx\x08 \x08\x08 \x08\r\n" + line + b"P1>", sent=b"vinx" + erase + erase)
     assert empty == b"\r\nP1>", "erasing in an empty buffer echoes nothing"
 
 
@@ -120,7 +122,7 @@ def test_line_buffer_keeps_the_first_256_bytes(hat: Hat) -> None:
 @pytest.mark.req("FW-LINE-NUL")
 def test_nul_ends_the_line(hat: Hat) -> None:
     line = vin_line(hat)
-    assert hat.exchange_quiet(b"vin\x00junk\r").raw == b"\r\n" + line
+    same(hat.exchange_quiet(b"vin\x00junk\r"), b"\r\n" + line)
 
 
 @pytest.mark.req("FW-HASH-COMMENT")
@@ -132,5 +134,5 @@ def test_hash_comment_lines(hat: Hat) -> None:
     if hat.feature("hash_comments"):
         assert comment == b"# comment\r\n", "R6+: ignored, and no prompt follows"
     else:
-        assert comment == b"# comment\r\nError\r\nP0>"
+        same(comment, b"# comment\r\nError\r\nP0>")
     assert spaced == b" # x\r\nError\r\nP0>", "a leading space defeats the comment"

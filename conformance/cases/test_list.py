@@ -6,6 +6,7 @@ import pytest
 
 from ...protocol.devices import active_type_ids, catalogue
 from ..link import Hat
+from ..mismatch import same
 from ..needs import World
 from ..oracles.listing import parse_list, render_active, render_port
 from ..verdict import UnknownBuild
@@ -26,13 +27,16 @@ def test_list_dump_follows_the_grammar_and_the_catalogue(hat: Hat) -> None:
             assert entry.lines == render_active(entry.port, catalogue()[f"0x{entry.id:02X}"]), \
                 f"P{entry.port}: the block differs from the catalogue entry of 0x{entry.id:02X}"
         elif entry.kind == "passive":
-            assert entry.id is not None and 1 <= entry.id <= 11
+            assert entry.id is not None and 1 <= entry.id <= 11, \
+                f"P{entry.port}: expected a passive ID 1..11 (docs/FIRMWARE-BEHAVIOUR.md#fb-passive), " \
+                f"came {entry.lines}"
 
 
 @pytest.mark.req("CMD-LIST-EMPTY")
 def test_empty_port_says_no_device_detected(hat: Hat, empty_port: int) -> None:
     entries = parse_list(dump(hat))
-    assert entries[empty_port].lines == [f"P{empty_port}: no device detected"]
+    assert entries[empty_port].lines == [f"P{empty_port}: no device detected"], \
+        f"sent `list`: expected `P{empty_port}: no device detected`, came {entries[empty_port].lines}"
 
 
 @pytest.mark.req("CMD-LIST", "CMD-LIST-EMPTY", "FW-LIST-EMPTY-HAT")
@@ -41,7 +45,8 @@ def test_list_of_an_empty_hat_appendix_a(hat: Hat, world: World) -> None:
     for port in range(4):
         world.unplug(port)
     raw = hat.exchange_quiet("list").raw
-    assert raw == b"\r\n" + b"".join(f"P{p}: no device detected\r\n".encode() for p in range(4))
+    same(raw, b"\r\n" + b"".join(f"P{p}: no device detected\r\n".encode() for p in range(4)),
+         "Appendix A's empty HAT", sent="list")
 
 
 @pytest.mark.req("CMD-LIST-PASSIVE", "ID-PASSIVE")
@@ -61,7 +66,7 @@ def test_passive_device_is_listed_by_its_id(hat: Hat, world: World, ident: int) 
         # Judged by the document; R1's behaviour (a button practically never listed) is no
         # fault of a build that may be R1's.
         raise UnknownBuild(f"{unknown}: `list` shows {entry.lines}, as R1 does")
-    assert entry.lines == expected
+    assert entry.lines == expected, f"sent `list`: expected {expected}, came {entry.lines}"
 
 
 @pytest.mark.req("CMD-LIST-ACTIVE", "CMD-LIST-MODE", "ID-ACTIVE", "DEV-MODES")
@@ -70,13 +75,20 @@ def test_active_device_block_matches_the_catalogue(hat: Hat, world: World, type_
     port = world.active(type_id)
     entry = parse_list(dump(hat))[port]
     device = catalogue()[f"0x{type_id:02X}"]
-    assert entry.kind == "active" and entry.id == type_id
-    assert entry.lines == render_active(port, device)
+    assert entry.kind == "active" and entry.id == type_id, \
+        f"sent `list`: expected active ID {type_id:02X} on port {port}, came {entry.lines[:1]}"
+    same("\r\n".join(entry.lines).encode(), "\r\n".join(render_active(port, device)).encode(),
+         f"the catalogue's block of 0x{type_id:02X} (protocol/devices.json)")
     # DEV-MODES: at most 16 modes, numbered 0..15, as the document says.
-    assert len(entry.modes) <= 16 and all(0 <= m.index <= 15 for m in entry.modes)
-    assert [m.type for m in entry.modes] == [m["format"]["type"] for m in device["modes"] if m["name"]]
+    assert len(entry.modes) <= 16 and all(0 <= m.index <= 15 for m in entry.modes), \
+        f"DEV-MODES: expected at most 16 modes numbered 0..15, came {[m.index for m in entry.modes]}"
+    types = [m["format"]["type"] for m in device["modes"] if m["name"]]
+    assert [m.type for m in entry.modes] == types, \
+        f"expected the catalogue's mode types {types}, came {[m.type for m in entry.modes]}"
     if type_id in APPENDIX_C:
-        assert entry.lines[0] == f"P{port}: connected to active ID {type_id:02X}"
+        assert entry.lines[0] == f"P{port}: connected to active ID {type_id:02X}", \
+            f"expected the header of Appendix C, `P{port}: connected to active ID {type_id:02X}`; " \
+            f"came {entry.lines[0]!r}"
 
 
 @pytest.mark.req("CMD-LIST", "FW-LIST-PORT-LINES")
@@ -84,4 +96,6 @@ def test_every_port_entry_matches_what_is_there(hat: Hat) -> None:
     entries = parse_list(dump(hat))
     for entry in entries:
         spec = None if entry.kind == "empty" else (entry.kind, entry.id)
-        assert entry.lines == render_port(entry.port, spec, catalogue())
+        want = render_port(entry.port, spec, catalogue())
+        same("\r\n".join(entry.lines).encode(), "\r\n".join(want).encode(),
+             f"port {entry.port}'s block as the catalogue gives it (protocol/devices.json)")

@@ -13,6 +13,7 @@ from typing import Dict, List, TypedDict
 import pytest
 
 from ..link import Hat
+from ..mismatch import accepted, rejected, same
 from ..needs import World
 from ..oracles.float32 import f32
 from ..oracles.floatfmt import fw_float
@@ -26,7 +27,7 @@ FIELDS = ("e", "ie", "de", "cv")
 
 def _num(text: str) -> float:
     value, _end = parse_float(text)
-    assert value is not None
+    assert value is not None, f"the suite's own PID parameter {text!r} is no number"
     return value
 
 
@@ -103,7 +104,8 @@ def test_pid_lines_match_a_float32_recomputation(hat: Hat, world: World, motor_p
     seen = {ln.pv for ln in lines[k + 1:]}
     assert len(seen) >= len(set(raws)) - 1, f"not every data value reached the controller: {seen}"
     # The document's windup statement, independently of the exact arithmetic:
-    assert all(abs(ln.value("ie")) <= _num(gains["windup"]) * (1 + 1e-6) for ln in lines)
+    over = [ln.value("ie") for ln in lines if abs(ln.value("ie")) > _num(gains["windup"]) * (1 + 1e-6)]
+    assert not over, f"the integral must stay within the windup limit {gains['windup']}; came {over[:6]}"
 
 
 @pytest.mark.req("CMD-PID", "CMD-PID-TIME", "CMD-PID-WINDUP", "FW-PID-LAW")
@@ -177,7 +179,7 @@ def test_unwrap_across_plus_minus_180(hat: Hat, world: World, verdict: Verdict, 
 def test_pid_diff_differentiates_the_process_variable(hat: Hat, world: World, motor_port: int) -> None:
     p = motor_port
     if not hat.has("pid_diff"):
-        assert hat.exchange("pid_diff 0 3 0 s2 1 0 0 0 0 0 0").raw == b"\r\nError\r\n"
+        rejected(hat.exchange("pid_diff 0 3 0 s2 1 0 0 0 0 0 0"))
         return
     world.require("data", "control of the motor's reported position (world @data)")
     world.action(f"@data {p} 3 {_le16(170)}")
@@ -239,7 +241,7 @@ def test_pid_needs_the_mode_selected(hat: Hat, world: World, motor_port: int) ->
 def test_document_ten_parameter_pid(hat: Hat, verdict: Verdict, motor_port: int) -> None:
     p = motor_port
     reply = hat.exchange(f"port {p} ; select 0 ; combi 0 1 0 2 0 3 0 ; select 0 ; plimit 0.1 ; debug 16")
-    assert reply.errors == 0
+    accepted(reply)
     doc = hat.exchange("pid 0 0 5 s2 0.0027777778 1 5 0 .1 3".replace("pid 0", f"pid {p}", 1))
     running = bool(pid_lines(reports_after(hat, p), p))
     verdict.document(doc.errors == 0 and running, key="PID-DOC-ARGS-REJECTED",
@@ -255,7 +257,7 @@ def test_eleven_parameter_pid(hat: Hat, motor_port: int) -> None:
     reply = hat.exchange(f"pid {p} 3 0 s2 0 0 0 0 0 0 0.01")
     running = bool(pid_lines(reports_after(hat, p), p))
     assert running, "the PID must run either way"
-    assert reply.raw == (b"\r\n" if hat.feature("pid_numbers") >= 11 else b"\r\nError\r\n")
+    same(reply, b"\r\n" if hat.feature("pid_numbers") >= 11 else b"\r\nError\r\n")
 
 
 @pytest.mark.req("CMD-OFF", "CMD-ON")
@@ -266,7 +268,7 @@ def test_off_and_on_in_pid_mode(hat: Hat, verdict: Verdict, motor_port: int, com
     start_quiet_pid(hat, motor_port, sp="0.5")
     reply = hat.exchange(command)
     lines = pid_lines(reports_after(hat, motor_port), motor_port)
-    assert reply.errors == 0
+    accepted(reply)
     # Document: `off` = `pwm ; set 0`, so PID lines stop. Firmware: still PID, set-point 0/1.
     sps = sorted({ln.sp for ln in lines})
     verdict.document(not lines, key=key, firmware_ok=bool(lines) and sps == [value],

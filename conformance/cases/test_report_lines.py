@@ -57,7 +57,8 @@ def test_mode_line_bytes(hat: Hat, world: World, motor_port: int, mode: int, pay
     p = motor_port
     head = f"P{p}M{mode}:"
     lines = lines_with(hat, world, p, mode, payload, f"select {mode}", head)
-    assert last_data_line(lines, head) == f"{head} {value}"
+    assert last_data_line(lines, head) == f"{head} {value}", \
+        f"the device sent {payload.hex(' ')}: expected `{head} {value}`, came {last_data_line(lines, head)!r}"
 
 
 @pytest.mark.req("CMD-COMBI", "EX-MOTOR-COMBI")
@@ -77,7 +78,8 @@ def test_combi_line_bytes(hat: Hat, world: World, motor_port: int) -> None:
         hat.exchange(f"port {p} ; combi 0")
         world.action(f"@data {p} 1 auto")
         world.action(f"@data {p} 2 auto")
-    assert last_data_line(lines, head) == f"{head} +5 +360 -180"
+    assert last_data_line(lines, head) == f"{head} +5 +360 -180", \
+        f"expected the document's line `{head} +5 +360 -180`, came {last_data_line(lines, head)!r}"
 
 
 # FIRMWARE-BEHAVIOUR#fb-float steps 1-2: the sign first, then `Inf` / `NaN` for an all-ones
@@ -98,7 +100,10 @@ def test_variable_line_prints_special_floats(hat: Hat, world: World, motor_port:
     p = motor_port
     head = f"P{p}V:"
     lines = lines_with(hat, world, p, 4, payload, "select 4 0 f4", head)
-    assert last_data_line(lines, head) == f"{head} {text}"
+    assert last_data_line(lines, head) == f"{head} {text}", \
+        f"the device sent {payload.hex(' ')}: expected `{head} {text}` " \
+        f"(docs/FIRMWARE-BEHAVIOUR.md#fb-float), " \
+        f"came {last_data_line(lines, head)!r}"
 
 
 @pytest.mark.req("CMD-DEBUG", "FW-DEBUG-8")

@@ -8,6 +8,7 @@ import struct
 import pytest
 
 from ..link import Hat
+from ..mismatch import accepted, rejected, same
 from ..needs import World
 from ..oracles.floatfmt import fw_float
 from ..probes import TickClock, data_lines
@@ -45,7 +46,8 @@ def test_select_mode_reports_repeatedly(hat: Hat, verdict: Verdict, motor_port: 
     decimal_ok = all(decimal)
     verdict.document(hex_ok, key="SELECT-PRINTS-DECIMAL", firmware_ok=decimal_ok, seen=repr(lines[:3]))
     # Mode 1 (SPEED) has one int8 value (devices.json): one value per line.
-    assert all(m is not None and len(m.group(3).replace(" 0", "0").split()) == 1 for m in decimal)
+    assert all(m is not None and len(m.group(3).replace(" 0", "0").split()) == 1 for m in decimal), \
+        f"mode 1 (SPEED) has one value (protocol/devices.json): expected one value a line, came {lines[:3]}"
 
 
 @pytest.mark.req("CMD-SELECT-OFF")
@@ -54,7 +56,7 @@ def test_select_without_argument_stops_reports(hat: Hat, motor_port: int) -> Non
     hat.exchange(f"port {p} ; select 1")
     assert at_least(hat, p, 2), "no reports to stop"
     reply = hat.exchange("select")
-    assert reply.raw == b"\r\n"
+    same(reply, b"\r\n")
     assert not reports(hat, p, 400), "reports continued after `select`"
 
 
@@ -79,7 +81,9 @@ def test_select_variable_prints_one_float(hat: Hat, world: World, motor_port: in
     if exact:
         code = {"s2": "<h", "u1": "<B", "s1": "<b", "u2": "<H", "f4": "<f"}[fmt]
         value = struct.unpack_from(code, payload, offset)[0]
-        assert lines[-1] == f"P{p}V: {fw_float(value)}"
+        assert lines[-1] == f"P{p}V: {fw_float(value)}", \
+            f"expected `P{p}V: {fw_float(value)}` (docs/FIRMWARE-BEHAVIOUR.md#fb-data-var), " \
+            f"came {lines[-1]!r}"
 
 
 @pytest.mark.req("CMD-SELONCE")
@@ -104,7 +108,7 @@ def test_selrate_sets_the_report_interval(hat: Hat, motor_port: int) -> None:
     p = motor_port
     reply = hat.exchange(f"port {p} ; select 1 ; selrate 25")
     if not hat.has("selrate"):
-        assert reply.raw == b"\r\nError\r\n"
+        rejected(reply)
         return
     clock = TickClock(hat, p)             # a quiet PID on mode 3: ticks every 10 ms
     hat.exchange(f"port {p} ; select 1 ; selrate 25")
@@ -119,7 +123,7 @@ def test_selrate_sets_the_report_interval(hat: Hat, motor_port: int) -> None:
 def test_combi_reports_the_chosen_values(hat: Hat, motor_port: int) -> None:
     p = motor_port
     reply = hat.exchange(f"port {p} combi 0 1 0 2 0 3 0")     # Appendix A, without `;`
-    assert reply.errors == 0
+    accepted(reply, "Appendix A's line")
     reply = hat.exchange("select 0")
     lines = at_least(hat, p, 2, f"P{p}C0:", reply)
     assert len(lines) >= 2, f"no combi reports: {reports(hat, p, 10)}"
@@ -143,7 +147,7 @@ def test_combi_index_alone_deconfigures(hat: Hat, motor_port: int) -> None:
 def test_combi_and_the_selection(hat: Hat, motor_port: int) -> None:
     p = motor_port
     hat.exchange(f"port {p} ; select 1")
-    assert at_least(hat, p, 2)
+    assert at_least(hat, p, 2), f"sent `select 1` on port {p}: expected its data lines, fewer than 2 came"
     hat.exchange("combi 1 1 0 3 0")
     after = at_least(hat, p, 2, max_hat_ms=600) if not hat.feature("combi_clears_selection") \
         else reports(hat, p, 400)
@@ -176,7 +180,7 @@ def test_modes_of_a_device_with_more_than_eight(hat: Hat, world: World, verdict:
                                   "write1 c2 12 23 34 45 12 23 34 45 12", "write1 C5 0A 0b 123 fff"])
 def test_write_accepts_hex_bytes(hat: Hat, motor_port: int, line: str, verdict: Verdict) -> None:
     reply = hat.exchange(f"port {motor_port} ; {line}")
-    assert reply.raw == b"\r\n"
+    same(reply, b"\r\n")
     verdict.note("what reaches the device is only visible on the device side "
                  "(docs/FIRMWARE-BEHAVIOUR.md#fb-device-messages)")
 
@@ -205,7 +209,7 @@ def test_write_delivers_the_framed_message(hat: Hat, world: World, motor_port: i
 @pytest.mark.req("CMD-WRITE1", "FW-ERROR")
 @pytest.mark.parametrize("line", ["write1 0x12", "write1", "write2", "write1 c5 zz"])
 def test_write_rejects_what_is_not_hex(hat: Hat, motor_port: int, line: str) -> None:
-    assert hat.exchange(f"port {motor_port} ; {line}").raw == b"\r\nError\r\n"
+    rejected(hat.exchange(f"port {motor_port} ; {line}"))
 
 
 @pytest.mark.req("CMD-COMBI", "FW-ERROR")

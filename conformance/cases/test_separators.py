@@ -9,6 +9,7 @@ from __future__ import annotations
 import pytest
 
 from ..link import Hat
+from ..mismatch import accepted, rejected, same
 from ..probes import pid_lines, reports_after, start_quiet_pid
 from .test_link import vin_line
 
@@ -18,23 +19,23 @@ from .test_link import vin_line
                                   "vin; ;vin", ";;vin ; ; ; vin;;"])
 def test_two_commands_on_one_line_both_run(hat: Hat, line: str) -> None:
     answer = vin_line(hat)
-    assert hat.exchange_quiet(line).raw == b"\r\n" + answer + answer
+    same(hat.exchange_quiet(line), b"\r\n" + answer + answer)
 
 
 @pytest.mark.req("SYN-SEMICOLON", "FW-SEPARATOR-OPTIONAL")
 def test_no_separator_is_needed_between_commands(hat: Hat) -> None:
     answer = vin_line(hat)
-    assert hat.exchange_quiet("vin vin").raw == b"\r\n" + answer + answer
+    same(hat.exchange_quiet("vin vin"), b"\r\n" + answer + answer)
     hat.exchange("echo 1")
     raw = hat.exchange("port 1 vin").raw
     hat.exchange("echo 0 ; port 0")
-    assert raw == b"port 1 vin\r\n" + answer + b"P1>"
+    same(raw, b"port 1 vin\r\n" + answer + b"P1>", sent="port 1 vin")
 
 
 @pytest.mark.req("SYN-SEMICOLON")
 @pytest.mark.parametrize("line", [";", ";;;", " ; ; ; ", "   "])
 def test_empty_commands_do_nothing(hat: Hat, line: str) -> None:
-    assert hat.exchange(line).raw == b"\r\n"
+    same(hat.exchange(line), b"\r\n")
 
 
 @pytest.mark.req("SYN-SEMICOLON", "FW-SEMICOLON-AFTER-NAME")
@@ -46,13 +47,15 @@ def test_semicolon_right_after_a_name_ends_the_name(hat: Hat, motor_port: int) -
     start_quiet_pid(hat, motor_port)
     reply = hat.exchange("set;0.25")
     lines = pid_lines(reports_after(hat, motor_port), motor_port)
-    assert reply.errors == 0 and lines and {ln.sp for ln in lines} == {"0.250000"}
+    accepted(reply)
+    assert lines and {ln.sp for ln in lines} == {"0.250000"}, \
+        f"sent `set;0.25`: expected the PID's set-point 0.250000, came {sorted({ln.sp for ln in lines})}"
 
 
 @pytest.mark.req("SYN-SEMICOLON", "FW-ERROR")
 def test_error_mid_line_keeps_earlier_effects_and_drops_the_rest(hat: Hat) -> None:
     answer = vin_line(hat)
-    assert hat.exchange_quiet("vin ; bogus ; vin").raw == b"\r\n" + answer + b"Error\r\n"
+    same(hat.exchange_quiet("vin ; bogus ; vin"), b"\r\n" + answer + b"Error\r\n")
     hat.exchange("echo 1")
     raw = hat.exchange("port 1 ; bogus ; port 2").raw
     hat.exchange("echo 0 ; port 0")
@@ -62,7 +65,7 @@ def test_error_mid_line_keeps_earlier_effects_and_drops_the_rest(hat: Hat) -> No
 @pytest.mark.req("SYN-SEMICOLON", "FW-ERROR")
 def test_bad_argument_mid_line_drops_the_rest(hat: Hat) -> None:
     answer = vin_line(hat)
-    assert hat.exchange_quiet("vin ; ledmode x ; vin").raw == b"\r\n" + answer + b"Error\r\n"
+    same(hat.exchange_quiet("vin ; ledmode x ; vin"), b"\r\n" + answer + b"Error\r\n")
     assert hat.exchange("ledmode 1 2 ; vin").raw == b"\r\nError\r\n", "`2` is not a command"
     hat.exchange("ledmode -1")
 
@@ -74,21 +77,23 @@ def test_arguments_end_at_a_semicolon(hat: Hat, motor_port: int) -> None:
     start_quiet_pid(hat, motor_port)
     reply = hat.exchange("set 0.5;0.3")
     lines = pid_lines(reports_after(hat, motor_port), motor_port)
-    assert reply.raw == b"\r\nError\r\n"
-    assert lines and {ln.sp for ln in lines} == {"0.500000"}
+    rejected(reply)
+    assert lines and {ln.sp for ln in lines} == {"0.500000"}, \
+        f"sent `set 0.5;0.3`: expected the PID's set-point 0.500000, came {sorted({ln.sp for ln in lines})}"
 
 
 @pytest.mark.req("SYN-SEMICOLON", "FW-LINE-CR-CRLF")
 def test_several_lines_in_one_write(hat: Hat) -> None:
     answer = vin_line(hat)
-    assert hat.exchange_quiet(b"vin\rvin ; vin\r").raw == b"\r\n" + answer + b"\r\n" + answer + answer
+    same(hat.exchange_quiet(b"vin\rvin ; vin\r"), b"\r\n" + answer + b"\r\n" + answer + answer)
 
 
 @pytest.mark.req("SYN-SEMICOLON", "FW-ERROR")
 def test_list_followed_by_a_number_is_list_then_error(hat: Hat) -> None:
     reply = hat.exchange_quiet("list 0")
     lines = reply.list_lines()
-    assert reply.lines[-1] == "Error" and len(lines) >= 4
+    assert reply.lines[-1] == "Error" and len(lines) >= 4, \
+        f"sent `list 0`: expected the list of 4 ports, then `Error`; came {reply.lines[-3:]}"
 
 
 @pytest.mark.req("SYN-SEMICOLON", "FW-ERROR")
@@ -96,5 +101,5 @@ def test_error_mid_line_keeps_an_earlier_setting(hat: Hat, motor_port: int) -> N
     start_quiet_pid(hat, motor_port)
     reply = hat.exchange("set 0.3 ; bogus ; set 0.9")
     lines = pid_lines(reports_after(hat, motor_port), motor_port)
-    assert reply.raw == b"\r\nError\r\n"
+    rejected(reply)
     assert lines and {ln.sp for ln in lines} == {"0.300000"}, "set 0.3 stays; set 0.9 never runs"

@@ -69,18 +69,21 @@ def _conformance_case(request: Any, _run: Run) -> Any:
     hat = _run.open()
     assert _run.tee is not None
     between = hat.between
-    verdict = Verdict(hat.profile.name, (between[0].name, between[1].name) if between else None)
+    # A build of the user's profiles file deviates from the document as the release it starts from.
+    verdict = Verdict(hat.profile.base or hat.profile.name,
+                      (between[0].base or between[0].name, between[1].base or between[1].name) if between
+                      else None)
     item.stash[_verdict_key] = verdict
     path = os.path.join(_run.transcripts, transcript_name(item.nodeid) + ".jsonl")
     p = hat.profile
     item.user_properties.extend([
         ("firmware", firmware_of(hat)),
-        ("profile", p.name if hat.profile_exact else f"{p.name} (nearest earlier)"), ("transcript", path)])
+        ("profile", hat.profile_label), ("transcript", path)])
     if between:
         verdict.note(f"unknown build between {between[0].name} and {between[1].name}: judged by the "
                      "document; where they differ, informational")
     elif not hat.profile_exact:
-        verdict.note(f"unknown firmware version; judged as {p.name}, the nearest earlier release")
+        verdict.note(f"judged as {p.name}: {hat.profile_why or 'unknown firmware version'}")
     writer = TranscriptWriter(path, {"firmware": firmware_of(hat), "target": _run.url, "case": item.nodeid,
                                      "requirements": ids, "profile": p.name})
     _run.tee.switch(writer)

@@ -148,7 +148,9 @@ class Run:
         self.junit.set_property("firmware", session.version_string or p.version_string)
         if forced:
             self.junit.set_property("judged_as", f"{p.name} ({p.number}, --firmware)")
-        self.junit.set_property("profile", p.name + ("" if self.hat.profile_exact else " (nearest earlier)"))
+        self.junit.set_property("profile", self.hat.profile_label)
+        if self.hat.profile_why:
+            self.junit.set_property("profile_why", self.hat.profile_why)
         mismatch = release_mismatch(self.url, session.version_string, p) if forced else None
         if mismatch is not None:
             self.no_job = mismatch

@@ -63,7 +63,7 @@ def write_summary(tr: Any, run: Any) -> None:
     if hat is not None:
         p = hat.profile
         exact = "" if hat.profile_exact else \
-            " - unknown version, judged as the nearest earlier release"
+            f" ({hat.profile_why or 'unknown version'})"
         judged = " (--firmware)" if run.config.getoption("firmware") else ""
         tr.write_line(f"target {run.url}: firmware {firmware_of(hat)} judged as profile "
                       f"{p.name}{judged}{exact}")

@@ -43,8 +43,22 @@ def summary_section(runs: Sequence[Run], changes: Dict[str, Optional[Tuple[str, 
              f'<p class=chips>{chips} <span class=muted>· {sum(counts.values())} cases · {esc(built)}'
              ' · <a href="#legend">legend</a></span></p>']
     for run in runs:
+        parts.append(_judged_line(run))
         parts.append(_changes_line(run, changes.get(run.path)))
     return "<header>" + "".join(parts) + "</header>"
+
+
+def _judged_line(run: Run) -> str:
+    """A clause the harness relies on that broke (the `version` line first of all: it chooses the
+    profile) and how the profile was chosen when the version did not name it: what every other
+    verdict of the run rests on, so on the first screen."""
+    bits = []
+    for key, label in (("broken_clauses", "clause the harness relies on broke"),
+                       ("profile_why", f"judged as {run.profile or '?'}")):
+        value = (run.properties.get(key) or [""])[0]
+        if value:
+            bits.append(f"<b class=warn>{esc(label)}</b>: {esc(value)}")
+    return f"<p class=judged>{'<br>'.join(bits)}</p>" if bits else ""
 
 
 def _anchor(verdict: str) -> str:

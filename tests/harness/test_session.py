@@ -57,6 +57,22 @@ def test_unknown_version_uses_nearest_earlier_profile_and_says_so():
         responder.close()
 
 
+@pytest.mark.parametrize("version, judged, why", [
+    # issue 34: one character more; the number it holds is R7's (fb-versions)
+    ("v1737564117 2025-01-22T16:41:57+00:00", "R7", "the number 1737564117 in it is R7's"),
+    ("unknown", "R7", "has no version number: R7 is the latest release"),
+])
+def test_an_unreadable_version_line_says_truthfully_which_profile_judges(version, judged, why):
+    responder = PtyResponder(version=version)
+    try:
+        with Session(make_target(responder.path)) as s:
+            assert s.profile.name == judged and not s.profile_exact
+            assert why in s.profile_why and "nearest earlier" not in s.profile_why
+            assert any(why in n for n in s.notes)
+    finally:
+        responder.close()
+
+
 def test_bootloader_is_detected():
     responder = PtyResponder(mode="bootloader")
     try:
