@@ -41,6 +41,8 @@ class Action:
     @property
     def capability(self) -> Optional[str]:
         """The control capability a target needs for this action (None: host or time)."""
+        if self.kind == "portfault" and len(self.args) > 1:
+            return "faultpulse"          # a fault timed by the HAT's clock, not the host's
         return self.kind if self.kind in WORLD_ACTIONS else None
 
 
