@@ -129,7 +129,8 @@ DEGLITCH_MS = 10      # a port fault is reported once it has lasted more than th
 
 
 @pytest.mark.req("PWR-PORT-FAULT", "FW-FAULT-DEGLITCH")
-@pytest.mark.parametrize("fault_ms", [DEGLITCH_MS - 1, DEGLITCH_MS, DEGLITCH_MS + 1], ids=["9ms", "10ms", "11ms"])
+@pytest.mark.parametrize("fault_ms", [DEGLITCH_MS - 1, DEGLITCH_MS, DEGLITCH_MS + 1],
+                         ids=["9ms", "10ms", "11ms"])
 def test_port_power_fault_deglitch_boundary(hat: Hat, world: World, no_faults: None, fault_ms: int) -> None:
     # FIRMWARE-BEHAVIOUR#fb-fault-deglitch: the firmware counts whole ms since it last saw the signal
     # high, so a fault of 9 or 10 ms is never reported and one of 11 ms once, at once (the next would
@@ -142,6 +143,7 @@ def test_port_power_fault_deglitch_boundary(hat: Hat, world: World, no_faults: N
     reports = [e.t for e in events if e.text == "Port power fault"]
     want = 1 if fault_ms > DEGLITCH_MS else 0
     assert len(reports) == want, (
-        f"world `{action}` (the 3.3 V port supply low for {fault_ms} ms of HAT time); docs/FIRMWARE-BEHAVIOUR.md"
-        f"#fb-fault-deglitch: a fault longer than {DEGLITCH_MS} ms is reported once at once, a shorter one "
-        f"never, so {want} `Port power fault` line expected in 1500 ms; {len(reports)} came")
+        f"world `{action}` (the 3.3 V port supply low for {fault_ms} ms of HAT time); "
+        f"docs/FIRMWARE-BEHAVIOUR.md#fb-fault-deglitch: a fault longer than {DEGLITCH_MS} ms is reported "
+        f"once at once, a shorter one never, so {want} `Port power fault` line expected in 1500 ms; "
+        f"{len(reports)} came")

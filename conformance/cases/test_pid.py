@@ -319,7 +319,8 @@ def _last_pid_line(hat: Hat, port: int, data_port: int, line: str) -> Optional[P
 
 @pytest.mark.req("CMD-PID-PV", "FW-SVAR-CLAMP")
 @pytest.mark.parametrize("field,top,beyond,kind", SVAR_CASES,
-                         ids=[f"{kind.replace(' ', '_')}-{field}{beyond}" for field, _t, beyond, kind in SVAR_CASES])
+                         ids=[f"{kind.replace(' ', '_')}-{field}{beyond}"
+                              for field, _t, beyond, kind in SVAR_CASES])
 def test_a_variable_the_hat_does_not_have_reads_its_last(hat: Hat, world: World, motor_port: int, field: str,
                                                          top: int, beyond: int, kind: str) -> None:
     # FIRMWARE-BEHAVIOUR#fb-svar-clamp: a sensor variable's port, mode and offset are clamped to 0..3,
@@ -347,10 +348,10 @@ def test_a_variable_the_hat_does_not_have_reads_its_last(hat: Hat, world: World,
         hat.exchange(f"port {data_port} ; {select}")
         seen = {}
         for value in (top, beyond):
-            args = dict(svar, **{field: value})
+            args = {name: str(v) for name, v in dict(svar, **{field: value}).items()}
             if kind == "pid":
-                line = hat.pid_command(args["port"], args["mode"], args["offset"], args["fmt"], args["scale"],
-                                       "0", "0", "0", "0", "0", "0") + " ; set 0"
+                line = hat.pid_command(int(args["port"]), int(args["mode"]), int(args["offset"]), args["fmt"],
+                                       args["scale"], "0", "0", "0", "0", "0", "0") + " ; set 0"
             else:
                 quiet = hat.pid_command(p, 3, 0, "s2", "0", "0", "0", "0", "0", "0", "0")
                 line = (f"{quiet} ; set var -1000 1000 1 0 {args['port']} {args['mode']} {args['offset']} "
