@@ -25,7 +25,7 @@ control channel (--control PATH for a Unix socket, or --control tcp:HOST:PORT):
   "BUILDHAT_EMULATOR_TOKEN=<token>": send "@auth TOKEN" first; set that variable beforehand to choose
   the token). One request per line, one reply per line ("ok", "ok <value>" or "error <message>").
   World actions as in a scenario script: @plug P SPEC, @unplug P, @data P M HH.. | auto,
-  @motorfault 1 P [F4D F4E F4F] | 0 [P], @portfault 1|0, @button P 0|1, @adc RAW,
+  @motorfault 1 P [F4D F4E F4F] | 0 [P], @portfault 1|0 | 1 MS (MS ms of HAT time), @button P 0|1, @adc RAW,
   @rate P MS, @hold P 0|1, @pos P DEG.  Also: @reset, @reset bootloader, @time (virtual ms),
   @firmware (version string), @speed [N] (get/set), @lint (host-traffic lint, JSON),
   @settled (1 once the start-up is done and the devices are up),

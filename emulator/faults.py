@@ -48,7 +48,9 @@ class _RepeatingReport:
         if self.low_since is None:
             self.low_since = now
         if self.next_at is None:
-            if now - self.low_since > DEGLITCH_MS:
+            # The firmware counts the whole ms since the last tick that saw the pin high: the
+            # tick before the first that sees it low (fb-power-faults, "more than 10 ms").
+            if now - (self.low_since - 1) > DEGLITCH_MS:
                 self.next_at = now + REPEAT_MS
                 return True
             return False
@@ -89,16 +91,37 @@ class FaultCauses:
 
     def __init__(self) -> None:
         self.port_fault_low = False
+        # ``@portfault 1 MS``: the pulse's length, until its owner, which knows the HAT's time,
+        # turns it into ``port_fault_until`` (the HAT ms at which the pin goes high again).
+        self.port_fault_pulse: Optional[int] = None
+        self.port_fault_until: Optional[float] = None
         self.cause: List[bool] = [False] * NPORTS          # world: the fault condition exists
         self.latched: List[Optional[tuple]] = [None] * NPORTS   # driver latch: flag bytes
 
     def _fault_changed(self, ports: Sequence[int]) -> None:
         raise NotImplementedError
 
-    def port_fault(self, asserted: bool) -> None:
-        """``@portfault 1|0``: the 3.3 V port supply fault pin low (1) or high (0)."""
+    def port_fault(self, asserted: bool, ms: Optional[int] = None) -> None:
+        """``@portfault 1|0``: the 3.3 V port supply fault pin low (1) or high (0);
+        ``@portfault 1 MS``: low for MS ms of HAT time, then high again, timed by the HAT's
+        clock (a host's wall clock cannot time the deglitch boundary, fb-power-faults)."""
         self.port_fault_low = bool(asserted)
+        self.port_fault_pulse = int(ms) if asserted and ms is not None else None
+        self.port_fault_until = None
         self._fault_changed(())
+
+    def _start_pulse(self, now: float) -> None:
+        """A pulse asked for in the world action starts at the HAT's ``now``."""
+        if self.port_fault_pulse is not None:
+            self.port_fault_until = now + self.port_fault_pulse
+            self.port_fault_pulse = None
+
+    def _pulse_over(self, now: float) -> bool:
+        """True (once) when a pulse's time is up: the pin is high again from ``now``."""
+        if self.port_fault_until is None or now < self.port_fault_until:
+            return False
+        self.port_fault_low, self.port_fault_until = False, None
+        return True
 
     def motor_fault(self, asserted: bool, port: Optional[int] = None,
                     flags: Optional[Sequence[int]] = None) -> None:
@@ -140,6 +163,9 @@ class FaultMonitor(FaultCauses):
 
     # -- world actions (FaultCauses) -------------------------------------------------------
     def _fault_changed(self, ports: Sequence[int]) -> None:
+        # The action comes between the ticks ``now`` and ``now + 1``: a pulse is seen low by
+        # the ticks now+1 .. now+MS, as the firmware sees a pulse that starts mid-millisecond.
+        self._start_pulse(self.hat.now + 1)
         self._wake(ports)
 
     # -- firmware side -------------------------------------------------------------------
@@ -165,6 +191,7 @@ class FaultMonitor(FaultCauses):
         self.due = math.inf if self._quiet() else now + 1
 
     def _tick(self, now: int) -> None:
+        self._pulse_over(now)
         if self._quiet():
             return      # H10: nothing low, nothing latched, no report armed: due() would not change
         if self._port_report.due(self.port_fault_low, now):

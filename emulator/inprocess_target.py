@@ -63,7 +63,7 @@ _BOOTED: Dict[Tuple, HatModel] = {}
 
 class InProcessControl(Control):
     capabilities = frozenset({"plug", "unplug", "data", "motorfault", "portfault", "button", "adc", "rate",
-                              "hold", "pos", "reset", "bootloader", "layout", "virtual_time"})
+                              "hold", "pos", "reset", "bootloader", "layout", "virtual_time", "faultpulse"})
 
     def __init__(self, target: InProcessTarget):
         self._target = target

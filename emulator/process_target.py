@@ -37,7 +37,8 @@ __all__ = ["EmulatorTarget", "EmulatorControl", "from_url", "emulator_command", 
 
 # The world actions, plus the control requests of DEVELOPING.md (@reset, @time, @speed, @drive_events, ...).
 CONTROL_CAPABILITIES: FrozenSet[str] = frozenset(WORLD_ACTIONS) | {
-    "reset", "bootloader", "layout", "time", "lint", "speed", "firmware", "drive_events", "device_frames"}
+    "reset", "bootloader", "layout", "time", "lint", "speed", "firmware", "drive_events", "device_frames",
+    "faultpulse"}
 _STARTUP_TIMEOUT = 20.0     # generous: two shared noisy cores, and a Python start-up
 _REPLY_TIMEOUT = 10.0
 

@@ -149,7 +149,7 @@ class ControllerServices(Output, Firmware, DebugBits, Protocol):
     def faults(self) -> FaultLink: ...
 
 
-class FaultServices(Output, Scheduler, Firmware, Protocol):
+class FaultServices(Output, Scheduler, Firmware, Clock, Protocol):
     """``FaultMonitor`` (emulator/faults.py)."""
 
     @property

@@ -13,7 +13,7 @@ and the control channel); this table says which object performs it:
 | `@hold P S`   | ``hat.ports[P].hold_shaft(held: bool)``                  | ports.py / physics |
 | `@pos P DEG`  | ``hat.ports[P].set_shaft_position(deg)``                 | ports.py / physics |
 | `@motorfault` | ``hat.faults.motor_fault(on, port, flags)``              | faults.py |
-| `@portfault`  | ``hat.faults.port_fault(on: bool)``                      | faults.py |
+| `@portfault`  | ``hat.faults.port_fault(on: bool[, ms])``                | faults.py |
 | `@adc RAW`    | ``hat.set_adc(raw)``                                     | hat.py |
 
 A port method that is missing on the Port is looked up on ``port.device`` (the device
@@ -56,7 +56,7 @@ WORLD_HANDLERS: Dict[str, Tuple[str, str, Callable[[tuple], tuple]]] = {
     "hold": ("port", "hold_shaft", lambda a: (bool(a[1]),)),
     "pos": ("port", "set_shaft_position", lambda a: (a[1],)),
     "motorfault": ("faults", "motor_fault", lambda a: (bool(a[0]), a[1], a[2])),
-    "portfault": ("faults", "port_fault", lambda a: (bool(a[0]),)),
+    "portfault": ("faults", "port_fault", lambda a: (bool(a[0]),) + tuple(a[1:])),
     "adc": ("hat", "set_adc", lambda a: (a[0],)),
 }
 

@@ -104,7 +104,7 @@ class SilHat:
                 self.outside.take_outbox()
                 return
             due = self.outside.next_due()
-            limit = end_ns if due == float("inf") else min(end_ns, int(due) * NS_PER_MS)
+            limit = end_ns if due == float("inf") else min(end_ns, int(due * NS_PER_MS))
             limit = max(limit, self._now_ns + 1)
             try:
                 frames = self.proc.run(limit - self._base_ns, self.outside.take_outbox(),
@@ -115,7 +115,7 @@ class SilHat:
             self._now_ns = self._base_ns + self.proc.now
             for frame in frames:
                 self._take(frame)
-            self.outside.tick_due(self.now)
+            self.outside.tick_due(self.now, self._now_ns / NS_PER_MS)
             if (stop_on_output and self._out) or once:
                 return
 
@@ -258,7 +258,15 @@ class SilHat:
             if self.died is not None:
                 return "ok dead"
             return "ok hung" if self.hung else f"ok {self.reported_version()}"
+        if head == "@portfault" and len(words) == 3 and words[1] == "1":
+            # A pulse starts (and so ends) half-way through a millisecond: the firmware counts
+            # the deglitch in whole ms (fb-power-faults), so an edge a few instructions past a
+            # millisecond's start would make a pulse's length count one ms more or less.
+            self._run((self._now_ns // NS_PER_MS) * NS_PER_MS + NS_PER_MS + NS_PER_MS // 2,
+                      stop_on_output=False)
         self.outside.catch_up(self.now)        # the shafts move up to the action first
+        self.outside.now_ms = max(self.outside.now_ms, self.now)
+        self.outside.exact_ms = self._now_ns / NS_PER_MS
         perform_line(self.outside, line)
         if head == "@plug":
             self.devices[int(words[1])] = parse_device_spec(" ".join(words[2:]))

@@ -44,7 +44,7 @@ def close_templates() -> None:
 class SilControl(InProcessControl):
     # No bootloader: a firmware tree's bootloader is not built.
     capabilities = frozenset({"plug", "unplug", "data", "motorfault", "portfault", "button", "adc", "rate",
-                              "hold", "pos", "reset", "layout", "virtual_time"})
+                              "hold", "pos", "reset", "layout", "virtual_time", "faultpulse"})
 
 
 # Builds found this process, by tree, options and the tree's file stamps: a campaign opens a

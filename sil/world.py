@@ -223,7 +223,13 @@ class _FaultLatches(FaultCauses):
             self.world.ports[p].wake()
 
     def _fault_changed(self, ports: Sequence[int]) -> None:
+        self._start_pulse(self.world.exact_ms)
         self._sync()
+
+    def tick(self, now: float) -> None:
+        """A port-fault pulse whose time is up lets the pin go high (``@portfault 1 MS``)."""
+        if self._pulse_over(now):
+            self._sync()
 
     def cleared(self, port: int, now: int) -> None:
         """The firmware cleared port's latch: it latches again at once if the cause remains."""
@@ -246,6 +252,7 @@ class SilWorld:
         given["device_setup"] = setup
         self.profile = _Profile(given)
         self.now_ms = 0
+        self.exact_ms = 0.0            # now_ms with its fraction: a port-fault pulse starts and ends mid-ms
         self.base_ns = 0               # virtual time at the firmware's power-on (frames count from it)
         self._outbox: List[bytes] = []
         self._drive_stops = 0xFF           # the stand-in's default: every port's drive stops it
@@ -315,10 +322,13 @@ class SilWorld:
 
     def next_due(self) -> float:
         """The first virtual ms at which a device has something to do (inf: none)."""
-        return min(port.due for port in self.ports)
+        pulse_end = self.faults.port_fault_until
+        return min(min(port.due for port in self.ports), math.inf if pulse_end is None else pulse_end)
 
-    def tick_due(self, now: int) -> None:
+    def tick_due(self, now: int, exact_ms: Optional[float] = None) -> None:
         self.now_ms = now
+        self.exact_ms = float(now) if exact_ms is None else exact_ms
+        self.faults.tick(self.exact_ms)
         for port in self.ports:
             if port.due <= now:
                 port.tick(now)

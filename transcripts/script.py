@@ -41,6 +41,8 @@ class Action:
     @property
     def capability(self) -> Optional[str]:
         """The control capability a target needs for this action (None: host or time)."""
+        if self.kind == "portfault" and len(self.args) > 1:
+            return "faultpulse"          # a fault timed by the HAT's clock, not the host's
         return self.kind if self.kind in WORLD_ACTIONS else None
 
 
@@ -162,8 +164,11 @@ def _parse_world(word: str, toks: List[str]) -> tuple:
             raise ValueError("@motorfault 0 takes at most a port")
         return (0, _port(toks[1]) if n == 2 else None, None)
     if word == "portfault":
+        if n == 2 and toks[0] == "1":
+            # a pulse: low for MS ms of HAT time, then high (timed by the HAT's clock, not the host's)
+            return (1, _int(toks[1], "@portfault pulse (ms)", 1, 10**6))
         if n != 1:
-            raise ValueError("@portfault needs: 1|0")
+            raise ValueError("@portfault needs: 1|0, or 1 MS (a pulse of MS ms)")
         return (_flag(toks[0], "@portfault state"),)
     if word == "button":
         if n != 2:

@@ -124,3 +124,27 @@ def test_clear_faults_with_the_cause_still_present(hat: Hat, world: World, motor
     hat.exchange("debug 0")
     assert len(still) >= 2, "with the cause present the fault latches again and is reported again"
     assert not rest, f"once the cause is gone, clear_faults ends it (seen at ticks {rest})"
+
+
+DEGLITCH_MS = 10      # a port fault is reported once it has lasted more than this (fb-power-faults)
+
+
+@pytest.mark.req("PWR-PORT-FAULT", "FW-FAULT-DEGLITCH")
+@pytest.mark.parametrize("fault_ms", [DEGLITCH_MS - 1, DEGLITCH_MS, DEGLITCH_MS + 1],
+                         ids=["9ms", "10ms", "11ms"])
+def test_port_power_fault_deglitch_boundary(hat: Hat, world: World, no_faults: None, fault_ms: int) -> None:
+    # FIRMWARE-BEHAVIOUR#fb-fault-deglitch: the firmware counts whole ms since it last saw the signal
+    # high, so a fault of 9 or 10 ms is never reported and one of 11 ms once, at once (the next would
+    # come 1000 ms later, had the fault lasted). The world starts the fault half-way through a ms.
+    world.require("faultpulse", "a port power fault timed to the millisecond by the HAT's clock "
+                                "(@portfault 1 MS)")
+    action = f"@portfault 1 {fault_ms}"
+    world.action(action)
+    events = hat.collect_ms(1500)
+    reports = [e.t for e in events if e.text == "Port power fault"]
+    want = 1 if fault_ms > DEGLITCH_MS else 0
+    assert len(reports) == want, (
+        f"world `{action}` (the 3.3 V port supply low for {fault_ms} ms of HAT time); "
+        f"docs/FIRMWARE-BEHAVIOUR.md#fb-fault-deglitch: a fault longer than {DEGLITCH_MS} ms is reported "
+        f"once at once, a shorter one never, so {want} `Port power fault` line expected in 1500 ms; "
+        f"{len(reports)} came")

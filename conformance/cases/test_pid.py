@@ -8,7 +8,7 @@ ie = clamp(ie + e*0.01), output = -(e*Kp + ie*Ki + de*Kd). The oracle is oracles
 from __future__ import annotations
 
 import struct
-from typing import Dict, List, TypedDict
+from typing import Dict, List, Optional, TypedDict
 
 import pytest
 
@@ -19,7 +19,7 @@ from ..oracles.float32 import f32
 from ..oracles.floatfmt import fw_float
 from ..oracles.numbers import parse_float
 from ..oracles.pid import PidLine, PidModel, Unwrapper, close_to_printed
-from ..probes import pid_lines, reports_after, start_quiet_pid
+from ..probes import MOTOR, pid_lines, reports_after, start_quiet_pid
 from ..verdict import Verdict
 
 FIELDS = ("e", "ie", "de", "cv")
@@ -300,3 +300,73 @@ def test_debug_16_prints_one_pid_line_per_tick(hat: Hat, motor_port: int) -> Non
     assert reports >= 25 and abs(ticks / reports - 10) <= 1.0, f"{ticks} PID lines for {reports} reports"
     hat.exchange("debug 0")
     assert not pid_lines(hat.collect_ms(200), p), "debug 0 must stop the PID lines"
+
+
+# (what the sensor variable names, the highest value the HAT has, one past it): fb-svar-clamp.
+SVAR_LIMITS = [("port", 3, 4), ("mode", 15, 16), ("offset", 127, 128)]
+SVAR_CASES = [(field, top, beyond, kind) for field, top, beyond in SVAR_LIMITS for kind in ("pid", "set var")
+              if not (field == "mode" and kind == "set var")]
+
+
+def _last_pid_line(hat: Hat, port: int, data_port: int, line: str) -> Optional[PidLine]:
+    """The last `debug 16` line of ``port`` while ``line`` runs there (None: it printed none), over
+    three data reports of ``data_port`` (about 30 controller ticks, however slow the target)."""
+    sent = f"port {port} ; {line} ; debug 16"
+    reply = hat.exchange(sent)
+    assert reply.errors == 0, f"sent `{sent}`; the HAT answered {reply.raw!r}"
+    lines = pid_lines(reply.events + reports_after(hat, data_port, count=3), port)
+    hat.exchange("debug 0")
+    return lines[-1] if lines else None
+
+
+@pytest.mark.req("CMD-PID-PV", "FW-SVAR-CLAMP")
+@pytest.mark.parametrize("field,top,beyond,kind", SVAR_CASES,
+                         ids=[f"{kind.replace(' ', '_')}-{field}{beyond}"
+                              for field, _t, beyond, kind in SVAR_CASES])
+def test_a_variable_the_hat_does_not_have_reads_its_last(hat: Hat, world: World, motor_port: int, field: str,
+                                                         top: int, beyond: int, kind: str) -> None:
+    # FIRMWARE-BEHAVIOUR#fb-svar-clamp: a sensor variable's port, mode and offset are clamped to 0..3,
+    # 0..15 and 0..127, so naming one past the last does exactly what naming the last does.
+    if kind == "set var" and "var" not in hat.set_keywords:
+        pytest.skip("`set var` is R6+ (docs/FIRMWARE-BEHAVIOUR.md#fb-set-keywords)")
+    world.require("data", "choosing what a device sends (@data)")
+    p = motor_port
+    if field == "port":
+        # port 3 has a motor whose APOS is 300; the controller runs there, reading port 3 or 4
+        world.plug(3, ("active", MOTOR))
+        p, data_port, select = 3, 3, "select 3"
+        svar = {"mode": 3, "offset": 0, "fmt": "s2", "scale": "0.01"}
+    elif field == "mode":
+        data_port, select = p, "select 3"
+        svar = {"port": p, "offset": 0, "fmt": "s2", "scale": "1"}
+    else:
+        # mode 3 holds APOS 300 (2C 01), then mode 2's data comes: offsets past mode 2's data
+        data_port, select = p, "select 3 ; select 2"
+        svar = {"port": p, "mode": 2, "fmt": "u1", "scale": "1"}
+    world.action(f"@data {data_port} 3 2C 01")
+    try:
+        hat.exchange(f"port {data_port} ; select 3")
+        reports_after(hat, data_port, count=1)
+        hat.exchange(f"port {data_port} ; {select}")
+        seen = {}
+        for value in (top, beyond):
+            args = {name: str(v) for name, v in dict(svar, **{field: value}).items()}
+            if kind == "pid":
+                line = hat.pid_command(int(args["port"]), int(args["mode"]), int(args["offset"]), args["fmt"],
+                                       args["scale"], "0", "0", "0", "0", "0", "0") + " ; set 0"
+            else:
+                quiet = hat.pid_command(p, 3, 0, "s2", "0", "0", "0", "0", "0", "0", "0")
+                line = (f"{quiet} ; set var -1000 1000 1 0 {args['port']} {args['mode']} {args['offset']} "
+                        f"{args['fmt']} {args['scale']} 0")
+            got = _last_pid_line(hat, p, data_port, line)
+            seen[value] = (line, None if got is None else (got.pv if kind == "pid" else got.sp))
+    finally:
+        hat.exchange(f"port {data_port} ; select ; port {p} ; pwm ; set 0 ; debug 0")
+        world.action(f"@data {data_port} 3 auto")
+    (line_top, at_top), (line_beyond, at_beyond) = seen[top], seen[beyond]
+    what = "pv" if kind == "pid" else "sp"
+    assert at_beyond == at_top, (
+        f"sent `{line_beyond}` on port {p}: the {field} {beyond} is one past the HAT's last, which "
+        f"docs/FIRMWARE-BEHAVIOUR.md#fb-svar-clamp says reads the {field} {top}; `{line_top}` gave "
+        f"{'no PID line' if at_top is None else what + '=' + at_top}, this gave "
+        f"{'no PID line' if at_beyond is None else what + '=' + at_beyond}")

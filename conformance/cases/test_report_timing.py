@@ -8,6 +8,7 @@ per 10 ms tick), so the counts hold however the target's speed compares to the w
 """
 from __future__ import annotations
 
+import re
 from typing import Tuple
 
 import pytest
@@ -15,7 +16,8 @@ import pytest
 from ..link import Hat
 from ..mismatch import accepted
 from ..needs import World
-from ..probes import MOTOR, TickClock
+from ..probes import DATA_LINE, MOTOR, TickClock
+from ..verdict import Verdict
 
 WINDOW_MS = 1000
 
@@ -102,3 +104,74 @@ def test_selrate_0_reports_each_message(hat: Hat, world: World, empty_port: int,
     expected = WINDOW_MS // every
     assert expected - 2 <= n <= expected + 1, \
         f"selrate 0 with a message every {every} ms: {n} lines in {WINDOW_MS} ms, {expected} expected"
+
+
+# A report's head, and the bytes a report line can hold (fb-data-lines; a CR whose LF was lost): a stub
+# of only these, in front of a whole report, is the beginning of a report the ring cut (fb-reports-whole).
+REPORT_HEAD = re.compile(r"P[0-3][MC][0-9]+:")
+REPORT_STUB = re.compile(r"[PMC0-9:+\-. \r]+")
+RING_HALF = 4096                   # bytes (fb-tx-ring)
+FLOOD_MS = 1500
+DRAIN_MS = 1000
+WIRE_BYTES_PER_MS = 11.52          # 115200 baud, 10 bits a byte (fb-uart)
+
+
+def cut_report(text: str, other_output: bool) -> bool:
+    """True if the line ``text`` holds a report the ring cut: a report's head not followed by a whole
+    report, or (unless other output could have filled the ring) a report's first bytes in front of
+    another line."""
+    heads = [m.start() for m in REPORT_HEAD.finditer(text)]
+    if not heads:
+        return not other_output and bool(REPORT_STUB.fullmatch(text)) and text.startswith("P")
+    pieces = [text[a:b] for a, b in zip(heads, heads[1:] + [len(text)])]
+    if any(not DATA_LINE.fullmatch(piece) for piece in pieces):
+        return True
+    stub = text[:heads[0]]
+    return bool(stub) and not other_output and bool(REPORT_STUB.fullmatch(stub))
+
+
+@pytest.mark.req("FW-REPORTS-WHOLE", "CMD-SELECT-MODE", "LINK-SERIAL")
+def test_reports_beyond_the_wire_are_held_back_not_cut(hat: Hat, world: World, verdict: Verdict,
+                                                       empty_port: int) -> None:
+    # FIRMWARE-BEHAVIOUR#fb-reports-whole: from R5 a report is begun only while half the 8192-byte
+    # transmit ring is free, so two motors each sending every millisecond with `selrate 0` (more
+    # reports than 115200 baud carries) give fewer lines, each one whole.
+    if not hat.feature("tx_throttle_reports"):
+        pytest.skip("R1-R4 do not hold reports back: a full ring cuts them like any other line "
+                    "(docs/FIRMWARE-BEHAVIOUR.md#fb-tx-ring)")
+    world.require("rate", "making a device send at a chosen rate (@rate)")
+    ports = (empty_port, world.empty_port(avoid=(empty_port,)))
+    for p in ports:
+        world.plug(p, ("active", MOTOR))
+    sent = " ; ".join(f"port {p} ; select 1 ; selrate 0" for p in ports)
+    try:
+        for p in ports:
+            world.action(f"@rate {p} 1")
+        mark = hat.mark()
+        reply = hat.exchange(sent)
+        assert reply.errors == 0, f"sent `{sent}`; the HAT answered {reply.raw!r}"
+        # No fence while the ring may be full (its answer could be cut too): the flood ends by the
+        # world's hand, and what the ring holds (at most 8192 bytes, 0.7 s) drains before a line is sent.
+        hat.wait_ms(FLOOD_MS)
+        for p in ports:
+            world.action(f"@rate {p} 100")
+        hat.wait_ms(DRAIN_MS)
+        events = hat.since(mark)
+    finally:
+        hat.exchange(" ; ".join(f"port {p} ; select" for p in ports))
+        for p in ports:
+            world.unplug(p)
+    texts = [e.text.strip("\n") for e in events]
+    reports = [t for t in texts if DATA_LINE.fullmatch(t)]
+    # A line's first bytes alone may be any line's: only output other than reports, at least half a
+    # ring of it, can have filled the ring while reports are held back at half.
+    other = sum(len(t) + 2 for t in texts if t and not REPORT_STUB.fullmatch(t)) >= RING_HALF
+    cut = [t for t in texts if cut_report(t, other)]
+    assert not cut, (f"sent `{sent}` with both motors sending every ms; docs/FIRMWARE-BEHAVIOUR.md"
+                     f"#fb-reports-whole: a report is begun only into a half-empty ring, so it is never "
+                     f"cut; {len(cut)} of {len(reports) + len(cut)} report lines came cut, e.g. {cut[:3]!r}")
+    assert reports, f"sent `{sent}`; no report line came in {FLOOD_MS} ms of HAT time"
+    sent_bytes = sum(len(e.raw) + 2 for e in events)
+    if sent_bytes < 0.9 * WIRE_BYTES_PER_MS * FLOOD_MS:
+        verdict.note(f"the HAT sent {sent_bytes} bytes in {FLOOD_MS} ms, less than 115200 baud carries: "
+                     "its transmit ring never filled, so no report had to be held back")

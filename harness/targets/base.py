@@ -48,7 +48,8 @@ class Control(abc.ABC):
 
     ``capabilities`` names what it can do: the scenario-script world actions (``plug``,
     ``unplug``, ``data``, ``motorfault``, ``portfault``, ``button``, ``adc``, ``rate``,
-    ``hold``, ``pos``) plus ``reset`` and ``bootloader``.
+    ``hold``, ``pos``) plus ``reset`` and ``bootloader``; ``faultpulse``: ``@portfault 1 MS``
+    holds the port fault for MS ms of the HAT's time (a rig timing it by the wall clock cannot).
     """
 
     capabilities: FrozenSet[str] = frozenset()

@@ -380,3 +380,27 @@ def test_process_variable_from_another_port():
     emu.advance(30)
     lines = emu.read().decode().split("\r\n")
     assert "P0: pv=2.50000 sp=0.00000: e=2.50000 ie=0.0250000 de=250.000 cv=-2.50000" in lines
+
+
+@pytest.mark.parametrize("beyond,last", [("9 3 0 s2", "3 3 0 s2"), ("0 20 0 s2", "0 15 0 s2"),
+                                        ("0 2 128 u1", "0 2 127 u1")])
+def test_a_sensor_variable_past_the_last_reads_the_last(beyond, last):
+    # FIRMWARE-BEHAVIOUR.md#fb-svar-clamp: "`pid 4 …` does exactly what `pid 3 …` does, and likewise
+    # for the mode and the offset"; on the wire, the same `debug 16` lines.
+    def lines(svar: str) -> list:
+        emu = booted("R7", {0: "0x30", 1: "none", 2: "none", 3: "0x30"})
+        emu.world("@data 3 3 2C 01")
+        emu.world("@data 0 3 2C 01")
+        send(emu, "port 3 ; select 3 ; port 0 ; select 3")
+        emu.advance(50)
+        send(emu, "select 2")
+        emu.advance(50)
+        emu.read()
+        port = svar.split()[0]
+        send(emu, f"port {'3' if port in ('3', '9') else '0'} ; pid {svar} 1 0 0 0 0 0 0 ; debug 16")
+        emu.advance(100)
+        return [ln for ln in emu.read().decode().splitlines() if ": pv=" in ln]
+
+    assert lines(beyond) == lines(last)
+    if beyond.startswith("9"):                    # port 3's motor reports APOS 300
+        assert lines(beyond) and all("pv=300.000" in ln for ln in lines(beyond)), lines(beyond)

@@ -9,6 +9,7 @@ instead of being repeated here.
 from __future__ import annotations
 
 import copy
+import re
 import struct
 from typing import Dict, List
 
@@ -576,3 +577,31 @@ def test_stale_data_is_repeated(profile):
             and int(e["hex"].split()[0], 16) & 0xC0 == 0xC0]
     assert len(data) <= 4
     assert len(reports) >= 9 and set(reports) == {b"P3M1: -5"}
+
+
+def _reports_of_two_flooding_motors(throttle: bool = True) -> tuple:
+    """R7 on a 115200-baud wire, two motors each sending SPEED every ms with `selrate 0` for 1.5 s:
+    (every byte that came, the lines holding a report's head)."""
+    emu = Emulator(firmware="R7", devices={0: "0x30", 1: "none", 2: "none", 3: "0x30"}, baud=115200)
+    emu.boot()
+    emu.read()
+    for port in (0, 3):
+        emu.hat.ports[port].reporter.throttle = throttle
+        emu.world(f"@rate {port} 1")
+    emu.write(b"port 0 ; select 1 ; selrate 0 ; port 3 ; select 1 ; selrate 0\r")
+    out = b""
+    for _ in range(1500):
+        emu.advance(1)
+        out += emu.read()
+    return out, [ln for ln in out.split(b"\r\n") if re.search(rb"P[03]M1:", ln)]
+
+
+def test_reports_beyond_the_wire_are_held_back_whole():
+    # FIRMWARE-BEHAVIOUR.md#fb-reports-whole: "when there are more reports than the wire carries, they are
+    # held back (fewer lines), never cut".
+    out, reports = _reports_of_two_flooding_motors()
+    assert len(out) >= 0.95 * 11.52 * 1500                     # the wire was full all the while
+    assert reports and all(re.fullmatch(rb"P[03]M1:  0", ln) for ln in reports), reports[:5]
+    # The same flood without the hold-back cuts reports: the check above can tell.
+    _out, unthrottled = _reports_of_two_flooding_motors(throttle=False)
+    assert any(not re.fullmatch(rb"P[03]M1:  0", ln) for ln in unthrottled)

@@ -152,3 +152,15 @@ def test_clear_faults_leaves_a_reversed_port_driving_forwards_until_the_sign_cha
     assert drive_after(b"set 0.1\r") + drive_after(b"clear_faults\r") == [25]    # forwards stays
     assert drive_after(b"coast\r") + drive_after(b"clear_faults\r", 20) == ["coast", 1, "coast"]
     assert drive_after(b"set -0.1\r") == [-26]                   # out of coast the direction is written
+
+
+@pytest.mark.req("FW-5")
+@pytest.mark.parametrize("fault_ms,reports", [(9, 0), (10, 0), (11, 1), (12, 1)])
+def test_a_port_fault_pulse_is_reported_only_past_10_ms(fault_ms, reports):
+    # FIRMWARE-BEHAVIOUR.md#fb-fault-deglitch: "a fault of 9 or 10 ms is never reported, and one of
+    # 11 ms is reported once, at once" (the world's `@portfault 1 MS`, timed by the HAT's clock).
+    emu = booted("R7")
+    emu.world(f"@portfault 1 {fault_ms}")
+    got = record(emu, 1500)
+    assert [data for _, data in got] == [b"Port power fault\r\n"] * reports
+    assert not emu.hat.faults.port_fault_low                 # the pulse is over: the pin is high again

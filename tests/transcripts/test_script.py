@@ -104,3 +104,12 @@ def test_partial_keeps_its_arrival_time():
     w.host(40, b"vin\r")
     evs = read_transcript(io.StringIO(buf.getvalue())).events
     assert [(e["t"], e["dir"]) for e in evs] == [(5, "hat"), (5, "hat"), (40, "host")]
+
+
+def test_a_port_fault_pulse_is_its_own_capability():
+    s = parse_script("@portfault 1 11\n@portfault 1\n@portfault 0")
+    assert [a.args for a in s.actions] == [(1, 11), (1,), (0,)]
+    assert [a.capability for a in s.actions] == ["faultpulse", "portfault", "portfault"]
+    for bad in ("@portfault 0 11", "@portfault 1 0", "@portfault 1 x"):
+        with pytest.raises(ScriptError, match=":1:"):
+            parse_script(bad)
