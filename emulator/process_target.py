@@ -413,7 +413,8 @@ def from_url(url: str, **options) -> EmulatorTarget:
             kwargs[key] = vals[-1] not in ("0", "false", "no")
         else:
             raise TargetError(f"{url}: unknown option {key!r} "
-                              "(known: speed, device, seed, baud, bootloader, booted, hang_after, fast_setup)")
+                              "(known: speed, device, seed, baud, bootloader, booted, hang_after, "
+                              "fast_setup)")
     if devices:
         kwargs["devices"] = devices
     if "devices" in options and options["devices"] is not None:

@@ -164,7 +164,7 @@ def test_nan_signs_follow_the_firmware_in_the_loop():
     pid = Pid("parameter")
     pid.kp = pid.ki = pid.kd = pid.windup = 1.0
     pid.ie, pid.e_prev = nan, inf                 # a NaN integrator (its clamps compare false)
-    step = pid.step(inf, 0.0)                     # e = Inf, de = (Inf - Inf) / 0.01 = -NaN (x86's default NaN)
+    step = pid.step(inf, 0.0)           # e = Inf, de = (Inf - Inf) / 0.01 = -NaN (x86's default NaN)
     assert math.isnan(step.cv) and math.copysign(1.0, step.cv) < 0
     pid.e_prev = -inf
     step = pid.step(math.copysign(nan, -1.0), 0.0)     # e = -NaN, de = -NaN

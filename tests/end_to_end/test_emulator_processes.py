@@ -227,7 +227,8 @@ def test_pty_paces_a_hats_wire_unless_told_otherwise():
     assert link_baud(parser.parse_args(["--stdio"])) is None
     took = {}
     for name, args in (("wire", []), ("unpaced", ["--baud", "0"])):
-        with EmulatorProcess(firmware="R7", devices={0: None, 1: None, 2: None}, args=["--booted"] + args) as emu:
+        with EmulatorProcess(firmware="R7", devices={0: None, 1: None, 2: None},
+                             args=["--booted"] + args) as emu:
             ser = serial.Serial(emu.path, 115200, timeout=0.2)
             try:
                 t0 = time.monotonic()
