@@ -29,7 +29,18 @@ QUICK_SUITE = "test_select"
 
 
 def _groups(quick: bool) -> List[Group]:
-    from . import cost, fidelity, firmware_load, host_write, lab, sil, suite, target_faults, throughput
+    from . import (
+        cost,
+        fidelity,
+        firmware_load,
+        host_write,
+        lab,
+        same_world,
+        sil,
+        suite,
+        target_faults,
+        throughput,
+    )
 
     lines = 100_000 if quick else 1_000_000
     # Seconds per measurement window: three 3 s windows give medians as steady as 5 s ones did
@@ -120,6 +131,11 @@ def _groups(quick: bool) -> List[Group]:
             (Figure("firmware branch coverage, whole suite", "%"), "suite_branch_pct"),
             (Figure("firmware line coverage, one fuzz campaign", "%"), "fuzz_line_pct"),
             (Figure("firmware branch coverage, one fuzz campaign", "%"), "fuzz_branch_pct")], 1),
+        # Issue 37: the emulator keeps the firmware's time (bench/same_world.py).
+        ("emulator against the firmware, same world", same_world.measure, [
+            (Figure("same world: lines equal", "%", "100 % but device noise", "higher"), "equal_pct"),
+            (Figure("same world: equal lines within 1 ms", "%", "100 %", "higher", 100.0),
+             "within_1ms_pct")], 1),
         ("mutation score", lambda: sil.mutation(count=8 if quick else 20), [
             (Figure("mutants killed by a failing case (not likely equivalent)", "%", ">= 95 %", "higher",
                     95.0), "score_pct"),

@@ -27,6 +27,24 @@ __all__ = ["Emulator", "WorldError", "BOOT_LIMIT_MS", "DEFAULT_ADC"]
 # boot() gives up (with an error naming the ports) if the layout is not up by then.
 BOOT_LIMIT_MS = 20000
 BOOTLOADER_RING = 4096     # §9: the bootloader's RX/TX rings
+# boot() looks at the layout every 10 ms, as the firmware in the loop's boot does (sil/hat.py).
+BOOT_STEP_MS = 10
+_BYTE_US = 10 * 1_000_000 / 115200      # one byte on the HAT's 115200-baud wire (8N1)
+
+
+class _WireClock:
+    """When what the firmware wrote has crossed a 115200-baud wire, paced or not here: the
+    host's view of the start-up that scenario time 0 is judged by."""
+
+    def __init__(self, now: int):
+        self.free_us = float(now * 1000)
+
+    def sent(self, now: int, count: int) -> None:
+        if count > 0:
+            self.free_us = max(self.free_us, now * 1000.0) + count * _BYTE_US
+
+    def idle(self, now: int) -> bool:
+        return self.free_us <= now * 1000.0
 
 DeviceSpec = Union[None, str, tuple]
 Event = Dict[str, Any]
@@ -49,7 +67,8 @@ class Emulator:
                  devices: Optional[Mapping[int, DeviceSpec]] = None,
                  version_string: Optional[str] = None, bootloader: bool = False, seed: int = 0,
                  baud: Optional[int] = None, bootloader_key: Union[bytes, str, None] = None,
-                 record_events: bool = True, hang_after: Optional[int] = None):
+                 record_events: bool = True, hang_after: Optional[int] = None,
+                 fast_setup: bool = False):
         self.profile: Profile = get_profile(firmware)
         # Fault injection (emulator/hang.py): the firmware hangs after the host's Nth line, once.
         self._hang = HangTrigger(hang_after)
@@ -57,6 +76,7 @@ class Emulator:
         self.devices = _layout(devices)
         self.version_string = version_string
         self.seed = seed
+        self.fast_setup = fast_setup    # devices set up faster than the port's 2400 baud
         self.bootloader_key = bootloader_key
         self.uart = Uart(baud=baud)
         # Every event is kept in ``events`` unless record_events is False (long real-time runs,
@@ -85,7 +105,8 @@ class Emulator:
         self._signature = signature
         self.uart.resize(8192, 8192)
         self.machine = Hat(profile, self.uart, version_string=self.version_string,
-                           signature=signature, event_sink=self._sink, now=self._now, seed=self.seed)
+                           signature=signature, event_sink=self._sink, now=self._now, seed=self.seed,
+                           fast_setup=self.fast_setup)
         for port, spec in sorted(self.devices.items()):
             if spec is not None:
                 perform_line(self.machine, f"@plug {port} {format_device_spec(spec)}")
@@ -203,16 +224,32 @@ class Emulator:
     def boot(self, limit_ms: int = BOOT_LIMIT_MS, each_ms: Optional[Callable[[], None]] = None) -> int:
         """Run the start-up until the layout's devices are established; returns the time taken.
         ``each_ms`` is called after every millisecond (e.g. to record output with its time).
-        An unpowered LED matrix's grace (``matrix_power_grace_ms``) starts when this returns."""
+
+        Where it ends is scenario time 0 on every target (docs/EMULATOR-MODELS.md "Scenario time
+        0"): the first 10 ms step from the start at which the layout's connect lines have
+        crossed a 115200-baud wire to the host, as a firmware in the loop's boot judges it
+        (sil/hat.py). An unpowered LED matrix's grace (``matrix_power_grace_ms``) restarts
+        then, once, as it does there."""
         start = self._now
-        while not self.settled():
+        wire = _WireClock(self._now)
+        # A port counts once its device has been up: a device that fails again during the
+        # start-up (an unpowered LED matrix's grace running out while a motor still sets up)
+        # has printed its connect line, which is what the firmware in the loop's boot sees.
+        up = set(p for p in range(4) if p not in self._unsettled())
+        while not (self.hat is None or (self.hat.ready and up >= self._layout_ports())
+                   and wire.idle(self._now)):
             if self._now - start >= limit_ms:
                 raise RuntimeError(f"start-up not finished after {limit_ms} ms "
-                                   f"(ports not settled: {self._unsettled()})")
-            self.step()
-            self._restart_power_grace()
-            if each_ms is not None:
-                each_ms()
+                                   f"(ports not settled: {sorted(self._layout_ports() - up)})")
+            for _ in range(BOOT_STEP_MS):
+                written = self.hat.tx_written if self.hat is not None else 0
+                self.step()
+                if self.hat is not None:
+                    wire.sent(self._now, self.hat.tx_written - written)
+                    up.update(p for p in range(4) if p not in self._unsettled())
+                if each_ms is not None:
+                    each_ms()
+        self._restart_power_grace()
         return self._now - start
 
     def _restart_power_grace(self) -> None:
@@ -232,6 +269,9 @@ class Emulator:
         if hat is None:
             return True
         return hat.ready and not self._unsettled()
+
+    def _layout_ports(self) -> set:
+        return {p for p, spec in self.devices.items() if spec is not None}
 
     def _unsettled(self) -> List[int]:
         hat = self.hat

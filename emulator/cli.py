@@ -18,6 +18,8 @@ __all__ = ["main", "build_parser"]
 # --booted --baud: at most this long (virtual ms) for the start-up's output to leave the TX ring (8 KB at
 # 9600 baud takes about 8.5 s).
 BOOT_DRAIN_LIMIT_MS = 20000
+# --pty and --tcp are where host libraries meet the emulator: a HAT's wire unless told otherwise.
+WIRE_BAUD = 115200
 
 CONTROL_HELP = """\
 control channel (--control PATH for a Unix socket, or --control tcp:HOST:PORT):
@@ -68,7 +70,13 @@ def build_parser() -> argparse.ArgumentParser:
                    help="start powered up: start-up done and the devices established, run in virtual "
                         "time before the link opens (its output went to no host)")
     p.add_argument("--speed", type=float, default=1.0, metavar="N", help=f"{SPEED_HELP} (default 1)")
-    p.add_argument("--baud", type=int, metavar="B", help="pace the serial link at B baud (B/10 bytes/s)")
+    p.add_argument("--baud", type=int, metavar="B",
+                   help="pace the serial link both ways at B baud (B/10 bytes/s), as a HAT's wire; "
+                        f"default {WIRE_BAUD} with --pty and --tcp, unpaced with --stdio and --script; "
+                        "0: an unpaced link (every byte at once)")
+    p.add_argument("--fast-setup", action="store_true",
+                   help="devices send their set-up faster than a HAT's 2400 baud (a quicker start-up "
+                        "and hot-plug for test suites; default: the real rate)")
     p.add_argument("--hang-after", type=int, metavar="N",
                    help="fault injection: the firmware hangs after the host's Nth line (once; reads and "
                         "prints nothing until a reset, @reset or the RESET line); also @hang on --control")
@@ -111,8 +119,8 @@ def _check(args: argparse.Namespace, parser: argparse.ArgumentParser) -> None:
         parser.error(str(exc.args[0]))
     if not args.speed > 0:
         parser.error(f"--speed must be positive, got {args.speed:g}")
-    if args.baud is not None and args.baud <= 0:
-        parser.error(f"--baud must be positive, got {args.baud}")
+    if args.baud is not None and args.baud < 0:
+        parser.error(f"--baud must be positive (or 0: unpaced), got {args.baud}")
     if args.hang_after is not None and args.hang_after < 1:
         parser.error(f"--hang-after must be at least 1 line, got {args.hang_after}")
     if args.hang_after is not None and args.script:
@@ -138,6 +146,14 @@ def _check(args: argparse.Namespace, parser: argparse.ArgumentParser) -> None:
             parser.error(str(exc))
     if args.bootloader_key and not os.path.isfile(args.bootloader_key):
         parser.error(f"--bootloader-key {args.bootloader_key!r}: no such file")
+
+
+def link_baud(args: argparse.Namespace) -> Optional[int]:
+    """The wire's baud rate for this mode (None: unpaced): ``--baud``, else a HAT's 115200 on
+    ``--pty`` and ``--tcp``; ``--baud 0`` is unpaced."""
+    if args.baud is not None:
+        return args.baud or None
+    return WIRE_BAUD if (args.pty or args.tcp) else None
 
 
 def _lint(args: argparse.Namespace):
@@ -167,7 +183,8 @@ def _run_script(args: argparse.Namespace, devices: Dict[int, Optional[tuple]]) -
         return 2
     try:
         run_script(script, out, firmware=args.firmware, devices=devices,
-                   version_string=args.version_string, seed=args.seed, baud=args.baud, lint=lint,
+                   version_string=args.version_string, seed=args.seed, baud=link_baud(args), lint=lint,
+                   fast_setup=args.fast_setup,
                    tool_version=__version__, lint_notes=bool(args.transcript))
     except (ScriptRunError, RuntimeError) as exc:    # RuntimeError: the layout never came up
         print(f"buildhat-emulator: {exc}", file=sys.stderr)
@@ -192,13 +209,14 @@ def _run_realtime(args: argparse.Namespace, devices: Dict[int, Optional[tuple]])
     from .runners.recording import LinkRecorder
 
     lint = _lint(args)
+    baud = link_baud(args)
     link = control = recorder = None
     status: Optional[int] = None
     try:
         emulator = Emulator(firmware=args.firmware, devices=devices, version_string=args.version_string,
-                            bootloader=args.bootloader, seed=args.seed, baud=args.baud,
+                            bootloader=args.bootloader, seed=args.seed, baud=baud,
                             bootloader_key=args.bootloader_key, record_events=False,
-                            hang_after=args.hang_after)
+                            hang_after=args.hang_after, fast_setup=args.fast_setup)
         if args.booted:
             # A HAT powered up before the host opened the port: what it printed then reached
             # nobody. Seconds of device set-up at real time become milliseconds of CPU.
@@ -225,7 +243,7 @@ def _run_realtime(args: argparse.Namespace, devices: Dict[int, Optional[tuple]])
             link = PtyLink(args.link)
             where = link.path
         elif args.tcp:
-            link = TcpLink(args.tcp, paced=args.baud is not None)
+            link = TcpLink(args.tcp, paced=baud is not None)
             where = link.address
         else:
             link = StdioLink()
@@ -234,7 +252,7 @@ def _run_realtime(args: argparse.Namespace, devices: Dict[int, Optional[tuple]])
             try:
                 recorder = LinkRecorder(args.transcript, emulator, {
                     "target": "emulator", "tool": "buildhat-emulator", "version": __version__,
-                    "link": where, "profile": emulator.profile.name, "baud": args.baud,
+                    "link": where, "profile": emulator.profile.name, "baud": baud,
                     "booted": bool(args.booted)}).attach(lint)
             except OSError as exc:
                 print(f"buildhat-emulator: cannot write {args.transcript}: {exc.strerror}", file=sys.stderr)

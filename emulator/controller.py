@@ -119,6 +119,8 @@ class PortController:
     def tick(self, now: int) -> None:
         """Called every 1 ms; runs :meth:`update` every 10 ms without drift."""
         if self._next_update is None:
+            # The first tick is the main loop's first millisecond: the updates fall on
+            # ``done + 1 + 10k``, the phase of the firmware's (docs/EMULATOR-MODELS.md "Controller").
             self._next_update = now + PWM_UPDATE_MS
         while now >= self._next_update:
             self._next_update += PWM_UPDATE_MS

@@ -18,6 +18,18 @@ def f32(x: float) -> float:
         return float("inf") if x > 0 else float("-inf")
 
 
+def f32_add(a: float, b: float) -> float:
+    """``a + b`` in float32 where either may be NaN: the left operand's NaN (its sign
+    included) comes through, as the firmware in the loop computes it (cv=-NaN from
+    ``(Inf + NaN) + -NaN``; docs/EMULATOR-MODELS.md "PID"). Python's own addition gives the
+    right operand's here, so it is not left to it."""
+    if a != a:
+        return a
+    if b != b:
+        return b
+    return f32(a + b)
+
+
 def f32_bits(x: float) -> int:
     return int.from_bytes(_PACK.pack(f32(x)), "little")
 

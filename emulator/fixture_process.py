@@ -40,7 +40,7 @@ class EmulatorProcess:
     def __init__(self, firmware: Optional[str] = None, devices: Optional[Dict[int, Any]] = None,
                  version_string: Optional[str] = None, speed: float = 1.0, baud: Optional[int] = None,
                  bootloader: bool = False, args: Optional[List[str]] = None, keep_dir: Optional[str] = None,
-                 link: Optional[str] = None):
+                 link: Optional[str] = None, fast_setup: bool = False):
         # The socket lives in a short private directory (a Unix socket path has ~100 bytes at most).
         self._dir = tempfile.mkdtemp(prefix="bhemu-")
         self.keep_dir = keep_dir or self._dir
@@ -59,8 +59,10 @@ class EmulatorProcess:
             cmd += ["--device", f"{int(port)}={'none' if spec is None else spec}"]
         if version_string is not None:
             cmd += ["--version-string", version_string]
-        if baud is not None:
+        if baud is not None:               # else the emulator's own default: a HAT's 115200-baud wire
             cmd += ["--baud", str(baud)]
+        if fast_setup:                     # devices set up faster than a HAT's 2400 baud
+            cmd.append("--fast-setup")
         if bootloader:
             cmd.append("--bootloader")
         cmd += list(args or [])

@@ -38,6 +38,7 @@ __all__ = ["Hat", "LineRecord", "DEFAULT_ADC", "NPORTS"]
 
 NPORTS = 4
 DEFAULT_ADC = 1742  # SCENARIO-SCRIPT `@adc` default: 8.00 V
+PORTS_START_MS = 3  # docs/EMULATOR-MODELS.md "Start-up timeline"
 _HASH = 0x23
 
 
@@ -73,11 +74,14 @@ class Hat:
 
     def __init__(self, profile: Optional[Profile] = None, uart: Optional[Uart] = None, *,
                  version_string: Optional[str] = None, signature: Optional[bytes] = None,
-                 event_sink: Optional[EventSink] = None, now: int = 0, seed: int = 0):
+                 event_sink: Optional[EventSink] = None, now: int = 0, seed: int = 0,
+                 fast_setup: bool = False):
         self.profile = profile if profile is not None else get_profile()
         self.uart = uart if uart is not None else Uart()
         self.now: int = now
         self.seed = seed
+        # Devices set up at the profile's faster rate, not the port's 2400 baud (only when asked).
+        self.fast_setup = fast_setup
         self.version_string = version_string or self.profile.version_string
         # The signature shown by `signature`: the uploaded one, else the release's (None: unknown).
         self.signature = signature if signature is not None else self.profile.signature
@@ -173,11 +177,20 @@ class Hat:
         self._next_due = 0
 
     def tick(self) -> None:
-        """One millisecond: wire, LEDs, start-up or main loop (input, ports, controllers, faults)."""
+        """One millisecond: wire, LEDs, start-up or main loop (input, ports, controllers, faults);
+        what it wrote starts to leave on a paced wire in the same millisecond."""
+        uart = self.uart
+        if uart.baud is None:
+            self._tick()
+            return
+        uart.tick_out(0.5)
+        self._tick()
+        uart.tick_in()
+        uart.tick_out(0.5)
+
+    def _tick(self) -> None:
         now = self.now = self.now + 1
         uart = self.uart
-        if uart.baud is not None:
-            uart.tick()
         self.adc = self._adc_pin                 # the 1 ms ADC sample (§10)
         if self.ledmode != self._led_mode or self.adc != self._led_adc:
             self._refresh_leds()
@@ -186,6 +199,10 @@ class Hat:
             startup.tick()
             if startup.done:
                 self._early_bytes = uart.rx_available()
+                for port in self.ports:
+                    # The ports' state machines start 3 ms after `Done initialising ports` (the
+                    # firmware in the loop: connect lines 2 ms later than a start at once would give).
+                    port.due = now + PORTS_START_MS
             return
         if self._busy_until:
             if now < self._busy_until:

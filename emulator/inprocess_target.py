@@ -89,7 +89,8 @@ class InProcessTarget(Target):
     def __init__(self, firmware: Optional[str] = None, devices: Optional[Mapping[int, DeviceSpec]] = None,
                  seed: int = 0, baud: Optional[int] = None, scale: float = 1.0, boot: bool = True,
                  factory: Optional[Callable[..., HatModel]] = None, url: str = "inprocess",
-                 version_string: Optional[str] = None, hang_after: Optional[int] = None):
+                 version_string: Optional[str] = None, hang_after: Optional[int] = None,
+                 fast_setup: bool = False):
         if scale <= 0:
             raise TargetError(f"inprocess: scale must be positive, got {scale}")
         self.url = url
@@ -98,6 +99,7 @@ class InProcessTarget(Target):
         self.boot = boot
         self.factory = factory
         self.version_string = version_string
+        self.fast_setup = fast_setup    # devices set up faster than a HAT's 2400 baud (only when asked)
         if hang_after is not None and hang_after < 1:
             raise TargetError(f"inprocess: hang_after must be at least 1 line, got {hang_after}")
         self.hang_after = hang_after    # fault injection (emulator/hang.py), armed when opened
@@ -135,7 +137,7 @@ class InProcessTarget(Target):
         from . import Emulator
         try:
             return Emulator(firmware=self.firmware, devices=self.devices, seed=self.seed, baud=self.baud,
-                            version_string=self.version_string)
+                            version_string=self.version_string, fast_setup=self.fast_setup)
         except KeyError as exc:
             raise TargetError(f"inprocess: {exc.args[0]}") from None
 
@@ -143,7 +145,7 @@ class InProcessTarget(Target):
         if not self.boot:
             return self._new()
         key = (self.factory, self.firmware, tuple(sorted(self.devices.items())), self.seed, self.baud,
-               self.version_string)
+               self.version_string, self.fast_setup)
         booted = _BOOTED.get(key)
         if booted is None:
             booted = self._new()
@@ -151,6 +153,7 @@ class InProcessTarget(Target):
                 booted.boot()
             except RuntimeError as exc:
                 raise TargetError(f"inprocess: {exc}") from None
+            booted.read()       # printed while nobody listened, as on sil: (scenario time 0 is the same)
             _BOOTED[key] = booted
         return _independent_copy(booted)
 
@@ -271,17 +274,17 @@ def _parse_devices(values: List[str]) -> Dict[int, DeviceSpec]:
 
 
 def from_url(url: str, **options) -> InProcessTarget:
-    """``inprocess[:<release|latest>][?device=P=SPEC&seed=N&baud=B&scale=S&boot=0&version=TEXT&hang_after=N]``."""
+    """``inprocess[:<release|latest>][?device=P=SPEC&seed=N&baud=B&scale=S&boot=0&version=TEXT&hang_after=N&fast_setup=1]``."""
     rest = url[len("inprocess"):] if url.startswith("inprocess") else url
     if rest and not rest.startswith((":", "?")):
         raise TargetError(f"not an inprocess URL: {url!r} (form: inprocess[:<release>][?options])")
     rest = rest[1:] if rest.startswith(":") else rest
     release, _, query = rest.partition("?")
     q = parse_qs(query, keep_blank_values=True)
-    unknown = set(q) - {"device", "seed", "baud", "scale", "boot", "version", "hang_after"}
+    unknown = set(q) - {"device", "seed", "baud", "scale", "boot", "version", "hang_after", "fast_setup"}
     if unknown:
         raise TargetError(f"inprocess: unknown option(s) {sorted(unknown)} "
-                          "(known: device, seed, baud, scale, boot, version, hang_after)")
+                          "(known: device, seed, baud, scale, boot, version, hang_after, fast_setup)")
     try:
         kwargs: Dict[str, Any] = dict(
             firmware=release or None,
@@ -292,6 +295,7 @@ def from_url(url: str, **options) -> InProcessTarget:
             boot=q["boot"][-1] not in ("0", "false", "no") if "boot" in q else True,
             version_string=q["version"][-1] if "version" in q else None,
             hang_after=int(q["hang_after"][-1]) if "hang_after" in q else None,
+            fast_setup=q["fast_setup"][-1] not in ("0", "false", "no") if "fast_setup" in q else False,
         )
     except ValueError as exc:
         raise TargetError(f"inprocess: bad option value in {url!r}: {exc}") from None

@@ -15,7 +15,7 @@ import struct
 from dataclasses import dataclass
 from typing import Optional
 
-from .f32 import f32
+from .f32 import f32, f32_add
 
 __all__ = ["SensorVariable", "Pid", "PidStep", "decode_value", "NO_SAMPLE", "FIXED_DEADZONE"]
 
@@ -159,8 +159,9 @@ class Pid:
         if ie < -self.windup:
             ie = -self.windup
         self.ie = ie
-        t = f32(e * self.kp)
-        t = f32(t + f32(ie * self.ki))
-        t = f32(t + f32(de * self.kd))
+        # Of two NaNs the sum keeps the left operand's, and the firmware in the loop adds the
+        # integral term to the proportional one (IEEE addition is commutative otherwise).
+        t = f32_add(f32(ie * self.ki), f32(e * self.kp))
+        t = f32_add(t, f32(de * self.kd))
         return PidStep(pv=pv, sp=sp, e=e, ie=ie, de=de, cv=-t)
 

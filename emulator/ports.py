@@ -61,6 +61,7 @@ __all__ = ["Port", "DETECT_MATCHES", "RESCAN_PAUSE_MS", "ACTIVE_DETECT_MS", "SIG
 DETECT_MATCHES = 6          # scans in a row that must read the same passive ID
 RESCAN_PAUSE_MS = 100       # pause between rescans of a connected passive device (not ID 5)
 ACTIVE_DETECT_MS = 100      # RX held low this long -> "connecting to active device"
+UART_BEFORE_LINE_MS = 2     # the receiver is on (the device sets up) this long before that line
 # ID-pin signatures the scan reads (debug 4) when nothing, or an active device, is attached.
 SIGNATURE_EMPTY = 0x0CC0
 SIGNATURE_ACTIVE = 0x00CF
@@ -95,6 +96,7 @@ class Port(PortActions):
         self.modes = ModeStore()                # DATA payloads of the active device
         self.uart = PortUart(hat, index)
         self._phase = "state0"
+        self._plugged_mid_scan = False   # a device came during the scan running now
         self._next = 0          # when a waiting phase (_WAITING) ends
         self._cycle_start = 0
         self._matches = 0
@@ -172,6 +174,7 @@ class Port(PortActions):
         if isinstance(device, ActiveDevice):
             device.port = self         # it reads the motor drive and notes through its port
         self.device = device
+        self._plugged_mid_scan = self._phase == "scan"
         self.wake()
 
     def unplug(self) -> None:
@@ -255,6 +258,7 @@ class Port(PortActions):
         self._begin_scan(now)
 
     def _begin_scan(self, now: int) -> None:
+        self._plugged_mid_scan = False
         self._phase = "scan"
         self._next = now + self.scan_ms
 
@@ -282,6 +286,10 @@ class Port(PortActions):
 
     def _scan_done(self, now: int) -> None:
         signature, table_id = self._read_pins()
+        if self._plugged_mid_scan and table_id != self._active_id:
+            # A passive device plugged in during a scan: its samples before the plug read an
+            # empty port, so the scan does not count towards the six (docs/FIRMWARE-BEHAVIOUR.md#fb-passive).
+            signature, table_id = SIGNATURE_EMPTY, 0
         if self.hat.debug & 4:
             self._line(f"D5 signature={signature:04X} id={table_id}")
         active = table_id == self._active_id
@@ -342,13 +350,17 @@ class Port(PortActions):
             self._state0(now)
             return
         self._line("connecting to active device")
+        # The port's receiver went on, and the device began its set-up, 2 ms before the line
+        # (the firmware in the loop: docs/EMULATOR-MODELS.md "Start-up timeline").
+        now -= UART_BEFORE_LINE_MS
         self.link = ActiveLink(self.hat, self.index, self.uart, self.modes, self.reporter,
                                self.send_to_device, now)
         self.info = self.link.info
         self.combis = {}
         self.modes.clear()
         self.reporter.connection_changed()
-        self.uart.start(now, setup_timing(self.hat.profile.features)[1])
+        self.uart.start(now, setup_timing(self.hat.profile.features,
+                                          bool(getattr(self.hat, "fast_setup", False)))[1])
         self._phase = "active"
         dev.begin_setup(now)
 

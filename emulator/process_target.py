@@ -142,7 +142,7 @@ class EmulatorTarget(PyserialTarget):
                  bootloader: bool = False, seed: Optional[int] = None, version_string: Optional[str] = None,
                  baud: Optional[int] = None, extra_args: Sequence[str] = (),
                  command: Union[str, Sequence[str], None] = None, startup_timeout: float = _STARTUP_TIMEOUT,
-                 booted: bool = False, hang_after: Optional[int] = None):
+                 booted: bool = False, hang_after: Optional[int] = None, fast_setup: bool = False):
         super().__init__(url)
         self.firmware = "latest" if firmware in (None, "") else str(firmware)
         self.speed = speed
@@ -155,6 +155,7 @@ class EmulatorTarget(PyserialTarget):
         if booted and bootloader:
             raise TargetError(f"{url}: booted starts the firmware; it cannot be combined with bootloader")
         self.wire_baud = baud
+        self.fast_setup = fast_setup      # devices set up faster than a HAT's 2400 baud
         self.extra_args = list(extra_args)
         self.command = command
         self.startup_timeout = startup_timeout
@@ -186,6 +187,12 @@ class EmulatorTarget(PyserialTarget):
             args += ["--version-string", self.version_string]
         if self.wire_baud is not None:
             args += ["--baud", str(self.wire_baud)]
+        elif self.command is None:
+            # The suite's own emulator keeps its unpaced link unless the URL asks for the wire
+            # (buildhat-emulator --pty alone paces at a HAT's 115200 baud).
+            args += ["--baud", "0"]
+        if self.fast_setup:
+            args.append("--fast-setup")
         if self.hang_after is not None:
             args += ["--hang-after", str(self.hang_after)]
         return args + self.extra_args
@@ -375,7 +382,8 @@ def from_url(url: str, **options) -> EmulatorTarget:
     Options (keywords) override the URL: ``firmware``, ``speed``, ``devices`` ({port: spec},
     e.g. a script's layout), ``bootloader``, ``booted`` (start powered up, devices established),
     ``seed``, ``version_string``, ``baud``, ``hang_after`` (fault injection: the firmware hangs
-    after the host's Nth line until a reset), ``extra_args``, ``command``, ``startup_timeout``.
+    after the host's Nth line until a reset), ``fast_setup`` (devices set up faster than a HAT's
+    2400 baud), ``extra_args``, ``command``, ``startup_timeout``.
     """
     rest = url[len("emulator"):]
     if rest and not rest.startswith(":") and not rest.startswith("?"):
@@ -402,11 +410,12 @@ def from_url(url: str, **options) -> EmulatorTarget:
                 kwargs[key] = int(vals[-1])
             except ValueError:
                 raise TargetError(f"{url}: {key} must be an integer, got {vals[-1]!r}") from None
-        elif key in ("bootloader", "booted"):
+        elif key in ("bootloader", "booted", "fast_setup"):
             kwargs[key] = vals[-1] not in ("0", "false", "no")
         else:
             raise TargetError(f"{url}: unknown option {key!r} "
-                              "(known: speed, device, seed, baud, bootloader, booted, hang_after)")
+                              "(known: speed, device, seed, baud, bootloader, booted, hang_after, "
+                              "fast_setup)")
     if devices:
         kwargs["devices"] = devices
     if "devices" in options and options["devices"] is not None:

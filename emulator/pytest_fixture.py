@@ -14,7 +14,7 @@ opens the serial port once and keeps it until the interpreter exits)::
 
     @pytest.fixture(scope="session")
     def buildhat_emulator_options():                 # optional: the session emulator's options
-        return {"firmware": "1737564117", "devices": {1: "0x3E"}, "baud": 115200}
+        return {"firmware": "1737564117", "devices": {1: "0x3E"}}
 
     def test_distance(buildhat_emulator_shared):
         buildhat.Hat(device=buildhat_emulator_shared.path)     # the same pty path for every test
@@ -31,7 +31,9 @@ fixture_process.py), wait until it has settled (not with ``bootloader=True``), a
 :class:`EmulatorProcess`. When a test fails, its failure message gets the host-lint findings of that test,
 the emulator's stderr (a ``--strict-host`` stop names the offending line) and the path of the transcript,
 which is kept. Marker / options: ``firmware``, ``devices`` (port -> SPEC or None, over the default layout),
-``version_string``, ``speed``, ``baud``, ``bootloader``, ``settle``, ``args`` (extra arguments).
+``version_string``, ``speed``, ``baud`` (default: a HAT's 115200-baud wire both ways, as the HAT a library
+meets; 0 for an unpaced link), ``fast_setup`` (devices set up faster than a HAT's 2400 baud; default the real
+rate), ``bootloader``, ``settle``, ``args`` (extra arguments).
 
 The plugin adds no command-line options and imports only the standard library and pytest at load time.
 """

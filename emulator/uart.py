@@ -100,6 +100,11 @@ class Uart:
     # -- time ----------------------------------------------------------------------------
     def tick(self) -> None:
         """One millisecond of wire time (paced mode): move bytes both ways."""
+        self.tick_in()
+        self.tick_out()
+
+    def tick_in(self) -> None:
+        """One millisecond of the host-to-HAT wire (paced mode)."""
         if self.baud is None:
             return
         self._credit_in = min(self._credit_in + self.baud, self.baud + _BYTE_COST)
@@ -108,7 +113,16 @@ class Uart:
             self._receive(bytes(self._wire_in[:n]))
             del self._wire_in[:n]
             self._credit_in -= n * _BYTE_COST
-        self._credit_out = min(self._credit_out + self.baud, self.baud + _BYTE_COST)
+
+    def tick_out(self, share: float = 1.0) -> None:
+        """``share`` of a millisecond of the HAT-to-host wire (paced mode). The firmware runs
+        half of it before its millisecond's work and half after: what it wrote starts to leave
+        in the same millisecond, half-way through on average, as the chip's UART sends as soon
+        as a byte is in its ring (lines then reach the host within a millisecond of where the
+        firmware in the loop's do: docs/EMULATOR-MODELS.md "Start-up timeline")."""
+        if self.baud is None:
+            return
+        self._credit_out = min(self._credit_out + int(self.baud * share), self.baud + _BYTE_COST)
         n = min(self._credit_out // _BYTE_COST, len(self.tx))
         if n:
             self._deliver(bytes(self.tx.popleft() for _ in range(n)))

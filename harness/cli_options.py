@@ -21,8 +21,9 @@ EXIT_OK, EXIT_FAILED, EXIT_USAGE, EXIT_TARGET = 0, 1, 2, 3
 
 DEFAULT_TARGET = "emulator"
 DEFAULT_SPEED = 10.0
-TARGET_HELP = ("target URL (default: emulator, which means emulator:latest?speed=10: the reference "
-               "emulator, latest release, ten times real time; add ?speed=1 for real time); "
+TARGET_HELP = ("target URL (default: emulator, which means emulator:latest?speed=10&fast_setup=1: the "
+               "reference emulator, latest release, ten times real time, devices set up faster than a "
+               "HAT's 2400 baud; add ?speed=1 for real time and the real set-up); "
                "'buildhat-conformance targets' lists the others")
 # What --firmware takes, in every command that has it (protocol/profiles.py get_profile).
 RELEASE_HELP = "R1..R7, a version number or latest"
@@ -39,15 +40,17 @@ class UsageError(Exception):
 
 
 def expand_target(url: str, speed: Optional[float] = DEFAULT_SPEED) -> str:
-    """``emulator`` URLs that give no speed run at ``speed`` (what the help text says the
-    default target is); every other URL is returned unchanged."""
+    """``emulator`` URLs that give no speed run at ``speed`` with the faster device set-up
+    (``fast_setup=1`` unless the URL says; what the help text says the default target is);
+    every other URL is returned unchanged."""
     url = url.strip()
     head = url.split(":", 1)[0].split("?", 1)[0]
     if head != "emulator" or not speed or "speed=" in url:
         return url
     if url == "emulator" or url.startswith("emulator?"):
         url = "emulator:latest" + url[len("emulator"):]   # the registry wants the release before a query
-    return url + ("&" if "?" in url else "?") + f"speed={speed:g}"
+    url += ("&" if "?" in url else "?") + f"speed={speed:g}"
+    return url if "fast_setup=" in url else url + "&fast_setup=1"
 
 
 def add_target_option(parser: argparse.ArgumentParser, multiple: bool = False, extra_help: str = "") -> None:

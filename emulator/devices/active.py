@@ -9,7 +9,8 @@ only say what values each mode holds. Behaviour modelled here (DEVICES.md "Mode 
   and starts its data phase ``data_start_ms`` later (after the HAT's own switch, which comes
   10 ms after its ACK). The three values are the profile's ``device_setup`` (the facts give only
   the HAT's side; docs/EMULATOR-MODELS.md explains the choice); the constants below are used
-  for a device on no port.
+  for a device on no port. The set-up baud is the port's own 2400, as on the firmware; a HAT
+  made with ``fast_setup`` takes the profile's faster ``fast_baud`` (test suites that want it).
 - Data phase: mode 0 is selected at first. SELECT (with the EXT_MODE bit 3) changes the mode,
   and the device answers with data at once. A CMD WRITE ``0x20+n, i, (m<<4)|d ...`` configures
   combi index i (n = 0 removes it); while mode i is selected and combi i is configured, the DATA
@@ -43,16 +44,19 @@ from .setup_stream import setup_messages
 __all__ = ["ActiveDevice", "SETUP_START_MS", "DATA_START_MS", "SETUP_BAUD", "pack_values",
            "setup_timing"]
 
-SETUP_BAUD = 9600
+SETUP_BAUD = 2400        # the rate the HAT listens at until the handshake (fb-active)
+FAST_SETUP_BAUD = 9600   # only when asked (``fast_setup``)
 SETUP_START_MS = 110     # > the HAT's 100 ms receive-sync gap (FIRMWARE-FACTS §8 "Receiving")
 DATA_START_MS = 20       # after the HAT's ACK; the HAT switches its baud rate at +10 ms (§5)
 
 
-def setup_timing(features: Optional[dict]) -> tuple[int, int, int]:
+def setup_timing(features: Optional[dict], fast: bool = False) -> tuple[int, int, int]:
     """(start_ms, baud, data_start_ms) of the device side of the set-up: the profile's
-    ``device_setup``, else the module's constants."""
+    ``device_setup``, else the module's constants; ``fast``: its ``fast_baud``."""
     given = (features or {}).get("device_setup") or {}
-    return (int(given.get("start_ms", SETUP_START_MS)), int(given.get("baud", SETUP_BAUD)),
+    baud = (int(given.get("fast_baud", FAST_SETUP_BAUD)) if fast
+            else int(given.get("baud", SETUP_BAUD)))
+    return (int(given.get("start_ms", SETUP_START_MS)), baud,
             int(given.get("data_start_ms", DATA_START_MS)))
 
 _PACK = {0: ("<b", 0xFF, 1), 1: ("<h", 0xFFFF, 2), 2: ("<i", 0xFFFFFFFF, 4)}
@@ -98,7 +102,9 @@ class ActiveDevice:
     # -- link state ------------------------------------------------------------------------
     def _timing(self) -> tuple[int, int, int]:
         port = self.port
-        return setup_timing(port.hat.profile.features if port is not None else None)
+        if port is None:
+            return setup_timing(None)
+        return setup_timing(port.hat.profile.features, bool(getattr(port.hat, "fast_setup", False)))
 
     def _reset_link(self) -> None:
         self.state = "idle"           # idle -> setup -> wait_ack -> data_wait -> data

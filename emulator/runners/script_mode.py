@@ -108,19 +108,18 @@ class _ScriptModeDriver:
 def run_script(script: Script, out: IO[str], *, firmware: Any = None,
                devices: Optional[Dict[int, Optional[tuple]]] = None, version_string: Optional[str] = None,
                seed: int = 0, baud: Optional[int] = None, lint: Any = None,
-               tool_version: str = "", lint_notes: bool = False) -> int:
+               tool_version: str = "", lint_notes: bool = False, fast_setup: bool = False) -> int:
     """Run ``script``, writing the transcript JSONL to ``out`` (with ``lint_notes``, each host-lint
     finding as a ``note`` event too). Returns the exit status."""
     layout = dict(script.devices)
     layout.update(devices or {})
-    emu = Emulator(firmware=firmware, devices=layout, version_string=version_string, seed=seed, baud=baud)
+    emu = Emulator(firmware=firmware, devices=layout, version_string=version_string, seed=seed, baud=baud,
+                   fast_setup=fast_setup)
     if lint is not None:
         lint.follow(emu)
     rec = _Recorder(emu)
     rec.pump()
-    emu.boot(each_ms=rec.pump)
-    emu.step()                      # one more ms, so all start-up output is at t < 0
-    rec.pump()
+    emu.boot(each_ms=rec.pump)      # scenario time 0 is where the boot ends, as on every target
     prelude = emu.now
     hat = emu.hat
     assert hat is not None          # built without the bootloader: the firmware runs

@@ -164,3 +164,29 @@ def test_reboot_runs_the_release_whose_checksum_matches():
     emu.read()
     emu.write(b"version\r")
     assert emu.read() == b"\r\nFirmware version: 1670596313 2022-12-09T14:31:53+00:00\r\n"
+
+
+def test_unpowered_matrix_grace_counts_from_its_set_up_not_from_the_boot():
+    # Issue 37: on a release that never powers the LED matrix (R2), the default layout's motor sets up
+    # at 2400 baud for longer than the matrix's grace, so the grace runs out during the start-up, as on
+    # the firmware in the loop; the boot's restart helps only a matrix still alive then. The matrix
+    # stops talking a grace after its set-up and the HAT drops it 500 ms (plus a keep-alive) later.
+    emu = Emulator(firmware="R2")
+    out = bytearray()
+    times = {}
+
+    def pump() -> None:
+        data = emu.read()
+        out.extend(data)
+        for key in (b"P1: established", b"P1: timeout during data phase"):
+            if key in data and key not in times:
+                times[key] = emu.now
+    emu.boot(each_ms=pump)
+    t0 = emu.now
+    for _ in range(2000):
+        emu.step()
+        pump()
+    est, out_t = times[b"P1: established"], times[b"P1: timeout during data phase"]
+    grace = emu.profile.feature("matrix_power_grace_ms")
+    assert est < t0 and grace + 500 < out_t - est <= grace + 500 + 110
+    assert out_t - t0 < grace          # within the scenario's first second, not grace + 500 ms into it

@@ -300,6 +300,6 @@ def test_reboot_through_the_emulator_boots_the_release_with_that_checksum():
     assert out.endswith(b"Image verifed OK\r\nRebooting...\r\n")
     emu.advance(99)
     assert emu.in_bootloader
-    emu.advance(400)
+    emu.advance(420)        # `Done initialising ports` about 404 ms after power-on (emulator/startup.py)
     assert not emu.in_bootloader and emu.hat.profile.name == "R3"
     assert b"Done initialising ports" in emu.read()

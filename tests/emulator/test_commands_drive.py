@@ -331,6 +331,7 @@ def test_coast_wins_over_pid_and_debug_is_silent():
 def test_plimit_before_plugging_a_motor(release, kept):
     emu = booted(release, EMPTY)
     send(emu, "plimit 1")
+    emu.advance(110)        # one empty-port cycle (98 ms): the port passes its reset before the plug
     emu.world("@plug 0 0x30")
     for _ in range(5000):
         emu.advance(10)

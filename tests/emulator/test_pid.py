@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import ctypes
+import math
 import struct
 
 import pytest
@@ -153,3 +154,18 @@ def test_bad_profile_values_are_clear_errors():
         SensorVariable("sometimes")
     with pytest.raises(ValueError, match="pid_deadzone"):
         Pid("wide")
+
+
+def test_nan_signs_follow_the_firmware_in_the_loop():
+    # Issue 37: with e=Inf, ie=NaN (positive) and de=-NaN the firmware in the loop prints cv=-NaN
+    # (transcripts/data/timing/pid-nan.script), and with e=-NaN, ie=NaN, de=-NaN also cv=-NaN: of two
+    # NaNs a sum keeps the left one's, the integral term added to the proportional one.
+    nan, inf = float("nan"), float("inf")
+    pid = Pid("parameter")
+    pid.kp = pid.ki = pid.kd = pid.windup = 1.0
+    pid.ie, pid.e_prev = nan, inf                 # a NaN integrator (its clamps compare false)
+    step = pid.step(inf, 0.0)           # e = Inf, de = (Inf - Inf) / 0.01 = -NaN (x86's default NaN)
+    assert math.isnan(step.cv) and math.copysign(1.0, step.cv) < 0
+    pid.e_prev = -inf
+    step = pid.step(math.copysign(nan, -1.0), 0.0)     # e = -NaN, de = -NaN
+    assert math.isnan(step.cv) and math.copysign(1.0, step.cv) < 0

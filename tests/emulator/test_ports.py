@@ -193,7 +193,7 @@ def test_matrix_autopower_per_profile(firmware):
 def test_matrix_stays_when_the_host_powers_it():
     emu = Emulator(firmware="R5", devices={0: "none", 2: "none", 3: "none"})
     tap = Tap(emu)
-    tap.run(1900)
+    tap.run(2100)       # set up at 2400 baud: established 2.0 s after power-on on the firmware in the loop
     assert tap.times("P1: established serial communication with active ID 40")
     tap.send("port 1 ; on")                    # what python-build-hat does for ID 40
     tap.run(3000)

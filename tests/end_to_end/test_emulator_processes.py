@@ -210,3 +210,32 @@ def test_bad_key_and_bad_link_give_clear_errors(tmp_path, capsys):
     regular.write_text("x")
     assert main(["--pty", "--link", str(regular)]) == 2
     assert "not a symlink" in capsys.readouterr().err and regular.read_text() == "x"
+
+
+def test_pty_paces_a_hats_wire_unless_told_otherwise():
+    # Issue 37: `--pty` (and `--tcp`) as it comes is a HAT's 115200-baud wire both ways; `--baud 0` an
+    # unpaced link; --help says so. `help` (about 4.2 KB) takes at least 0.36 s of such a wire: the bound
+    # is a floor, which a loaded machine only makes easier to meet; the unpaced link is far under it.
+    from buildhat_conformance.emulator.cli import build_parser, link_baud
+    parser = build_parser()
+    text = parser.format_help()
+    assert "default 115200 with --pty and --tcp" in " ".join(text.split())
+    assert "0: an unpaced link" in " ".join(text.split())
+    assert link_baud(parser.parse_args(["--pty"])) == 115200
+    assert link_baud(parser.parse_args(["--tcp", "0"])) == 115200
+    assert link_baud(parser.parse_args(["--pty", "--baud", "0"])) is None
+    assert link_baud(parser.parse_args(["--stdio"])) is None
+    took = {}
+    for name, args in (("wire", []), ("unpaced", ["--baud", "0"])):
+        with EmulatorProcess(firmware="R7", devices={0: None, 1: None, 2: None},
+                             args=["--booted"] + args) as emu:
+            ser = serial.Serial(emu.path, 115200, timeout=0.2)
+            try:
+                t0 = time.monotonic()
+                ser.write(b"help\r")
+                out = read_until(ser, b"8=DATA payload")
+                took[name] = time.monotonic() - t0
+                assert len(out) > 4000
+            finally:
+                ser.close()
+    assert took["wire"] >= 0.36, took

@@ -54,10 +54,11 @@ CLASSIC: Classic = {"reflected": 33, "ambient": 21, "rgb": [200, 100, 400], "pro
 # fast; the library itself then always talks to it in real time.
 SETTLE_SPEED = 10
 SETTLE_HAT_MS = 5000
-# The link runs at the HAT's wire rate, as on hardware. Unpaced output reaches the library within
-# microseconds, which widens a race in python-build-hat 0.9.0's start-up (it arms its `list` counter only
-# after sending `list`; a port line read before that is never counted and Hat() waits forever).
-WIRE = ["--baud", "115200"]
+# The link runs at the HAT's wire rate, as on hardware: `buildhat-emulator --pty` as it comes (its default
+# is a HAT's 115200-baud wire, issue 37). Unpaced output reaches the library within microseconds, which
+# widens a race in python-build-hat 0.9.0's start-up (it arms its `list` counter only after sending `list`;
+# a port line read before that is never counted and Hat() waits forever).
+WIRE: List[str] = []
 
 
 @dataclass

@@ -91,7 +91,8 @@ def test_sdist_manifest_carries_docs_examples_and_golden_transcripts():
     carried = {(REPO / f).resolve() for f in files}
     wanted = [REPO / "LICENSE", REPO / "README.md", REPO / "Makefile",
               REPO / "examples" / "github-actions-host-library.yml",
-              *(REPO / "docs").rglob("*.md"), *(REPO / "transcripts" / "data").iterdir()]
+              *(REPO / "docs").rglob("*.md"),
+              *(p for p in (REPO / "transcripts" / "data").rglob("*") if p.is_file())]
     missing = [str(p.relative_to(REPO)) for p in wanted if p.resolve() not in carried]
     assert not missing, missing
     assert not any("reports" in pathlib.Path(f).parts for f in files)
