@@ -381,6 +381,7 @@ function hostTxIdle() {
 }
 const hostIn = [];           // [time, byte] not yet on the wire, in order
 let hostInEnd = 0;           // when the last queued byte finishes arriving
+// (rp2040js leaves an alarm marked scheduled after it fired: the queue says whether one is due)
 const hostArrive = clock.createAlarm(() => {
   const [, b] = hostIn.shift();
   host.feedByte(b);
@@ -388,13 +389,14 @@ const hostArrive = clock.createAlarm(() => {
 });
 function hostBytes(t, bytes) {
   const byteNs = host.baudDivider ? Math.round(10 * 1e9 / host.baudRate) : 86806;
+  const idle = hostIn.length === 0;
   let end = Math.max(t, hostInEnd, clock.nanos);
   for (const b of bytes) {
     end += byteNs;
     hostIn.push([end, b]);
   }
   hostInEnd = end;
-  if (!hostArrive.scheduled) hostArrive.schedule(Math.max(0, hostIn[0][0] - clock.nanos));
+  if (idle && hostIn.length) hostArrive.schedule(Math.max(0, hostIn[0][0] - clock.nanos));
 }
 function flushHost() {
   if (hostOut.length) {

@@ -1,0 +1,57 @@
+"""``Rp2040Hat``: a release's ``firmware.bin`` on the emulated chip, driven as sil drives a HAT.
+
+The runner (``runner.mjs``, Node.js with rp2040js) speaks the frames of the firmware in the loop
+(``sil/protocol.py``), so :class:`~..sil.hat.SilHat` drives it unchanged and the world around it is
+sil's (``sil/world.py``: the emulator's device models, fault latches, Vin). What the runner does
+not have: copies of a running chip (Node cannot fork; every open boots a new chip), and the ports'
+UARTs at the pins (its PIO is not yet run on the simulation clock), so only passive devices and
+empty ports are wired.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any, Dict, Mapping, Optional
+
+from ..emulator.world import WorldError
+from ..sil.hat import SilHat
+from .install import runner_command
+
+__all__ = ["Rp2040Hat", "EMPTY_PORTS", "unwired_ports"]
+
+#: The chip starts with nothing on its ports (the firmware then reports passive ID 4 on each).
+EMPTY_PORTS: Dict[int, Any] = {0: None, 1: None, 2: None, 3: None}
+
+
+def unwired_ports(devices: Mapping[int, Any]) -> Dict[int, Any]:
+    """The ports whose device needs its UART at the chip's pins (an active device): not yet wired."""
+    return {p: spec for p, spec in devices.items() if isinstance(spec, tuple) and spec[0] == "active"}
+
+
+class Rp2040Hat(SilHat):
+    def __init__(self, image: Path, bootrom: Path, devices: Optional[Mapping[int, Any]] = None, seed: int = 0,
+                 features: Optional[Mapping[str, Any]] = None, signature: Optional[bytes] = None,
+                 record_events: bool = True):
+        command = runner_command(image, bootrom)
+        self.program_args = command[1:]
+        layout = dict(EMPTY_PORTS)
+        layout.update(devices or {})
+        super().__init__(command[0], devices=layout, seed=seed, features=features, signature=signature,
+                         record_events=record_events)
+
+    def world(self, line: str) -> str:
+        words = line.split()
+        if words[:1] == ["@firmware"]:
+            return "ok dead" if self.died is not None else "ok hung" if self.hung else "ok rp2040"
+        if words[:1] == ["@plug"] and len(words) >= 3:
+            from ..protocol.devices import parse_device_spec
+            spec = parse_device_spec(" ".join(words[2:]))
+            if unwired_ports({0: spec}):
+                raise WorldError("@plug: an active device talks through the port's UART, which the "
+                                 "rp2040: target does not yet wire to the chip's pins (passive devices only)")
+        if words[:2] == ["@reset", "bootloader"]:
+            raise WorldError("@reset bootloader: the HAT's bootloader is not on the emulated chip "
+                             "(the rp2040: target starts the image as the bootloader does)")
+        return super().world(line)
+
+    def copy(self) -> SilHat:
+        raise RuntimeError("a chip on rp2040js cannot be copied (each open boots a new one)")
