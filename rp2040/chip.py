@@ -13,10 +13,11 @@ from pathlib import Path
 from typing import Any, Dict, Mapping, Optional
 
 from ..emulator.world import WorldError
+from ..protocol.devices import parse_device_spec
 from ..sil.hat import SilHat
 from .install import runner_command
 
-__all__ = ["Rp2040Hat", "EMPTY_PORTS", "unwired_ports"]
+__all__ = ["Rp2040Hat", "EMPTY_PORTS", "unwired_ports", "unwired_plug"]
 
 #: The chip starts with nothing on its ports (the firmware then reports passive ID 4 on each).
 EMPTY_PORTS: Dict[int, Any] = {0: None, 1: None, 2: None, 3: None}
@@ -25,6 +26,17 @@ EMPTY_PORTS: Dict[int, Any] = {0: None, 1: None, 2: None, 3: None}
 def unwired_ports(devices: Mapping[int, Any]) -> Dict[int, Any]:
     """The ports whose device needs its UART at the chip's pins (an active device): not yet wired."""
     return {p: spec for p, spec in devices.items() if isinstance(spec, tuple) and spec[0] == "active"}
+
+
+def unwired_plug(line: str) -> bool:
+    """``@plug P SPEC`` of a device whose UART is not yet wired to the chip's pins."""
+    words = line.split()
+    if words[:1] != ["@plug"] or len(words) < 3:
+        return False
+    try:
+        return bool(unwired_ports({0: parse_device_spec(" ".join(words[2:]))}))
+    except ValueError:
+        return False
 
 
 class Rp2040Hat(SilHat):
@@ -42,12 +54,6 @@ class Rp2040Hat(SilHat):
         words = line.split()
         if words[:1] == ["@firmware"]:
             return "ok dead" if self.died is not None else "ok hung" if self.hung else "ok rp2040"
-        if words[:1] == ["@plug"] and len(words) >= 3:
-            from ..protocol.devices import parse_device_spec
-            spec = parse_device_spec(" ".join(words[2:]))
-            if unwired_ports({0: spec}):
-                raise WorldError("@plug: an active device talks through the port's UART, which the "
-                                 "rp2040: target does not yet wire to the chip's pins (passive devices only)")
         if words[:2] == ["@reset", "bootloader"]:
             raise WorldError("@reset bootloader: the HAT's bootloader is not on the emulated chip "
                              "(the rp2040: target starts the image as the bootloader does)")

@@ -15,13 +15,21 @@ from typing import Any, Dict, Optional
 from urllib.parse import parse_qs, unquote
 
 from ..emulator.inprocess_target import HatModel, _parse_devices
-from ..harness.targets.base import TargetError
-from ..sil.target import SilTarget
-from .chip import Rp2040Hat, unwired_ports
+from ..harness.targets.base import NeedsCapability, TargetError
+from ..sil.target import SilControl, SilTarget
+from .chip import Rp2040Hat, unwired_plug, unwired_ports
 from .images import Image, find_image
 from .install import check_rp2040js, find_bootrom, node_program
 
 __all__ = ["Rp2040Target", "from_url"]
+
+
+class Rp2040Control(SilControl):
+    def action(self, line: str) -> str:
+        if unwired_plug(line):
+            raise NeedsCapability("an active device", "rp2040:", "the ports' UARTs are not yet wired to the "
+                                  "chip's pins; passive devices and empty ports only")
+        return super().action(line)
 
 
 class Rp2040Target(SilTarget):
@@ -31,6 +39,7 @@ class Rp2040Target(SilTarget):
                  seed: int = 0, boot: bool = True, firmware: Optional[str] = None):
         super().__init__(str(image.path), url, devices=devices, seed=seed, boot=boot, firmware=firmware)
         self.image, self.bootrom = image, bootrom
+        self.control = Rp2040Control(self)
         self.reset_hint = "the rp2040: target resets through its control channel (@reset)"
 
     def new_hat(self, firmware: Optional[str] = None, devices: Optional[Dict[int, Any]] = None, seed: int = 0,

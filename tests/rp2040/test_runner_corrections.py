@@ -63,6 +63,71 @@ wait:
 UART_PROGRAM = bytes.fromhex(
     "144843214162342181626021c16212490163202181632021416441210160c26b42210160c36b8469c56b002dfcd0"
     "20214164c66b026000f008f8036000f005f8046000f002f80660fee7c56b002dfcd0704700000040034001030000")
+# The NVIC (ARMv6-M ARM B3.4.1; RP2040 datasheet 2.3.2): taking an interrupt clears its pending bit,
+# so an interrupt pended once from software (NVIC_ISPR, as the firmware starts sending) runs its
+# handler once while the peripheral's own line is low.
+NVIC_PROGRAM_SOURCE = """
+    ldr  r0, =0x40034000   @ UART0, to report the count: 115200 baud, FIFOs off, enabled
+    movs r1, #67
+    str  r1, [r0, #0x24]
+    movs r1, #52
+    str  r1, [r0, #0x28]
+    movs r1, #0x60
+    str  r1, [r0, #0x2c]
+    ldr  r1, =0x301
+    str  r1, [r0, #0x30]
+    ldr  r2, =0x20001000   @ a vector table of our own
+    adr  r1, handler
+    adds r1, #1            @ (Thumb)
+    movs r6, #144          @ entry 16 + 20: UART0_IRQ
+    str  r1, [r2, r6]
+    ldr  r3, =0xe000ed08   @ VTOR
+    str  r2, [r3]
+    movs r7, #0            @ the handler counts its entries in r7
+    ldr  r1, =0x100000     @ IRQ 20
+    ldr  r3, =0xe000e100   @ NVIC_ISER: enable it (the UART's own line stays low: IMSC is 0)
+    str  r1, [r3]
+    ldr  r3, =0xe000e200   @ NVIC_ISPR: pend it from software, once
+    str  r1, [r3]
+    movs r4, #0            @ then spin 1000 times
+    ldr  r5, =1000
+1:  adds r4, #1
+    cmp  r4, r5
+    bne  1b
+    str  r7, [r0, #0]      @ report the count: 1
+2:  b    2b
+    .balign 4
+handler:
+    adds r7, #1
+    bx   lr
+    .ltorg
+"""
+NVIC_PROGRAM = bytes.fromhex(
+    "0f4843214162342181626021c1620d4901630d4a09a10131902691510b4b1a6000270b490b4b19600b4b196000240b4d"
+    "0134ac42fcd10760fee7c0460137704700400340010300000010002008ed00e00000100000e100e000e200e0e8030000")
+# Bytes from the host arrive one by one at the baud rate, a later burst as well as the first.
+ECHO_PROGRAM_SOURCE = """
+    ldr  r0, =0x40034000   @ UART0: 115200 baud, FIFOs off, enabled
+    movs r1, #67
+    str  r1, [r0, #0x24]
+    movs r1, #52
+    str  r1, [r0, #0x28]
+    movs r1, #0x60
+    str  r1, [r0, #0x2c]
+    ldr  r1, =0x301
+    str  r1, [r0, #0x30]
+1:  ldr  r1, [r0, #0x18]   @ FR: wait while RX is empty (RXFE, bit 4)
+    lsls r1, r1, #27
+    bmi  1b
+    ldr  r1, [r0, #0]      @ echo what came
+    str  r1, [r0, #0]
+    b    1b
+    .ltorg
+"""
+ECHO_PROGRAM = bytes.fromhex(
+    "074843214162342181626021c162054901638169c906fcd401680160f9e700000040034001030000")
+PROGRAMS = [(UART_PROGRAM_SOURCE, UART_PROGRAM), (NVIC_PROGRAM_SOURCE, NVIC_PROGRAM),
+            (ECHO_PROGRAM_SOURCE, ECHO_PROGRAM)]
 BYTE_NS = 10 * 1_000_000_000 // 115200        # one byte of 10 bits at 115200 baud, ~86.8 us
 
 
@@ -75,19 +140,20 @@ def host_bytes(tmp_path, program: bytes, run_ns: int, args=()) -> list:
     return [(f.t, b) for f in frames if f.kind == "h" for b in f.payload]
 
 
-def test_the_program_is_its_source():
+@pytest.mark.parametrize("source,program", PROGRAMS, ids=["uart", "nvic", "echo"])
+def test_the_program_is_its_source(source, program):
     if shutil.which("llvm-mc") is None or shutil.which("llvm-objcopy") is None:
         pytest.skip("llvm-mc/llvm-objcopy not installed: the bytes are not re-assembled")
     import tempfile
     with tempfile.TemporaryDirectory() as tmp:
         src = f"{tmp}/p.s"
         with open(src, "w") as fh:
-            fh.write("    .syntax unified\n    .thumb\n" + UART_PROGRAM_SOURCE)
+            fh.write("    .syntax unified\n    .thumb\n" + source)
         subprocess.run(["llvm-mc", "--triple=thumbv6m-none-eabi", "-filetype=obj", src, "-o", f"{tmp}/p.o"],
                        check=True)
         subprocess.run(["llvm-objcopy", "-O", "binary", "-j", ".text", f"{tmp}/p.o", f"{tmp}/p.bin"], check=True)
         with open(f"{tmp}/p.bin", "rb") as fh:
-            assert fh.read() == UART_PROGRAM
+            assert fh.read() == program
 
 
 def test_pl011_transmit_interrupt_follows_the_holding_register(tmp_path):
@@ -105,3 +171,34 @@ def test_rp2040js_own_pl011_reads_otherwise(tmp_path):
     sent = host_bytes(tmp_path, UART_PROGRAM, 2_000_000, ["--stock-uart"])
     assert [b for _t, b in sent] != [0x41, 0x42, 0x20, 0x00, 0x38, 0x00]
     assert [b for _t, b in sent][3] == 0x20          # RIS after the clear: still raised
+
+
+def test_nvic_a_software_pend_enters_the_handler_once(tmp_path):
+    sent = host_bytes(tmp_path, NVIC_PROGRAM, 1_000_000)
+    assert [b for _t, b in sent] == [1]
+
+
+def test_rp2040js_own_nvic_enters_it_forever(tmp_path):
+    """rp2040js keeps the hardware interrupt pending: the handler runs again and again, the spin
+    never ends and nothing is reported."""
+    sent = host_bytes(tmp_path, NVIC_PROGRAM, 1_000_000, ["--stock-nvic"])
+    assert sent == []
+
+
+def test_host_bytes_arrive_at_the_baud_rate_in_every_burst(tmp_path):
+    chip = start_program(tmp_path, ECHO_PROGRAM)
+    try:
+        echoed = b""
+        for burst in (b"ab", b"cd"):
+            chip.send(encode("H", chip.now, burst))
+            start = chip.now
+            frames = chip.run(chip.now + 1_000_000)
+            got = b"".join(f.payload for f in frames if f.kind == "h")
+            assert got == burst
+            last = max(f.t for f in frames if f.kind == "h")
+            # two bytes in, each 10 bit times; the echo of the second leaves one byte time later
+            assert 3 * BYTE_NS <= last - start < 3 * BYTE_NS + 20_000, last - start
+            echoed += got
+        assert echoed == b"abcd"
+    finally:
+        chip.quit()
