@@ -79,9 +79,9 @@ def find_bootrom(given: Optional[str] = None) -> Path:
     where = given or os.environ.get(BOOTROM_ENV) or str(default_bootrom())
     path = Path(os.path.expanduser(where))
     if not path.is_file():
-        raise TargetError(f"rp2040: no RP2040 boot ROM at {path}; copy the chip's 16 KiB boot ROM (built from "
-                          f"Raspberry Pi's pico-bootrom, or read out of an RP2040) there, or name it with "
-                          f"?bootrom=FILE or ${BOOTROM_ENV}")
+        raise TargetError(f"rp2040: no RP2040 boot ROM at {path}; copy the chip's 16 KiB boot ROM (built "
+                          f"from Raspberry Pi's pico-bootrom, or read out of an RP2040) there, or name it "
+                          f"with ?bootrom=FILE or ${BOOTROM_ENV}")
     size = path.stat().st_size
     if size != BOOTROM_SIZE:
         raise TargetError(f"rp2040: {path} is {size} bytes, not an RP2040 boot ROM ({BOOTROM_SIZE} bytes)")
@@ -111,5 +111,5 @@ def install_rp2040js(folder: Optional[Path] = None) -> Path:
 
 def runner_command(image: Path, bootrom: Path, extra: Sequence[str] = ()) -> List[str]:
     """The command that runs ``image`` on the emulated chip, speaking sil's frames (sil/protocol.py)."""
-    return [node_program(), str(runner_path()), "--rp2040js", str(check_rp2040js()), "--bootrom", str(bootrom),
-            "--image", str(image), *extra]
+    return [node_program(), str(runner_path()), "--rp2040js", str(check_rp2040js()),
+            "--bootrom", str(bootrom), "--image", str(image), *extra]

@@ -170,7 +170,8 @@ function toArrayBuffer(buf) {
 
 let stopped = null;          // why the core stopped, once it has
 mcu.onBreak = (code) => {
-  stopped = `the core stopped at a breakpoint (BKPT/UDF #${code}) at PC 0x${(mcu.core.PC >>> 0).toString(16)}`;
+  // (the core has moved past the instruction's first halfword when it reports it)
+  stopped = `the core stopped at a breakpoint (BKPT/UDF #${code}) at PC 0x${((mcu.core.PC - 2) >>> 0).toString(16)}`;
 };
 const warn = mcu.logger.warn.bind(mcu.logger);
 mcu.logger.warn = (component, message) => {

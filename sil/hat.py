@@ -71,7 +71,8 @@ class SilHat:
             self.outside.send(encode("S", 0, bytes(self.signature)[:64]))
         self.died, self.hung = None, False
         try:
-            self.proc: Optional[FirmwareProcess] = FirmwareProcess(self.program, env=self.env, args=self.program_args)
+            self.proc: Optional[FirmwareProcess] = FirmwareProcess(self.program, env=self.env,
+                                                                   args=self.program_args)
         except FirmwareDied as exc:
             self.proc = None
             self._die(exc)

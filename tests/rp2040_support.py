@@ -76,4 +76,6 @@ def start_program(tmp_path: pathlib.Path, program: bytes, args: Sequence[str] = 
 
 
 if __name__ == "__main__":        # .ci/run: fetch the images before the tests
-    print(" ".join(fetch_wheels()) or "ok")
+    missing = fetch_wheels()
+    print(f"not downloaded: buildhat {', '.join(missing)}" if missing else "ok")
+    sys.exit(1 if missing else 0)

@@ -151,7 +151,8 @@ def test_the_program_is_its_source(source, program):
             fh.write("    .syntax unified\n    .thumb\n" + source)
         subprocess.run(["llvm-mc", "--triple=thumbv6m-none-eabi", "-filetype=obj", src, "-o", f"{tmp}/p.o"],
                        check=True)
-        subprocess.run(["llvm-objcopy", "-O", "binary", "-j", ".text", f"{tmp}/p.o", f"{tmp}/p.bin"], check=True)
+        subprocess.run(["llvm-objcopy", "-O", "binary", "-j", ".text", f"{tmp}/p.o", f"{tmp}/p.bin"],
+                       check=True)
         with open(f"{tmp}/p.bin", "rb") as fh:
             assert fh.read() == program
 
@@ -202,3 +203,16 @@ def test_host_bytes_arrive_at_the_baud_rate_in_every_burst(tmp_path):
         assert echoed == b"abcd"
     finally:
         chip.quit()
+
+
+def test_a_core_that_stops_is_a_crash_with_one_line(tmp_path):
+    """A breakpoint (the SDK's panic ends in one) ends the chip as a crashed firmware in the loop ends."""
+    from buildhat_conformance.sil.process import FirmwareDied
+    chip = start_program(tmp_path, bytes.fromhex("00bf00be"))      # nop; bkpt #0
+    try:
+        with pytest.raises(FirmwareDied) as died:
+            chip.run(1_000_000)
+    finally:
+        chip.kill()
+    assert died.value.kind == "crashed"
+    assert "the core stopped at a breakpoint (BKPT/UDF #0) at PC 0x20000002" in died.value.summary
