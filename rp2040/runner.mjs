@@ -8,7 +8,8 @@
 // bootloader starts it; the boot ROM is mapped at 0 (the image calls its functions).
 // rp2040js's models are used as they are, except where the chip differs in a way this firmware
 // meets (rp2040/README.md, "Corrections"); --stock-uart and --stock-nvic leave rp2040js's PL011 and
-// NVIC alone (tests show what each correction changes).
+// NVIC alone (tests show what each correction changes); --no-idle-skip runs every instruction of
+// the firmware's idle polling (tests show that skipping it changes nothing the world sees).
 // A core that stops (a breakpoint or undefined instruction: the SDK's panic and the unhandled-fault
 // handler end there; an instruction rp2040js cannot run) is a crash: one report on stderr, then
 // the process ends by SIGABRT, as a crashed firmware in the loop does.
@@ -21,6 +22,7 @@ for (let i = 2; i < process.argv.length; i++) {
   const a = process.argv[i];
   if (a === '--stock-uart') args.stockUart = true;
   else if (a === '--stock-nvic') args.stockNvic = true;
+  else if (a === '--no-idle-skip') args.noIdleSkip = true;
   else if (a.startsWith('--')) args[a.slice(2)] = process.argv[++i];
 }
 for (const need of ['rp2040js', 'bootrom', 'image']) {
@@ -447,7 +449,7 @@ timer.readUint32 = (offset) => {
   if (offset === TIMELR || offset === TIMERAWL) {
     intervals.push(touched ? -1 : executed - lastRead);
     if (intervals.length > 2 * MAX_PERIOD) intervals.shift();
-    if (polling()) {
+    if (!args.noIdleSkip && polling()) {
       const edge = (Math.floor(clock.nanos / 1e6) + 1) * 1e6;
       skipTo = Math.min(edge, clock.nextAlarm ? clock.nextAlarm.nanos : Infinity, limit);
     }

@@ -67,9 +67,14 @@ def fetch_wheels(releases: Sequence[str] = tuple(PACKAGES)) -> List[str]:
 def start_program(tmp_path: pathlib.Path, program: bytes, args: Sequence[str] = ()) -> FirmwareProcess:
     """The runner with ``program`` (Thumb code of the test's own) as the image, started at its first
     word like a firmware; it speaks sil's frames."""
-    folder = rp2040js()
     image = tmp_path / "program.bin"
     image.write_bytes(program + bytes(-len(program) % 4))
+    return start_image(image, args)
+
+
+def start_image(image: pathlib.Path, args: Sequence[str] = ()) -> FirmwareProcess:
+    """The runner with ``image`` (a released firmware.bin, or a program of the test's own)."""
+    folder = rp2040js()
     command = [str(install.runner_path()), "--rp2040js", str(folder), "--bootrom", str(bootrom()),
                "--image", str(image), *args]
     return FirmwareProcess(shutil.which("node") or "node", env=dict(os.environ), args=command)

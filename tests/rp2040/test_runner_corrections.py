@@ -216,3 +216,41 @@ def test_a_core_that_stops_is_a_crash_with_one_line(tmp_path):
         chip.kill()
     assert died.value.kind == "crashed"
     assert "the core stopped at a breakpoint (BKPT/UDF #0) at PC 0x20000002" in died.value.summary
+
+
+def test_skipping_idle_polling_changes_nothing_the_world_sees():
+    """R7's start-up and a `list` after it: the same bytes, the start-up at the same virtual times,
+    whether the runner skips the firmware's idle polling or runs every instruction of it."""
+    from rp2040_support import image_wheels, start_image
+
+    from buildhat_conformance.protocol.profiles import get_profile
+    from buildhat_conformance.rp2040.images import find_image
+    image = find_image("R7", str(image_wheels("R7"))).path
+    assert find_image("R7", str(image_wheels("R7"))).release == get_profile("R7").number
+
+    def output(args):
+        chip = start_image(image, args)
+        try:
+            for port in range(4):        # empty ports (sil/world.py's ID lines for nothing), Vin
+                chip.send(encode("I", 0, b"\xc0\x0c\x01", port=port))
+            chip.send(encode("A", 0, b"\xce\x06"))
+            sent, asked = [], False
+            while chip.now < 320_000_000:
+                if chip.now >= 250_000_000 and not asked:
+                    chip.send(encode("H", chip.now, b"list\r"))
+                    asked = True
+                sent += [(f.t, f.payload) for f in chip.run(min(chip.now + 50_000_000, 320_000_000))
+                         if f.kind == "h"]
+            return sent
+        finally:
+            chip.quit()
+
+    skipped, every = output([]), output(["--no-idle-skip"])
+    assert b"P3: no device detected\r\n" in b"".join(p for _t, p in skipped)
+    assert [p for _t, p in skipped] == [p for _t, p in every]
+    start_up = [f for f in every if f[0] < 250_000_000]
+    assert skipped[:len(start_up)] == start_up
+    # A byte from the host meets the polling loop where a skip left it (at a timer read), not where
+    # the loop happened to be: the answer may move by less than one pass of the loop (~1,000
+    # instructions, 8 us).
+    assert all(abs(a[0] - b[0]) < 8_000 for a, b in zip(skipped, every))

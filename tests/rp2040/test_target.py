@@ -169,3 +169,19 @@ def test_two_runs_give_the_same_bytes_at_the_same_times(r7_url):
         finally:
             target.close()
     assert runs[0] == runs[1]
+
+
+@pytest.mark.parametrize("release", ["R1", "R2", "R3", "R5", "R6"])
+def test_every_released_image_answers_as_its_profile_says(release):
+    """Each release's shipped image (R2 and R3 exist only as binaries) answers `version` and `help` as
+    the project's profile of that release says."""
+    rp2040js()
+    profile = get_profile(release)
+    target = make_target(f"rp2040:{release}?images={image_wheels(release)}&bootrom={bootrom()}")
+    target.open()
+    try:
+        assert b"Done initialising ports\r\n" in target.read(0.1)
+        assert f"Firmware version: {profile.version_string}\r\n".encode() in answer(target, b"version", 200)
+        assert profile.help_bytes in answer(target, b"help")
+    finally:
+        target.close()
