@@ -185,3 +185,23 @@ def test_every_released_image_answers_as_its_profile_says(release):
         assert profile.help_bytes in answer(target, b"help")
     finally:
         target.close()
+
+
+def test_passive_devices_at_the_chips_pins_connect_and_disconnect(r7_url):
+    """The ID lines' electrical model at the chip's pins: the released firmware sees passive devices
+    plugged before and after its start-up, and their removal (docs/FIRMWARE-BEHAVIOUR.md#fb-list,
+    #fb-disconnected)."""
+    target = make_target(r7_url + "&device=0=passive 1")
+    assert isinstance(target, Rp2040Target)
+    target.open()
+    try:
+        assert b"P0: connected to passive ID 1\r\n" in target.read(0.1)
+        assert target.control is not None
+        target.control.action("@plug 3 passive 8")
+        target.advance(1500)
+        assert target.read(0.1) == b"P3: connected to passive ID 8\r\n"
+        target.control.action("@unplug 0")
+        target.advance(1500)
+        assert target.read(0.1) == b"P0: disconnected\r\n"
+    finally:
+        target.close()
