@@ -11,7 +11,8 @@
 // NVIC alone (tests show what each correction changes); --no-idle-skip runs every instruction of
 // the firmware's idle polling (tests show that skipping it changes nothing the world sees).
 // A core that stops (a breakpoint or undefined instruction: the SDK's panic and the unhandled-fault
-// handler end there; an instruction rp2040js cannot run) is a crash: one report on stderr, then
+// handler end there; an access where nothing answers, a bus fault on the chip; an instruction
+// rp2040js cannot run) is a crash: one report on stderr, then
 // the process ends by SIGABRT, as a crashed firmware in the loop does.
 import fs from 'node:fs';
 import path from 'node:path';
@@ -179,6 +180,9 @@ const warn = mcu.logger.warn.bind(mcu.logger);
 mcu.logger.warn = (component, message) => {
   if (component === 'CortexM0Core' && /not implemented/.test(message)) {
     stopped = `an instruction rp2040js does not implement: ${message}`;
+  } else if (component === 'RP2040' && /invalid memory address|undefined address/.test(message)) {
+    // nothing answers at that address: a bus fault on the chip, so a HardFault
+    stopped = `HardFault: a bus fault (${message}) at PC 0x${(mcu.core.PC >>> 0).toString(16)}`;
   }
   warn(component, message);
 };

@@ -254,3 +254,18 @@ def test_skipping_idle_polling_changes_nothing_the_world_sees():
     # the loop happened to be: the answer may move by less than one pass of the loop (~1,000
     # instructions, 8 us).
     assert all(abs(a[0] - b[0]) < 8_000 for a, b in zip(skipped, every))
+
+
+def test_an_access_where_nothing_answers_is_a_hardfault(tmp_path):
+    """On the chip a load from an address with nothing behind it is a bus fault (a HardFault); rp2040js
+    reads 0xffffffff and goes on, so the runner ends the chip as a crash instead."""
+    from buildhat_conformance.sil.process import FirmwareDied
+    # movs r0, #3; lsls r0, r0, #28 (0x30000000: nothing there); ldr r1, [r0]; b .
+    chip = start_program(tmp_path, bytes.fromhex("03200007016800bffee7"))
+    try:
+        with pytest.raises(FirmwareDied) as died:
+            chip.run(1_000_000)
+    finally:
+        chip.kill()
+    assert died.value.kind == "crashed"
+    assert "HardFault: a bus fault" in died.value.summary and "30000000" in died.value.summary
