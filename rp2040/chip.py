@@ -42,7 +42,8 @@ def unwired_plug(line: str) -> bool:
 class Rp2040Hat(SilHat):
     def __init__(self, image: Path, bootrom: Path, devices: Optional[Mapping[int, Any]] = None, seed: int = 0,
                  features: Optional[Mapping[str, Any]] = None, signature: Optional[bytes] = None,
-                 record_events: bool = True):
+                 record_events: bool = True, version: str = "unknown"):
+        self.version = version            # what the image's `version` prints after "Firmware version: "
         command = runner_command(image, bootrom)
         self.program_args = command[1:]
         layout = dict(EMPTY_PORTS)
@@ -53,7 +54,9 @@ class Rp2040Hat(SilHat):
     def world(self, line: str) -> str:
         words = line.split()
         if words[:1] == ["@firmware"]:
-            return "ok dead" if self.died is not None else "ok hung" if self.hung else "ok rp2040"
+            # (sil's answer asks a copy of the HAT; a chip here cannot be copied: the image's release
+            # says what its `version` prints)
+            return "ok dead" if self.died is not None else "ok hung" if self.hung else f"ok {self.version}"
         if words[:2] == ["@reset", "bootloader"]:
             raise WorldError("@reset bootloader: the HAT's bootloader is not on the emulated chip "
                              "(the rp2040: target starts the image as the bootloader does)")

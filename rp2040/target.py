@@ -53,15 +53,16 @@ class Rp2040Target(SilTarget):
                 raise TargetError(f"rp2040: unknown release {firmware!r}") from None
             profile = get_profile(None)        # an image the profiles do not know: latest timing
         # The bootloader leaves the image's signature in RAM; a known release's is a fact.
-        signature = None
+        signature, version = None, "unknown"
         if self.image.release is not None:
             try:
                 known = get_profile(self.image.release)
-                signature = known.signature if known.number == self.image.release else None
+                if known.number == self.image.release:
+                    signature, version = known.signature, known.version_string
             except KeyError:
                 pass
         return Rp2040Hat(self.image.path, self.bootrom, devices=devices, seed=seed, features=profile.features,
-                         signature=signature, record_events=record_events)
+                         signature=signature, record_events=record_events, version=version)
 
     def _booted_copy(self) -> HatModel:
         hat = self._new()

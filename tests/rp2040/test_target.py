@@ -153,6 +153,8 @@ def test_r7_boots_and_answers_as_its_profile_says(r7_url):
         # nothing on the ports (docs/FIRMWARE-BEHAVIOUR.md#fb-list: an empty port)
         listed = answer(target, b"list")
         assert all(f"P{p}: no device detected\r\n".encode() in listed for p in range(4))
+        assert target.control is not None
+        assert target.control.action("@firmware") == f"ok {profile.version_string}"
     finally:
         target.close()
 
