@@ -9,11 +9,11 @@ import os
 from setuptools import setup
 
 ROOT = "buildhat_conformance"
-FOLDERS = ["protocol", "harness", "transcripts", "emulator", "sil", "conformance", "fuzz", "bench"]
+FOLDERS = ["protocol", "harness", "transcripts", "emulator", "sil", "rp2040", "conformance", "fuzz", "bench"]
 # sil/standin/ is C source the user's machine compiles (`sil build`): shipped as data, the wheel stays pure.
 STANDIN = ["standin/*.c", "standin/*.h", "standin/include/*.h", "standin/include/*/*.h",
            "standin/include/*/*/*.h"]
-DATA = ["*.json", "*.txt", "*.md", "*.script", "*.jsonl", "*.html", "*.css", "*.pem", "*.bin"]
+DATA = ["*.json", "*.txt", "*.md", "*.script", "*.jsonl", "*.html", "*.css", "*.pem", "*.bin", "*.mjs"]
 
 
 def packages():

@@ -45,6 +45,8 @@ SUBCOMMANDS = {
     "load": ("buildhat_conformance.harness.firmware.cli", "load firmware through the HAT's bootloader"),
     "bench": ("buildhat_conformance.bench.cli", "benchmarks: timing, throughput, fidelity"),
     "sil": ("buildhat_conformance.sil.cli", "the real firmware on this host: build a tree (sil build)"),
+    "rp2040": ("buildhat_conformance.rp2040.cli",
+               "a release's firmware.bin on an emulated RP2040: install rp2040js (rp2040 setup)"),
 }
 
 PROG = "buildhat-conformance"

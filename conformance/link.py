@@ -9,7 +9,7 @@ from __future__ import annotations
 import re
 from typing import Any, Callable, List, Optional, Union
 
-from ..harness.errors import ExpectTimeout, TargetError
+from ..harness.errors import ExpectTimeout, NeedsCapability, TargetError
 from ..harness.matching import matcher
 from ..protocol.profiles import Profile, neighbours
 from .reply import ASYNC_BYTES, ASYNC_LINE, Reply, without_fence_line
@@ -386,7 +386,13 @@ class Hat(Resync):
         if line.strip().lstrip("@").split(" ", 1)[0] == "reset":
             # A restart the test asked for is not a fault; the next resync sets up again.
             self._restart_asked = True
-        return self.session.world(line)
+        try:
+            return self.session.world(line)
+        except NeedsCapability as exc:
+            # A target that performs this action for some devices, not this one (rp2040: plugs passive
+            # devices only): the case cannot be set up there, which says nothing about the protocol.
+            import pytest
+            pytest.skip(f"{exc} (target {self.url})")
 
     def now_ms(self) -> float:
         """Session time (ms since open), the clock of ``Event.t``."""

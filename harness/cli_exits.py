@@ -41,6 +41,9 @@ EXIT_STATUSES: Dict[str, Tuple[Tuple[int, str], ...]] = {
     "load": ((0, "loaded and running"),
              (2, "usage error (bad option, bad file) or an image or signature the bootloader refuses"),
              (3, _TARGET), _CTRL_C),
+    "rp2040": ((0, "rp2040js installed (or the URL would start)"), (2, _USAGE),
+               (3, "Node.js, npm or the install is missing or failed; the URL's image, boot ROM or rp2040js "
+                   "is missing"), _CTRL_C),
     "bench": ((0, "measured (a goal not met is in the table, not the status)"), (2, _USAGE), _CTRL_C),
     "sil": ((0, "built (or served until the host side ended, or coverage printed)"),
             (2, "usage error: not a firmware tree, a compile error, no C compiler, no coverage data"),

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import copy
 import re
-from typing import Any, Callable, Dict, List, Mapping, Optional
+from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence
 
 from ..emulator.uart import WIRE_AHEAD, WIRE_AHEAD_MS
 from ..emulator.world import WorldError, perform_line
@@ -42,6 +42,9 @@ Event = Dict[str, Any]
 
 
 class SilHat:
+    #: Arguments of the program (the rp2040: target's is Node.js with its runner and image).
+    program_args: Sequence[str] = ()
+
     def __init__(self, program: str, devices: Optional[Mapping[int, Any]] = None, seed: int = 0,
                  features: Optional[Mapping[str, Any]] = None, env: Optional[dict] = None,
                  signature: Optional[bytes] = None, record_events: bool = True):
@@ -80,7 +83,8 @@ class SilHat:
             self.outside.send(encode("S", 0, bytes(self.signature)[:64]))
         self.died, self.hung = None, False
         try:
-            self.proc: Optional[FirmwareProcess] = FirmwareProcess(self.program, env=self.env)
+            self.proc: Optional[FirmwareProcess] = FirmwareProcess(self.program, env=self.env,
+                                                                   args=self.program_args)
         except FirmwareDied as exc:
             self.proc = None
             self._die(exc)

@@ -63,7 +63,7 @@ def _sanitized_report(report: str) -> bool:
 
 
 class FirmwareProcess:
-    def __init__(self, program: str, env: Optional[dict] = None):
+    def __init__(self, program: str, env: Optional[dict] = None, args: Sequence[str] = ()):
         self.program = program
         self._tmp = tempfile.mkdtemp(prefix="sil-")
         self._stderr_path = os.path.join(self._tmp, "stderr.txt")
@@ -75,7 +75,7 @@ class FirmwareProcess:
         self.conn: Optional[socket.socket] = None
         try:
             with open(self._stderr_path, "wb") as err:
-                self.proc = subprocess.Popen([program], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                self.proc = subprocess.Popen([program, *args], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
                                              stderr=err, env=run_env, bufsize=0, start_new_session=True)
         except OSError as exc:
             shutil.rmtree(self._tmp, ignore_errors=True)

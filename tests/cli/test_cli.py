@@ -171,7 +171,7 @@ def test_help_is_plain_text_and_names_the_default_target(tmp_path, monkeypatch, 
 
 # -- one voice: a misspelt option, --help, --version and the README's option table -----------------
 CONFORMANCE_COMMANDS = ("run", "script", "targets", "fuzz", "record", "replay", "mock", "report", "load",
-                        "bench", "sil")
+                        "bench", "sil", "rp2040")
 # Each command with what it needs besides the option, and a misspelling of one of its own options
 # (misspelt as people do: letters swapped, one dropped; a prefix, as argparse's abbreviations took it).
 MISSPELT = {
@@ -186,6 +186,7 @@ MISSPELT = {
     "load": ("--trget", [SCRIPT, SCRIPT, "--trget", "inprocess"]),
     "bench": ("--quik", ["--quik"]),
     "sil": ("--sanitise", ["build", "firmware-pico", "--sanitise", "address"]),
+    "rp2040": ("--hlep", ["setup", "--hlep"]),
 }
 
 

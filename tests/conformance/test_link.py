@@ -79,3 +79,20 @@ def test_set_up_after_streams_that_overflow_the_wire_finds_its_place() -> None:
             assert hat.exchange("vin").raw.endswith(b" V\r\n"), rnd
     finally:
         s.close()
+
+
+def test_a_world_action_the_target_cannot_perform_for_this_device_skips_the_case() -> None:
+    """A target that plugs some devices and not others (rp2040: plugs passive devices only) raises
+    NeedsCapability for the others: the case skips saying so; it is neither a failure nor a fault."""
+    import pytest
+
+    from buildhat_conformance.harness.targets.base import NeedsCapability
+
+    class PassiveOnly:
+        def world(self, line: str) -> str:
+            raise NeedsCapability("an active device", "test:", "passive devices only")
+
+    hat = Hat.__new__(Hat)
+    hat.session, hat.url = PassiveOnly(), "test:"
+    with pytest.raises(pytest.skip.Exception, match="needs an active device"):
+        hat.world("@plug 0 0x30")

@@ -2,7 +2,7 @@
 (ast), imports inside functions, under TYPE_CHECKING and by name (``importlib.import_module``,
 pytest ``-p``/``pytest_plugins`` strings) included.
 
-    protocol <- harness <- transcripts <- emulator <- sil <- fuzz, conformance <- bench <- CLI
+    protocol <- harness <- transcripts <- emulator <- sil, rp2040 <- fuzz, conformance <- bench <- CLI
 
 The root package (buildhat_conformance/*.py, the CLI) is the only place that names every folder.
 fuzz and conformance stand side by side: neither imports the other.
@@ -18,7 +18,7 @@ from repo_paths import REPO
 
 PACKAGE = "buildhat_conformance"
 ROOT = ""                                   # the root package's own modules (buildhat_conformance/)
-RANK = {"protocol": 0, "harness": 1, "transcripts": 2, "emulator": 3, "sil": 4, "fuzz": 5,
+RANK = {"protocol": 0, "harness": 1, "transcripts": 2, "emulator": 3, "sil": 4, "rp2040": 4.5, "fuzz": 5,
         "conformance": 5, "bench": 6, ROOT: 7}
 BY_NAME = re.compile(rf"^{PACKAGE}\.(\w+)")
 # The root package's modules (the CLI); another name after the package's (an entry-point group)
