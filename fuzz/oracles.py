@@ -49,6 +49,8 @@ FateFinding = _CLASSES["fate"]
 StateFinding = _CLASSES["state"]
 HygieneFinding = _CLASSES["hygiene"]
 DifferentialFinding = _CLASSES["differential"]
+CrashFinding = _CLASSES["crash"]            # (module attributes: a --jobs worker pickles them)
+SanitizerFinding = _CLASSES["sanitizer"]
 
 
 def finding_class(oracle: str) -> Type[Finding]:

@@ -516,8 +516,10 @@ class Runner:
         found = [r for r in take() if r.suppressed_by is None]
         if not found:
             return
-        lead = next((r for r in found if r.fatal), found[0])
-        self.fail("crash" if lead.fatal else "sanitizer", f"{side.label}: {lead.first}",
+        fatal = next((r for r in found if r.fatal), None)
+        message = found[0].first + (f" (then the firmware crashed: {fatal.first})"
+                                    if fatal is not None and fatal is not found[0] else "")
+        self.fail("crash" if fatal is not None else "sanitizer", f"{side.label}: {message}",
                   {"step": blob, "received": received, "reports": [r.text for r in found]})
 
     def fail(self, oracle: str, message: str, details: dict) -> None:

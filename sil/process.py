@@ -237,17 +237,20 @@ class FirmwareProcess:
         found = self.reports[seen:]
         first = found[-1].first if found else _first_report_line(report)
         said = _SAID_SIGNAL.search(report)
-        if code is not None and code < 0 or said:
+        signalled = code is not None and code < 0
+        if signalled or said:
+            number = -(code or 0)
             name = said.group(1) if said else (
-                signal.Signals(-code).name if -code in signal.Signals._value2member_map_ else str(-code))
+                signal.Signals(number).name if number in signal.Signals._value2member_map_ else str(number))
             died = FirmwareDied("crashed", f"the firmware crashed ({name})" + (f": {first}" if found else ""),
                                 report)
             if not found:             # a plain build's signal: no sanitizer said where
                 found = [crash_report(name, report)]
                 self.reports.extend(found)
         elif code == _SANITIZER_EXIT or found:
-            died = FirmwareDied("crashed", f"the firmware crashed ({_sanitizer(found[-1].text if found else report)})"
-                                           f": {first or 'sanitizer report'}", report)
+            which = _sanitizer(found[-1].text if found else report)
+            died = FirmwareDied("crashed", f"the firmware crashed ({which}): {first or 'sanitizer report'}",
+                                report)
         elif code is None:
             died = FirmwareDied("exited", "the firmware ended" + (f": {first}" if first else ""), report)
         else:

@@ -112,9 +112,8 @@ def _parse(lines: List[str]) -> Optional[FirmwareReport]:
         m = _UBSAN_START.match(ln)
         if m:
             name = os.path.basename(m.group("file"))
-            return FirmwareReport(_ubsan_kind(m.group("what")), os.path.basename(m.group("file")),
-                                  int(m.group("line")),
-                                  f"UndefinedBehaviorSanitizer: {ln.strip().replace(m.group('file'), name, 1)}", text,
+            first = f"UndefinedBehaviorSanitizer: {ln.strip().replace(m.group('file'), name, 1)}"
+            return FirmwareReport(_ubsan_kind(m.group("what")), name, int(m.group("line")), first, text,
                                   functions=functions, paths=[m.group("file")] + paths)
     error = next((m for m in (_ASAN_ERROR.match(ln) for ln in lines) if m), None)
     if error is None:

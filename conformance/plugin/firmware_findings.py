@@ -16,7 +16,7 @@ import json
 from dataclasses import dataclass, field
 from typing import Any, Dict, List, Optional, Tuple
 
-__all__ = ["FirmwareFindings", "Defect", "PROPERTY", "defects_from_property"]
+__all__ = ["FirmwareFindings", "Defect", "PROPERTY"]
 
 PROPERTY = "firmware_defects"
 # Cases named per defect on the terminal (the JUnit property has them all).
@@ -40,17 +40,6 @@ class Defect:
     def as_dict(self) -> Dict[str, Any]:
         return {"kind": self.kind, "file": self.file, "line": self.line, "first": self.first,
                 "suppressed_by": self.suppressed_by, "cases": self.cases, "times": self.times}
-
-
-def defects_from_property(text: str) -> List[Defect]:
-    """The defects a run listed in its JUnit property (for the HTML report)."""
-    try:
-        rows = json.loads(text)
-    except ValueError:
-        return []
-    return [Defect(str(r.get("kind", "")), str(r.get("file", "")), int(r.get("line", 0)), str(r.get("first", "")),
-                   r.get("suppressed_by"), [str(c) for c in r.get("cases", [])], int(r.get("times", 0)))
-            for r in rows if isinstance(r, dict)]
 
 
 class FirmwareFindings:
@@ -77,8 +66,8 @@ class FirmwareFindings:
                      else f"(suppressed by {report.suppressed_by})\n{report.text}")
             defect = self.defects.get(report.key)
             if defect is None:
-                defect = self.defects[report.key] = Defect(report.kind, report.file, report.line, report.first,
-                                                           report.suppressed_by)
+                defect = Defect(report.kind, report.file, report.line, report.first, report.suppressed_by)
+                self.defects[report.key] = defect
             defect.times += 1
             if nodeid not in defect.cases:
                 defect.cases.append(nodeid)

@@ -252,10 +252,13 @@ class Run:
         met = [r for r in pending if r.suppressed_by is None]
         if not met:
             return False
-        lead = next((r for r in met if r.fatal), met[0])
+        # The first report met names the defect; a crash that followed it is said after it.
+        fatal = next((r for r in met if r.fatal), None)
+        message = met[0].first + (f" (then the firmware crashed: {fatal.first})"
+                                  if fatal is not None and fatal is not met[0] else "")
         before = report.longreprtext if report.failed else ""
         report.outcome = "failed"
-        report.longrepr = "\n\n".join([lead.first] + [r.text for r in met]
+        report.longrepr = "\n\n".join([message] + [r.text for r in met]
                                        + ([f"(what the case saw)\n{before}"] if before else []))
         return True
 

@@ -37,7 +37,8 @@ def defects_section(runs: Sequence[Run]) -> str:
             tag = (f'<span class=muted>suppressed by <code>{esc(str(d["suppressed_by"]))}</code></span>'
                    if d.get("suppressed_by") else '<span class="warn">failed</span>')
             items.append(f"<li><b>{esc(str(d.get('kind', '?')))}</b> at <code>{esc(where)}</code> · {tag}"
-                         f"<br>{esc(str(d.get('first', '')))}<br><span class=muted>met by</span> {shown}</li>")
+                         f"<br>{esc(str(d.get('first', '')))}"
+                         f"<br><span class=muted>met by</span> {shown}</li>")
     if not items:
         return ""
     return (f"<h2 id=firmware-defects>Firmware defects found by the sanitizers ({len(items)})</h2>"

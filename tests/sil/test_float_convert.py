@@ -97,8 +97,10 @@ int main(void) {
 """
 
 
-@pytest.mark.parametrize("flags", [["-O1"], ["-O1", "-fsanitize=address,undefined", "-fsanitize-recover=all"]],
-                         ids=["plain", "sanitized"])
+SANITIZED = ["-O1", "-fsanitize=address,undefined", "-fsanitize-recover=all"]
+
+
+@pytest.mark.parametrize("flags", [["-O1"], SANITIZED], ids=["plain", "sanitized"])
 @pytest.mark.parametrize("low", [-100.0, 3e9, 5e9])
 def test_a_conversion_read_through_an_index_saturates_in_both_builds(tmp_path, flags, low):
     """What `list` does with a mode's range (docs/FIRMWARE-BEHAVIOUR.md#fb-list-ranges): the

@@ -27,8 +27,8 @@ def listings(tmp_path_factory):
     out = {}
     for name, options in BUILDS.items():
         transcript = folder / f"{name}.jsonl"
-        done = cli("script", str(script), "--target", f"sil:{firmware_tree()}{options}", "-o", str(transcript),
-                   cache=cache)
+        target = f"sil:{firmware_tree()}{options}"
+        done = cli("script", str(script), "--target", target, "-o", str(transcript), cache=cache)
         assert done.returncode == 0, done.stderr
         rows = [json.loads(line) for line in transcript.read_text().splitlines()]
         out[name] = "".join(r["partial"] if "partial" in r else r["line"] + "\n"

@@ -10,7 +10,12 @@ import subprocess
 
 import pytest
 
-from buildhat_conformance.sil.sanitizer_reports import Suppressions, SuppressionsError, crash_report, split_reports
+from buildhat_conformance.sil.sanitizer_reports import (
+    Suppressions,
+    SuppressionsError,
+    crash_report,
+    split_reports,
+)
 
 CC = shutil.which("cc") or shutil.which("gcc") or shutil.which("clang")
 pytestmark = pytest.mark.skipif(CC is None, reason="no C compiler on this machine")
