@@ -8,6 +8,8 @@ run stops talking to the target and every remaining case is reported ``not-run``
 ``<skipped>``) with the reason, so a hung HAT costs N cases, not the rest of the run. Before
 that, a target that can reset the HAT is reset once (conformance/plugin/recovery.py: ``--image`` and
 ``--signature`` load the release again after it), and the run goes on if the HAT comes back.
+On a firmware in the loop a crash or a sanitizer report is no target fault but a failure of the case
+that met it; the firmware is started again (plugin/firmware_findings.py).
 """
 from __future__ import annotations
 

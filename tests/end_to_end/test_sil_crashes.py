@@ -14,7 +14,7 @@ import xml.etree.ElementTree as ET
 
 import pytest
 from junit_props import suite_properties
-from sil_support import cli, copy_tree, firmware_tree, junit_verdicts, plant
+from sil_support import cli, copy_tree, firmware_tree, junit_verdicts, plant, whole_suite
 
 pytestmark = [pytest.mark.timeout(1200), pytest.mark.slow]
 
@@ -30,10 +30,9 @@ def cache(tmp_path_factory):
 @pytest.fixture(scope="module")
 def plain_r7(cache, tmp_path_factory):
     """Every case's verdict on the unchanged R7 tree, plain build: what every other case must keep."""
-    junit = tmp_path_factory.mktemp("r7") / "junit.xml"
-    done = cli("run", "--target", f"sil:{firmware_tree()}", "--junit", str(junit), cache=cache, timeout=900)
+    done, verdicts = whole_suite(cache, tmp_path_factory.mktemp("r7"))
     assert done.returncode == 0, done.stdout[-3000:]
-    return {name: verdict for name, verdict, _m in junit_verdicts(junit)}
+    return {name: verdict for name, verdict, _m in verdicts}
 
 
 @pytest.fixture(scope="module")

@@ -5,6 +5,7 @@ import json
 
 import pytest
 from sil_support import cli, copy_tree, firmware_tree, junit_verdicts, plant  # noqa: E402
+from sil_support import whole_suite as run_whole_suite
 
 pytestmark = pytest.mark.timeout(900)
 
@@ -16,9 +17,7 @@ def cache(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def whole_suite(cache, tmp_path_factory):
-    junit = tmp_path_factory.mktemp("silrun") / "junit.xml"
-    done = cli("run", "--target", f"sil:{firmware_tree()}", "--junit", str(junit), cache=cache, timeout=900)
-    return done, junit_verdicts(junit)
+    return run_whole_suite(cache, tmp_path_factory.mktemp("silrun"))
 
 
 def test_the_suite_passes_on_the_real_firmware_with_nothing_skipped(whole_suite):
