@@ -95,6 +95,17 @@ class TeeTarget(Target):
                 w.flush_stale()
         return data
 
+    def note(self, text: str) -> None:
+        """A note (a firmware's sanitizer report) in the transcript now being written."""
+        with self._lock:
+            w = self._writer()
+            if w is not None:
+                w.note(self._now_ms(), text)
+
+    def revived(self) -> None:
+        """The target's HAT was started again after it died (conformance/plugin/firmware_findings.py)."""
+        self.dead = None
+
     def close(self) -> None:
         self.inner.close()
 

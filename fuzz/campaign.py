@@ -225,10 +225,11 @@ class Campaign:
             k.clean = False           # the next run drains and syncs the new targets
 
     def after_failure(self, finding: Finding) -> None:
-        """A target that stopped answering is restarted; after any other failure it answered,
+        """A target that stopped answering (or whose firmware crashed) is restarted; after any other
+        failure it answered,
         and the next run's prelude (with a drain and a sync) brings it back to a known state:
         a restart would cost a kept-open target seconds per finding."""
-        if finding.oracle == "liveness" or not self.config.keep_open:
+        if finding.oracle in ("liveness", "crash") or not self.config.keep_open:
             self.discard_targets()
 
     # -- findings -------------------------------------------------------------------------------

@@ -157,6 +157,8 @@ def _report(args: argparse.Namespace, config: CampaignConfig, budget: Budget,
         layout = config.devices if config.fresh else None
         files[f.oracle] = write_finding(f.finding, args.out, header, meta, layout)
     oracles = ["liveness", "fate", "state", "hygiene"] + (["differential"] if config.open_secondary else [])
+    # (a firmware in the loop's crashes and sanitizer reports: a case each where they are checked)
+    oracles += [o for o in ("crash", "sanitizer") if stats.checks.get("sanitizer") or result.finding(o)]
     junit = args.junit or os.path.join(args.out, "junit.xml")
     properties = {"target": target, "against": args.against or "", "release": config.profile.name,
                   "seed": str(seed), "budget": str(budget), "inputs": str(stats.executions),

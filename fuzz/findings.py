@@ -107,6 +107,12 @@ def write_finding(finding: Finding, outdir: str, header: Sequence[str], meta: di
         write_transcript(p, trace, dict(meta, oracle=finding.oracle, finding=finding.message,
                                         target_label=trace.label))
         paths[trace.label] = p
+    reports = finding.details.get("reports")
+    if reports:       # a firmware in the loop's sanitizer reports (or crash), whole
+        p = os.path.join(outdir, f"{finding.oracle}.report.txt")
+        with open(p, "w", encoding="utf-8") as fh:
+            fh.write("\n\n".join(reports) + "\n")
+        paths["report"] = p
     expected = finding.details.get("expected")
     if expected:
         p = os.path.join(outdir, f"{finding.oracle}.expected.txt")

@@ -21,7 +21,10 @@ from typing import Dict, List, Optional, Type
 
 __all__ = ["ORACLES", "Finding", "finding_class", "raise_finding"]
 
-ORACLES = ("liveness", "fate", "state", "hygiene", "differential")
+# crash: a firmware in the loop died (a signal, a sanitizer report it cannot go on after);
+# sanitizer: it went on after a sanitizer report (sil/sanitizer_reports.py). Either can only be the
+# firmware's doing.
+ORACLES = ("liveness", "fate", "state", "hygiene", "differential", "crash", "sanitizer")
 
 
 class Finding(AssertionError):
@@ -46,6 +49,8 @@ FateFinding = _CLASSES["fate"]
 StateFinding = _CLASSES["state"]
 HygieneFinding = _CLASSES["hygiene"]
 DifferentialFinding = _CLASSES["differential"]
+CrashFinding = _CLASSES["crash"]            # (module attributes: a --jobs worker pickles them)
+SanitizerFinding = _CLASSES["sanitizer"]
 
 
 def finding_class(oracle: str) -> Type[Finding]:

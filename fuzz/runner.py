@@ -199,9 +199,11 @@ class Runner:
                     side.link.sync(side.fence_line)
                 out = drained + side.link.exchange(prelude, side.fence_line, 1, listing)
             except LinkTimeout as exc:
+                self.firmware_reports(side, prelude, exc.received)    # it crashed: that is a finding
                 # Not a finding: no fuzzed input was sent yet (the campaign counts these apart).
                 self.fail("liveness", f"{side.label}: no answer after the prelude: {exc}",
                           {"step": prelude, "received": exc.received, "prelude": True})
+            self.firmware_reports(side, prelude, out)
             self._track(side, out)      # (what an earlier run's set-up printed may arrive here)
             self._dump_open[self.sides.index(side)] = open_dump(_after_fence(out, side.fence_line))
             side.model.feed(prelude)
@@ -250,6 +252,7 @@ class Runner:
         try:
             side.link.send(data)
         except TargetError as exc:
+            self.firmware_reports(side, blob, b"")
             self.fail("liveness", f"{side.label}: the target went away: {exc}",
                       {"step": blob, "received": b""})
 
@@ -315,9 +318,11 @@ class Runner:
                                                 prompt=None if side.model.tainted else bool(side.model.echo),
                                                 at_least=1 if keep is not None and pause else None)
             except LinkTimeout as exc:
+                self.firmware_reports(side, plan.blob, ahead + exc.received)
                 message, more = liveness_message(side.label, str(exc), plan.blob, side.fence_line,
                                                  ahead + exc.received)
                 self.fail("liveness", message, dict(more, step=plan.blob, received=ahead + exc.received))
+            self.firmware_reports(side, plan.blob, got)
             if side is self.sides[0]:
                 self.stats.answered += 1
             answers.append(got)
@@ -380,7 +385,12 @@ class Runner:
         # A wait long enough for the ring to drain leaves only what still streams queued.
         self._queued = [0 if ms * WIRE_BYTES_PER_MS >= q else q for q in self._queued]
         for i, side in enumerate(self.sides):
-            out = side.link.wait(ms)
+            try:
+                out = side.link.wait(ms)
+            except (LinkTimeout, TargetError) as exc:
+                self.firmware_reports(side, b"", getattr(exc, "received", b""))
+                raise
+            self.firmware_reports(side, b"", out)
             self._note_kinds(out)
             self._track(side, out)
             self._dump_open[i] = open_dump(self._dump_open[i] + out)
@@ -493,6 +503,24 @@ class Runner:
                 return diff
             self._apart.add(port)
             self.stats.matrix_apart += 1
+
+    def firmware_reports(self, side: Side, blob: bytes, received: bytes) -> None:
+        """A firmware in the loop that crashed or reported (a sanitizer) while it took ``blob``: a
+        finding (``crash`` or ``sanitizer``), never a liveness one; reports the run's suppressions
+        cover are not (sil/sanitizer_reports.py)."""
+        take = getattr(side.link.target, "take_firmware_reports", None)
+        if take is None:
+            return
+        self.stats.count("crash")
+        self.stats.count("sanitizer")
+        found = [r for r in take() if r.suppressed_by is None]
+        if not found:
+            return
+        fatal = next((r for r in found if r.fatal), None)
+        message = found[0].first + (f" (then the firmware crashed: {fatal.first})"
+                                    if fatal is not None and fatal is not found[0] else "")
+        self.fail("crash" if fatal is not None else "sanitizer", f"{side.label}: {message}",
+                  {"step": blob, "received": received, "reports": [r.text for r in found]})
 
     def fail(self, oracle: str, message: str, details: dict) -> None:
         traces = [s.link.trace.copy() for s in self.sides]

@@ -434,6 +434,15 @@ class Session(Identification, Conversation):
         self._check()
         return bytes(self.received[offset:])
 
+    def forget_failure(self) -> None:
+        """The target's HAT died and was started again (a firmware in the loop, where a crash is a
+        finding and the run goes on): reading from it goes on. Virtual-time sessions only: their
+        reads are the caller's, no reader thread ended with the failure."""
+        if not self.virtual:
+            raise SessionError("only a virtual-time session can go on after its target failed")
+        with self._cond:
+            self._error = None
+
     def mark(self) -> int:
         """The index the next event will have (for ``expect(..., since=mark)``)."""
         with self._cond:

@@ -130,7 +130,9 @@ def _compiler_version(cc: str) -> str:
 
 def _flags(sanitize: Sequence[str], coverage: bool) -> Tuple[List[str], List[str], List[str]]:
     opt = ["-O0"] if coverage else ["-O1"]
-    san = [f"-fsanitize={','.join(sanitize)}", "-fno-sanitize-recover=all"] if sanitize else []
+    # Recoverable: the program goes on after a report where the sanitizer can (sil/process.py
+    # sets halt_on_error=0), so one run meets every report, each in the case that caused it.
+    san = [f"-fsanitize={','.join(sanitize)}", "-fsanitize-recover=all"] if sanitize else []
     fw = COMMON + opt + FIRMWARE + san + (["--coverage"] if coverage else [])
     st = COMMON + opt + STANDIN + san
     link = san + (["--coverage"] if coverage else [])

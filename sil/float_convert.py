@@ -24,7 +24,9 @@ from typing import List, Tuple
 
 __all__ = ["rewrite_conversions"]
 
-_CVT = re.compile(r"^(\s*)cvtt(ss|sd)2si([lq]?)\s+([^,]+),\s*%(\w+)\s*$")
+# The source may be a memory operand with an index (``172(%rbx,%rax)``, as a sanitized build
+# addresses arrays): everything up to the last comma.
+_CVT = re.compile(r"^(\s*)cvtt(ss|sd)2si([lq]?)\s+(.+),\s*%(\w+)\s*$")
 _REG32 = {"rax": "eax", "rbx": "ebx", "rcx": "ecx", "rdx": "edx", "rsi": "esi", "rdi": "edi",
           "rbp": "ebp", "rsp": "esp", **{f"r{i}": f"r{i}d" for i in range(8, 16)}}
 _MEM = re.compile(r"^(-?\d*)\((%\w+)(.*)\)$")

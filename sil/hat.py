@@ -23,6 +23,7 @@ from ..emulator.world import WorldError, perform_line
 from ..protocol.devices import DEFAULT_LAYOUT, parse_device_spec
 from .process import FirmwareDied, FirmwareProcess
 from .protocol import NS_PER_MS, encode
+from .sanitizer_reports import FirmwareReport
 from .world import SilWorld
 
 __all__ = ["SilHat", "FirmwareDied", "BOOT_LIMIT_MS"]
@@ -70,6 +71,9 @@ class SilHat:
         self._version: Optional[str] = None   # what `version` prints, once asked (reported_version)
         self._died_unreported = False
         self.hung = False
+        # Sanitizer reports the firmware went on after, and the one it died of: taken by
+        # whoever judges what the HAT is doing (take_reports).
+        self.reports: List[FirmwareReport] = []
         self._start()
 
     # -- the child process ---------------------------------------------------------------
@@ -91,6 +95,7 @@ class SilHat:
 
     def _die(self, exc: FirmwareDied) -> None:
         self.died = exc
+        self._collect(exc)
         self._died_unreported = True
         self.note(exc.summary)
         if exc.report:
@@ -117,6 +122,8 @@ class SilHat:
                 self._die(exc)
                 continue
             self._now_ns = self._base_ns + self.proc.now
+            if self.proc.reports:
+                self._collect()
             for frame in frames:
                 self._take(frame)
             self.outside.tick_due(self.now, self._now_ns / NS_PER_MS)
@@ -130,6 +137,21 @@ class SilHat:
                 self._seen += frame.payload
         else:
             self.outside.from_firmware(frame._replace(t=frame.t + self._base_ns))
+
+    def _collect(self, exc: Optional[FirmwareDied] = None) -> None:
+        if self.proc is None:             # it did not start: what it said is the death's
+            found = exc.findings if exc is not None else []
+        else:
+            found = self.proc.take_reports()
+        for report in found:
+            self.reports.append(report)
+            if not report.fatal:          # (the fatal one is in the death's own event)
+                self._sink("sanitizer", self.now, {"report": report.text})
+
+    def take_reports(self) -> List[FirmwareReport]:
+        """The firmware's reports since the last call, in order (a death's last)."""
+        out, self.reports = self.reports, []
+        return out
 
     # -- events ----------------------------------------------------------------------------
     def _event(self, kind: str, t: int, fields: Dict[str, Any]) -> None:
@@ -306,6 +328,10 @@ class SilHat:
         if bootloader:
             raise WorldError("a firmware tree's bootloader is not modelled")
         self.close()
+        # Power comes back on a whole HAT millisecond, as at the first power-on: the firmware's
+        # timers then keep the phase against the host's ms clock a fresh HAT has (a HAT started
+        # again after a crash is the HAT every case expects: sil/README.md).
+        self._now_ns = -(-self._now_ns // NS_PER_MS) * NS_PER_MS
         self._start()
 
     def arm_hang(self, lines: int) -> None:
@@ -325,6 +351,7 @@ class SilHat:
         own = ("proc", "outside", "_callbacks")
         dup.__dict__.update({k: v for k, v in self.__dict__.items() if k not in own})
         dup.events, dup._callbacks = [], []
+        dup.reports = list(self.reports)      # met in the start-up this copy also went through
         dup._out, dup._seen, dup.devices = bytearray(self._out), bytearray(self._seen), dict(self.devices)
         dup.proc = self.proc.fork()
         event = self.outside._event

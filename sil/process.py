@@ -10,6 +10,7 @@ the summary says what happened, ``report`` is all of it.
 from __future__ import annotations
 
 import os
+import re
 import select
 import shutil
 import signal
@@ -20,6 +21,7 @@ import tempfile
 from typing import List, Optional, Sequence, Tuple
 
 from .protocol import HEADER, HELLO, Frame, encode
+from .sanitizer_reports import FirmwareReport, crash_report, split_reports
 
 __all__ = ["FirmwareProcess", "FirmwareDied", "HANG_S"]
 
@@ -27,6 +29,8 @@ __all__ = ["FirmwareProcess", "FirmwareDied", "HANG_S"]
 # loop inside an interrupt handler never gives the clock back).
 HANG_S = 20.0
 _SANITIZER_EXIT = 86
+# What the stand-in prints as a fatal signal no sanitizer handles kills the program (link.c).
+_SAID_SIGNAL = re.compile(r"sil: the firmware was killed by (SIG[A-Z]+)")
 
 
 class FirmwareDied(RuntimeError):
@@ -38,6 +42,7 @@ class FirmwareDied(RuntimeError):
         super().__init__(summary)
         self.kind, self.summary, self.report = kind, summary, report
         self.frames: List[Frame] = []
+        self.findings: List[FirmwareReport] = []     # its reports, the fatal one last
 
 
 def _first_report_line(text: str) -> str:
@@ -58,19 +63,18 @@ def _sanitizer(report: str) -> str:
     return "UndefinedBehaviorSanitizer" if "runtime error" in report else "sanitizer"
 
 
-def _sanitized_report(report: str) -> bool:
-    return "Sanitizer" in report or "runtime error" in report
-
-
 class FirmwareProcess:
     def __init__(self, program: str, env: Optional[dict] = None, args: Sequence[str] = ()):
         self.program = program
         self._tmp = tempfile.mkdtemp(prefix="sil-")
         self._stderr_path = os.path.join(self._tmp, "stderr.txt")
         run_env = dict(os.environ if env is None else env)
-        # A sanitizer report ends the program with a clear status (and no core dump).
-        run_env.setdefault("ASAN_OPTIONS", f"abort_on_error=0:exitcode={_SANITIZER_EXIT}:detect_leaks=0")
-        run_env.setdefault("UBSAN_OPTIONS", f"halt_on_error=1:exitcode={_SANITIZER_EXIT}:print_stacktrace=1")
+        # A report the sanitizer can go on after does not end the program (the build recovers,
+        # sil/build.py): every report of a run is seen, each by the case that met it. One it
+        # cannot go on after ends it with a clear status (and no core dump).
+        run_env.setdefault("ASAN_OPTIONS", f"abort_on_error=0:halt_on_error=0:exitcode={_SANITIZER_EXIT}"
+                                           ":detect_leaks=0")
+        run_env.setdefault("UBSAN_OPTIONS", f"halt_on_error=0:exitcode={_SANITIZER_EXIT}:print_stacktrace=1")
         self.proc: Optional[subprocess.Popen] = None
         self.conn: Optional[socket.socket] = None
         try:
@@ -86,6 +90,8 @@ class FirmwareProcess:
         self._start()
 
     def _start(self) -> None:
+        self.reports: List[FirmwareReport] = []     # reports not yet taken (take_reports)
+        self._stderr_read = 0
         self._buf = bytearray()
         self.now = 0
         self.ended: Optional[FirmwareDied] = None
@@ -146,7 +152,31 @@ class FirmwareProcess:
         y, frames = self._until("y")
         self.now = y.t
         self.host_quiet = y.payload[:1] == b"\x03"
+        self._read_reports()
         return frames
+
+    # -- reports the firmware went on after ----------------------------------------------------
+    def _read_reports(self) -> List[FirmwareReport]:
+        """The reports written to stderr since the last look (complete: the firmware writes a
+        report before it runs on, and it has stopped)."""
+        try:
+            size = os.stat(self._stderr_path).st_size
+        except OSError:
+            return []
+        if size <= self._stderr_read:
+            return []
+        with open(self._stderr_path, "rb") as fh:
+            fh.seek(self._stderr_read)
+            text = fh.read(size - self._stderr_read).decode("utf-8", "replace")
+        self._stderr_read = size
+        found, _other = split_reports(text)
+        self.reports.extend(found)
+        return found
+
+    def take_reports(self) -> List[FirmwareReport]:
+        """The reports met since the last call (the fatal one too, once the firmware died)."""
+        out, self.reports = self.reports, []
+        return out
 
     def _until(self, kind: str) -> Tuple[Frame, List[Frame]]:
         """Frames up to the first of ``kind`` (which is returned apart)."""
@@ -202,19 +232,33 @@ class FirmwareProcess:
     def _died(self, frames: List[Frame]) -> FirmwareDied:
         code = self._exit_code()
         report = self.stderr_text()
-        first = _first_report_line(report)
-        if code is not None and code < 0:
-            name = signal.Signals(-code).name if -code in signal.Signals._value2member_map_ else str(-code)
-            died = FirmwareDied("crashed", f"the firmware crashed ({name})" + (f": {first}" if first else ""),
+        seen = len(self.reports)
+        self._read_reports()
+        found = self.reports[seen:]
+        first = found[-1].first if found else _first_report_line(report)
+        said = _SAID_SIGNAL.search(report)
+        signalled = code is not None and code < 0
+        if signalled or said:
+            number = -(code or 0)
+            name = said.group(1) if said else (
+                signal.Signals(number).name if number in signal.Signals._value2member_map_ else str(number))
+            died = FirmwareDied("crashed", f"the firmware crashed ({name})" + (f": {first}" if found else ""),
                                 report)
-        elif code == _SANITIZER_EXIT or _sanitized_report(report):
-            died = FirmwareDied("crashed", f"the firmware crashed ({_sanitizer(report)}): "
-                                           f"{first or 'sanitizer report'}", report)
+            if not found:             # a plain build's signal: no sanitizer said where
+                found = [crash_report(name, report)]
+                self.reports.extend(found)
+        elif code == _SANITIZER_EXIT or found:
+            which = _sanitizer(found[-1].text if found else report)
+            died = FirmwareDied("crashed", f"the firmware crashed ({which}): {first or 'sanitizer report'}",
+                                report)
         elif code is None:
             died = FirmwareDied("exited", "the firmware ended" + (f": {first}" if first else ""), report)
         else:
             died = FirmwareDied("exited", f"the firmware exited with status {code}"
                                 + (f": {first}" if first else ""), report)
+        if found and died.kind == "crashed":
+            found[-1].fatal = True
+        died.findings = found
         died.frames = frames
         self.ended = died
         return died

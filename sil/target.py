@@ -7,7 +7,9 @@ its ports are the emulator's device models, so world actions work as on ``inproc
 
 URL options: ``device=P=SPEC`` (repeatable), ``seed=N``, ``booted=0`` (open before the
 start-up; default: open a HAT whose start-up is done), ``sanitize=address,undefined``,
-``coverage=1``, ``firmware=RELEASE`` (the release whose device-side timing the world uses;
+``coverage=1``, ``suppressions=FILE`` (sanitizer reports the developer has acknowledged, in the
+sanitizers' own ``kind:pattern`` format: listed as suppressed, not failed;
+sil/sanitizer_reports.py), ``firmware=RELEASE`` (the release whose device-side timing the world uses;
 default: latest). Time is virtual, as on ``inprocess`` (nothing reads the wall clock);
 ``speed=N`` runs it paced to the wall clock instead, N times real time, on a pseudo-terminal
 (``buildhat-emulator --sil``), for host libraries and timing checks.
@@ -22,6 +24,7 @@ from urllib.parse import parse_qs, unquote
 from ..emulator.inprocess_target import HatModel, InProcessControl, InProcessTarget, _parse_devices
 from ..harness.targets.base import TargetCrashed, TargetError
 from .process import FirmwareDied
+from .sanitizer_reports import FirmwareReport, Suppressions, SuppressionsError
 
 if TYPE_CHECKING:
     from .hat import SilHat
@@ -90,17 +93,21 @@ class SilTarget(InProcessTarget):
     """The firmware in a child process, the world in this one; one new HAT per open."""
 
     def __init__(self, program: str, url: str, devices: Optional[Dict[int, Any]] = None, seed: int = 0,
-                 boot: bool = True, firmware: Optional[str] = None, build: Any = None):
+                 boot: bool = True, firmware: Optional[str] = None, build: Any = None,
+                 suppressions: Optional[Suppressions] = None):
         super().__init__(firmware=firmware, devices=devices, seed=seed, boot=boot, url=url,
                          factory=self._make)
         self.program = program
+        self.suppressions = suppressions or Suppressions(program=program)
         self.build = build          # the sil.build.Build when the URL named a tree
         self.disposable = True      # every open starts a new firmware process
         self.control = SilControl(self)
         # wire_input: host bytes cross a 115200-baud wire in HAT time (one per 87 us), so the HAT
         # may print between two bytes of one line (fuzz/link.py's ``timed``).
+        # firmware_reports: a crash or a sanitizer report can only be the firmware's doing (there
+        # is no power to fail): a finding, and the HAT is started again (take_firmware_reports).
         self.capabilities = frozenset({"control", "virtual_time", "drive_events", "device_frames",
-                                       "wire_input"})
+                                       "wire_input", "firmware_reports"})
 
     # The firmware does not say what each line ran (the emulator's white-box ``line_records``):
     # tools that look for them treat this target as the black box it is.
@@ -165,6 +172,23 @@ class SilTarget(InProcessTarget):
         except FirmwareDied as exc:
             raise TargetError(f"sil: {exc.summary}") from None
 
+    def take_firmware_reports(self) -> List[FirmwareReport]:
+        """The firmware's sanitizer reports (and the crash it died of) since the last call, each
+        marked when the run's suppressions cover it."""
+        hat: Any = self.emulator
+        if hat is None:
+            return []
+        found = hat.take_reports()
+        for report in found:
+            report.suppressed_by = self.suppressions.match(report)
+        return found
+
+    @property
+    def firmware_crashed(self) -> bool:
+        """The firmware died (a signal, a report it could not go on after) and is not started again."""
+        hat: Any = self.emulator
+        return hat is not None and hat.died is not None and hat.died.kind == "crashed"
+
     def close(self) -> None:
         hat = self.emulator
         if hat is not None:
@@ -192,7 +216,7 @@ class SilTarget(InProcessTarget):
             raise TargetError(exc.summary) from None
 
 
-_KNOWN = {"device", "seed", "booted", "boot", "sanitize", "coverage", "firmware", "speed"}
+_KNOWN = {"device", "seed", "booted", "boot", "sanitize", "coverage", "firmware", "speed", "suppressions"}
 
 
 def from_url(url: str, **options) -> Any:
@@ -215,6 +239,14 @@ def from_url(url: str, **options) -> Any:
         raise TargetError(f"sil: seed must be a whole number, got {q['seed'][-1]!r}") from None
     firmware = q["firmware"][-1] if "firmware" in q else None
     program, build = program_for(where, sanitize, coverage)
+    suppressions = None
+    if "suppressions" in q:
+        if "speed" in q:
+            raise TargetError("sil: suppressions= is for the firmware in virtual time, not with speed=")
+        try:
+            suppressions = Suppressions.read(unquote(q["suppressions"][-1]), program)
+        except SuppressionsError as exc:
+            raise TargetError(f"sil: {exc}") from None
     if build is not None and build.coverage:
         from .coverage import reset_counts
         reset_counts(build)          # the figure at the end is this run's, not the sum of all runs
@@ -235,5 +267,5 @@ def from_url(url: str, **options) -> Any:
         return EmulatorTarget(url, firmware=firmware or "latest", speed=speed, devices=layout,
                               booted=booted, seed=seed, command=command, **options)
     return SilTarget(program, url, devices=devices, seed=seed, boot=booted, firmware=firmware, build=build,
-                     **options)
+                     suppressions=suppressions, **options)
 

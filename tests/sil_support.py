@@ -47,3 +47,11 @@ def junit_verdicts(path: pathlib.Path) -> List[tuple]:
         message = next((c.get("message") or "" for c in case if c.tag in ("failure", "error", "skipped")), "")
         out.append((case.get("name"), props.get("verdict"), message))
     return out
+
+
+def whole_suite(cache: pathlib.Path, folder: pathlib.Path, options: str = "") -> tuple:
+    """The whole suite on the R7 tree (``options``: the URL's ``?...``): the command and its verdicts."""
+    junit = folder / "junit.xml"
+    done = cli("run", "--target", f"sil:{firmware_tree()}{options}", "--junit", str(junit), cache=cache,
+               timeout=900)
+    return done, junit_verdicts(junit)

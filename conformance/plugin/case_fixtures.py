@@ -97,7 +97,9 @@ def _conformance_case(request: Any, _run: Run) -> Any:
         if not item.stash.get(_call_failed_key, False):
             hat.check_reboot()     # a restart late in a case that did not fence after it
     finally:
-        _run.tee.switch(None)
+        _run.after_case_firmware(item)     # a firmware in the loop: its reports; started again if it crashed
+        if _run.tee is not None:
+            _run.tee.switch(None)
         writer.close()
         # H10 (make bench): the HAT time this case had to wait, summed by bench/suite.py.
         item.user_properties.append(

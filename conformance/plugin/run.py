@@ -8,6 +8,8 @@ run stops talking to the target and every remaining case is reported ``not-run``
 ``<skipped>``) with the reason, so a hung HAT costs N cases, not the rest of the run. Before
 that, a target that can reset the HAT is reset once (conformance/plugin/recovery.py: ``--image`` and
 ``--signature`` load the release again after it), and the run goes on if the HAT comes back.
+On a firmware in the loop a crash or a sanitizer report is no target fault but a failure of the case
+that met it; the firmware is started again (plugin/firmware_findings.py).
 """
 from __future__ import annotations
 
@@ -28,6 +30,8 @@ from ..link_clauses import MARKER as CLAUSE_MARKER
 from ..target_fault import TargetFault, fault_line, first_line, is_target_fault
 from ..tee import TeeTarget, tee
 from ..verdict import FAIL, INFO, KNOWN, NOT_RUN, PASS, SKIP, TARGET_FAULT, UnknownBuild, Verdict
+from .firmware_findings import PROPERTY as DEFECTS_PROPERTY
+from .firmware_findings import FirmwareFindings
 from .junit import Case, JUnitFile, failure_line
 from .options import settle_output_paths
 from .recovery import RecoveryFailed, ResetRecovery
@@ -42,6 +46,7 @@ EXIT_OK, EXIT_FAILED, EXIT_TARGET = 0, 1, 3
 _verdict_key = pytest.StashKey[Verdict]()
 _not_run_key = pytest.StashKey[str]()          # why the case was not run
 _call_failed_key = pytest.StashKey[bool]()
+_reports_key = pytest.StashKey[List[Any]]()    # the firmware's reports met in this case, not yet judged
 
 
 def pytest_configure(config: Any) -> None:
@@ -107,6 +112,7 @@ class Run:
         self.reset_due: Optional[str] = None    # why the next case begins with the run's one reset
         self.junit = JUnitFile(config.getoption("conformance_junit"), "buildhat-conformance",
                                [("target", self.url)])
+        self.firmware = FirmwareFindings()      # a firmware in the loop's own defects (sanitizers)
 
     # -- the shared session --------------------------------------------------------------
     def open(self) -> Hat:
@@ -203,17 +209,76 @@ class Run:
             if item.get_closest_marker("timeout") is None:
                 item.add_marker(pytest.mark.timeout(DEFAULT_CASE_TIMEOUT))
 
+    # -- a firmware in the loop's crashes and sanitizer reports (plugin/firmware_findings.py) ------
+    def take_firmware_reports(self, item: Any) -> None:
+        """The firmware's new reports, into this case (its transcript, the run's list)."""
+        if self.tee is None:
+            return
+        found = self.firmware.take(self.tee, item.nodeid)
+        if found:
+            item.stash.setdefault(_reports_key, []).extend(found)
+            self.junit.set_property(DEFECTS_PROPERTY, self.firmware.as_property())
+
+    def after_case_firmware(self, item: Any) -> None:
+        """At the end of a case: its reports taken, and a firmware that crashed started again (its
+        start-up in this case's transcript); the next case's fence restores the set-up."""
+        self.take_firmware_reports(item)
+        target = FirmwareFindings.target_of(self.tee)
+        if target is None or self.hat is None or not target.firmware_crashed:
+            return
+        from ...harness.errors import ExpectTimeout
+        from .recovery import ANSWER_S
+
+        assert self.tee is not None
+        session = self.hat.session
+        self.tee.revived()
+        session.forget_failure()
+        since = session.mark()
+        try:
+            session.reset(timeout=ANSWER_S)
+        except (TargetError, ExpectTimeout) as exc:
+            self.take_firmware_reports(item)
+            self._stop(f"the firmware crashed in {item.nodeid} and did not answer when started again "
+                       f"({first_line(str(exc))})")
+            return
+        self.hat.after_reset(since)
+
+    def _judge_firmware_reports(self, item: Any, report: Any) -> bool:
+        """Fail this phase of the case with the firmware's reports it met (not suppressed); True
+        when it did. Reports met while setting up wait for the case itself."""
+        self.take_firmware_reports(item)
+        pending = item.stash.get(_reports_key, [])
+        if not pending or (report.when == "setup" and not report.failed):
+            return False
+        item.stash[_reports_key] = []
+        met = [r for r in pending if r.suppressed_by is None]
+        if not met:
+            return False
+        # The first report met names the defect; a crash that followed it is said after it.
+        fatal = next((r for r in met if r.fatal), None)
+        message = met[0].first + (f" (then the firmware crashed: {fatal.first})"
+                                  if fatal is not None and fatal is not met[0] else "")
+        before = report.longreprtext if report.failed else ""
+        report.outcome = "failed"
+        report.longrepr = "\n\n".join([message] + [r.text for r in met]
+                                       + ([f"(what the case saw)\n{before}"] if before else []))
+        return True
+
     @pytest.hookimpl(hookwrapper=True)
     def pytest_runtest_makereport(self, item: Any, call: Any):
         outcome = yield
         report = outcome.get_result()
         exc = call.excinfo.value if call.excinfo is not None else None
         verdict = item.stash.get(_verdict_key, None)
+        if self._judge_firmware_reports(item, report):
+            # The firmware's own defect: a failure of this case, never a target fault.
+            exc = FirmwareDefect(report.longreprtext)
         if report.when == "call" and verdict is not None and isinstance(exc, UnknownBuild):
             # The check needed a behaviour the releases around this unknown build differ on.
             verdict.inform(str(exc))
             report.outcome, report.longrepr, exc = "passed", None, None
-        if report.failed and not is_target_fault(exc) and self.hat is not None:
+        if report.failed and not is_target_fault(exc) and self.hat is not None and \
+                not isinstance(exc, FirmwareDefect):
             # A check that failed while the target flooded the link or spewed garbage failed
             # because of the link: a target fault, not a protocol failure.
             exc = self.hat.babble() or exc
@@ -384,6 +449,8 @@ class Run:
         if idle is not None and self.no_job is None:
             self.no_job = idle
             self.junit.set_property("stopped", idle)
+        if self.firmware.defects:
+            self.junit.set_property(DEFECTS_PROPERTY, self.firmware.as_property())
         if self.results:    # the run's verdict in words, skips counted (for reports that show it)
             self.junit.set_property("banner", banner(self.results, self.skip_reasons, self.has_control))
         self.junit.write()
@@ -404,6 +471,10 @@ class Run:
     def pytest_terminal_summary(self, terminalreporter: Any) -> None:
         if self.results:
             write_summary(terminalreporter, self)
+
+
+class FirmwareDefect(Exception):
+    """A firmware in the loop crashed or broke a sanitizer's rule in this case: a failure."""
 
 
 class CannotJudge(Exception):

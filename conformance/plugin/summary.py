@@ -51,6 +51,8 @@ def write_summary(tr: Any, run: Any) -> None:
         tr.write_line(f"  {nodeid}: {what}")
     if len(run.target_faults) > 20:
         tr.write_line(f"  ... and {len(run.target_faults) - 20} more target faults (JUnit has them all)")
+    for text, failed in run.firmware.lines():
+        tr.write_line(text, red=failed, yellow=not failed)
     hat = run.hat
     for line in (hat.clauses.broken() if hat is not None else []):
         tr.write_line(f"clause the harness relies on broke: {line}; its set-up went on without it", red=True)

@@ -7,6 +7,7 @@ from typing import Dict, List, Optional, Sequence, Tuple
 
 from ...protocol.behaviour import anchors_in, section_text
 from .coverage import Coverage
+from .html_defects import defects_section
 from .html_triage import (
     by_requirement_section,
     failure_groups_section,
@@ -275,6 +276,7 @@ def render_html(runs: Sequence[Run], cov: Coverage, excerpts: Dict[int, List[str
         ("coverage", "coverage"), ("cases", "all cases"), ("legend", "legend")))
     body = "".join([
         summary_section(runs, triage.changes, f"built {now} by buildhat-conformance {tool_version}"),
+        defects_section(runs),          # a firmware in the loop's own defects (sanitizers, crashes)
         failure_groups_section(groups),
         faults_section(faults),
         skips_section(skips),

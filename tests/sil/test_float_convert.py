@@ -80,3 +80,41 @@ def test_unrewritten_host_code_differs_so_the_test_can_fail(tmp_path):
     subprocess.run([cc(), "-O1", str(src), "-o", str(exe)], check=True)
     row = subprocess.run([str(exe)], capture_output=True, text=True, check=True).stdout.split()
     assert int(row[0]) != chip_u32(-100.0)
+
+
+INDEXED = r"""
+#include <stdio.h>
+struct mode { char name[12]; float low, high; };
+struct mode modes[4];
+volatile int which = 2;
+void shown(unsigned low, unsigned high) { printf("%%u %%u\n", low, high); }
+int main(void) {
+    modes[which].low = %sf;
+    modes[which].high = 100.0f;
+    shown(modes[which].low, modes[which].high);
+    return 0;
+}
+"""
+
+
+SANITIZED = ["-O1", "-fsanitize=address,undefined", "-fsanitize-recover=all"]
+
+
+@pytest.mark.parametrize("flags", [["-O1"], SANITIZED], ids=["plain", "sanitized"])
+@pytest.mark.parametrize("low", [-100.0, 3e9, 5e9])
+def test_a_conversion_read_through_an_index_saturates_in_both_builds(tmp_path, flags, low):
+    """What `list` does with a mode's range (docs/FIRMWARE-BEHAVIOUR.md#fb-list-ranges): the
+    sanitized build addresses the array through a register (``172(%rbx,%rax)``), which the pass
+    must read too, or the sanitized firmware prints FFFFFF9C where the chip prints 00000000."""
+    src = tmp_path / "modes.c"
+    src.write_text(INDEXED % repr(low))
+    asm = tmp_path / "modes.s"
+    subprocess.run([cc(), *flags, "-mno-red-zone", "-S", str(src), "-o", str(asm)], check=True)
+    text, count = rewrite_conversions(asm.read_text(), "t")
+    assert count >= 2, "the program's conversions were not all found"
+    asm.write_text(text)
+    exe = tmp_path / "modes"
+    subprocess.run([cc(), *flags, str(asm), "-o", str(exe)], check=True)
+    got = subprocess.run([str(exe)], capture_output=True, text=True, check=True).stdout.split()
+    f32 = struct.unpack("<f", struct.pack("<f", low))[0]
+    assert [int(x) for x in got] == [chip_u32(f32), 100]
