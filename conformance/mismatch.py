@@ -13,10 +13,12 @@ from typing import List, Optional, Union
 
 from .reply import Reply
 
-__all__ = ["same", "rejected", "accepted", "first_difference", "shown"]
+__all__ = ["same", "rejected", "accepted", "first_difference", "shown", "EXPECTED_REPLY", "RECEIVED_REPLY"]
 
 CR = b"\r"
 CLIP = 100        # characters of one line a message shows
+EXPECTED_REPLY = "expected reply: "     # a failure message's second and third lines: each whole reply
+RECEIVED_REPLY = "received reply: "
 
 
 def shown(line: Optional[bytes]) -> str:
@@ -60,7 +62,10 @@ def same(got: Union[Reply, bytes], expected: bytes, what: str = "",
     line = got.sent if isinstance(got, Reply) else sent.encode() if isinstance(sent, str) else sent
     said = f"sent {shown(line.rstrip(CR))}: " if line is not None else ""
     expect = f"expected {what}; " if what else ""
-    raise AssertionError(f"{said}{expect}{first_difference(expected, raw)}")
+    # The headline, then both replies whole on lines of their own (REPLY_LINES), which the report
+    # reads back to show them side by side (conformance/report/triage.py).
+    raise AssertionError(f"{said}{expect}{first_difference(expected, raw)}\n"
+                         f"{EXPECTED_REPLY}{expected!r}\n{RECEIVED_REPLY}{raw!r}")
 
 
 def rejected(got: Union[Reply, bytes]) -> None:

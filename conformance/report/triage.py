@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 from typing import Dict, List, Optional, Sequence, Tuple
 
 from ...harness.transcript import field_bytes, iter_events
+from ..mismatch import EXPECTED_REPLY, RECEIVED_REPLY
 from .junit import Case, Run
 
 __all__ = ["MODULE_PATH", "NOTHING", "scrub", "Exchange", "headline", "exchange_of", "FailureGroup",
@@ -27,6 +28,8 @@ _REPR = re.compile(r"<[\w.]+ object at 0x[0-9a-fA-F]+>")
 MODULE_PATH = re.compile(r"^(?:[a-z_]\w*\.)+(?=[A-Z]\w*: )")
 # "... got '<line>'" in an oracle's reason: the received line that is wrong.
 _GOT = re.compile(r"\bgot (?P<q>['\"])(?P<line>.*?)(?P=q)(?:$|[,;)]|\s)")
+# ... and in the suite's own voice (conformance/mismatch.py): "...; came `<line>`".
+_CAME = re.compile(r"\bcame `(?P<line>[^`]*)`")
 _FENCE = "version"
 NOTHING = "(nothing)"
 
@@ -114,6 +117,24 @@ def _assertion(detail: str) -> Optional[Tuple[List[str], List[str]]]:
         if got_l == want_l:
             continue      # one equal part of a longer expression (``a == b and c == d``)
         return got_l, want_l
+    return None
+
+
+def _stated(detail: str) -> Optional[Tuple[List[str], List[str]]]:
+    """(received, expected) lines from a suite-voiced failure (conformance/mismatch.py), which
+    states both replies whole, each on a line of its own after its label."""
+    found: Dict[str, object] = {}
+    for raw in detail.splitlines():
+        line = raw[1:].strip() if raw.startswith("E ") else raw.strip()
+        for label in (EXPECTED_REPLY, RECEIVED_REPLY):
+            if line.startswith(label):
+                try:
+                    found[label] = ast.literal_eval(line[len(label):])
+                except (ValueError, SyntaxError):
+                    pass
+    want, got = found.get(EXPECTED_REPLY), found.get(RECEIVED_REPLY)
+    if isinstance(want, bytes) and isinstance(got, bytes):
+        return _lines(got), _lines(want)
     return None
 
 
@@ -215,7 +236,7 @@ def _commands(path: str) -> List[Tuple[str, List[str]]]:
 
 def exchange_of(case: Case) -> Exchange:
     ex = Exchange(why=headline(case))
-    parsed = _assertion(case.detail)
+    parsed = _stated(case.detail) or _stated(case.message) or _assertion(case.detail)
     if parsed:
         ex.received, ex.expected = parsed
         ex.first_expected, ex.first_received = _first_difference(ex.expected, ex.received)
@@ -233,7 +254,7 @@ def exchange_of(case: Case) -> Exchange:
             # The command whose reply holds the received line that differs, if one does.
             probe = ex.first_received if ex.first_received not in ("", NOTHING) else ""
             words = set(re.findall(r"[\w?]+", ex.why))
-            quoted = [m.group("line") for m in _GOT.finditer(ex.why)]
+            quoted = _quoted(ex.why)
             if probe:
                 pick = next((c for c in reversed(commands) if probe in c[1]), pick)
             elif quoted:
@@ -246,11 +267,16 @@ def exchange_of(case: Case) -> Exchange:
     return ex
 
 
+def _quoted(why: str) -> List[str]:
+    """The received lines a reason quotes as wrong (an oracle's ``got '…'``, the suite's ``came `…```)."""
+    return [m.group("line") for m in _GOT.finditer(why)] + [m.group("line") for m in _CAME.finditer(why)]
+
+
 def _wrong_line(ex: Exchange) -> int:
     """Where in the reply the wrong line is: the assertion's first differing received line, or
     the line an oracle's reason quotes after ``got``."""
     wanted = [ex.first_received] if ex.first_received not in ("", NOTHING) else []
-    wanted += [m.group("line") for m in _GOT.finditer(ex.why)]
+    wanted += _quoted(ex.why)
     for want in wanted:
         for i, line in enumerate(ex.reply):
             if line == want:
