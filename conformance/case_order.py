@@ -17,6 +17,8 @@ import importlib.util
 import random
 from typing import Any, Dict, List, Optional
 
+from ..harness.extras import install_hint
+
 __all__ = ["MARKER", "RANDOM", "resolve_seed", "order_argv", "keep_together", "seed_in_use"]
 
 MARKER = "together"
@@ -32,7 +34,7 @@ def resolve_seed(value: Optional[str]) -> Optional[int]:
         return None
     if importlib.util.find_spec("pytest_randomly") is None:
         raise ValueError("--random-order needs pytest-randomly, which is not installed: "
-                         "pip install 'buildhat-conformance[order]'")
+                         + install_hint("order"))
     if value == RANDOM:
         return random.SystemRandom().randrange(2 ** 32)
     if not value.isdigit():

@@ -68,7 +68,7 @@ class _Answers:
         self.refused = refused
         self.asked: List[str] = []
 
-    def __call__(self, line: str) -> "_Answers":
+    def __call__(self, line: str) -> _Answers:
         self.asked.append(line)
         self.errors = int(line.split()[0] in self.refused)
         return self
