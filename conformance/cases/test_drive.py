@@ -178,6 +178,10 @@ def test_pwmparams_shape_the_drive(hat: Hat, world: World, motor_port: int, para
     if not hat.has("pwmparams"):
         rejected(hat.exchange(f"port {p} ; pwmparams {params}"))
         return
+    # Slow PWM carries an accumulator from the port's last slow-PWM drive, and a motor an earlier case
+    # left in some state of its own may drop out mid-window (a port reset: drive 0 from there on).
+    # A port reset first, where the world can (#fb-port-reset), so the window starts from defaults.
+    world.replug(p)
     drive(hat, p, f"pwm ; plimit 1 ; pwmparams {params} ; set {setpoint}")
     try:
         hat.wait_ms(100)
