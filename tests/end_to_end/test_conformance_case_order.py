@@ -2,7 +2,8 @@
 refuses. Through the user's command: ``run --random-order SEED`` (pytest-randomly) gives the same
 verdict for every case as the suite's own order, on the emulator and on the firmware in the loop;
 a firmware tree without a command its profile has (R7 without `pwmparams`) fails the cases about
-that command, says once that its set-up goes on without it, and no other case changes."""
+that command, says once that its set-up goes on without it, and no other case changes; R7 answering
+as a build judged as R5 (no `bias`) fails no case."""
 from __future__ import annotations
 
 import importlib.util
@@ -117,3 +118,13 @@ def test_a_tree_without_a_command_of_its_profile_fails_only_its_cases(cache, sil
     changed = differences(sil_own_order, verdicts(junit))
     assert changed and all("pwmparams" in name for name in changed), changed
     assert all(v == ["pass", "fail"] for v in changed.values()), changed
+
+
+def test_a_build_without_bias_judged_as_r5_fails_no_case_it_passes_alone(tmp_path):
+    # Issue 38's first sighting, on the emulator: R7 (no `bias`) answering as a 2023-01-26 build, so judged
+    # as R5 (which has it). Its set-up once stopped at `bias 0`, and a case left the motor's shaft held.
+    url = "inprocess:R7?version=1674748800%202023-01-26T12:00:00%2B00:00"
+    done, junit = _run("--target", url, "--junit", str(tmp_path / "junit.xml"))
+    said = "this build has no `bias`: set-up goes on without it"
+    assert done.returncode == 0 and done.stdout.count(said) == 1, done.stdout[-3000:]
+    assert "fail" not in {v for _n, v in verdicts(junit)}
