@@ -6,6 +6,7 @@ import argparse
 
 from ..harness.cli_options import DEFAULT_SPEED, RELEASE_HELP, SPEED_HELP, add_target_option
 from ..harness.lab.selection import add_lab_arguments
+from .case_order import RANDOM
 from .lab_run import hold_for_run
 from .run_passthrough import PYTEST_HELP, UNKNOWN_ARGS_HINT, refused_arguments
 from .runner import run
@@ -42,6 +43,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("-k", dest="keyword", default=None, metavar="EXPR",
                         help="only the cases matching this pytest -k expression "
                              "(e.g. 'select and not combi')")
+    parser.add_argument("--random-order", nargs="?", const=RANDOM, default=None, metavar="SEED",
+                        help="run the cases in an order shuffled with SEED (pytest-randomly), or with a new "
+                             "seed that the run prints; default: the suite's own order")
     parser.add_argument("--operator", action="store_true", help="ask a person for plug/unplug actions")
     parser.add_argument("--max-target-faults", type=int, default=None, metavar="N",
                         help="after N target faults in a row reset the HAT once if the target can (the "

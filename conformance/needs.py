@@ -250,6 +250,17 @@ class World:
     def unplug(self, port: int) -> None:
         self.plug(port, None)
 
+    def replug(self, port: int) -> bool:
+        """Plug the device on ``port`` in again, where the world can: the HAT resets the port
+        (docs/FIRMWARE-BEHAVIOUR.md#fb-port-reset) and the device starts afresh, so nothing an
+        earlier case left there (a preset position, an unwrapped PV) remains. False: it cannot."""
+        if not self.can("plug"):
+            return False
+        spec = self.spec_of(self.layout()[port])
+        self.plug(port, None)
+        self.plug(port, spec)
+        return True
+
     def _wait_for(self, port: int, spec: Spec) -> None:
         """Until ``list`` shows ``spec`` on the port. ``list`` is asked again when the HAT prints
         a line that ends a change on that port (FACTS §5), or after ``STEP_MS`` without one

@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING, Any, List, Optional
 
 from ..harness.errors import ExpectTimeout, TargetError
 from .link_clauses import LinkClauses
+from .setup_check import SetupCheck
 from .target_fault import (
     GARBLED,
     REBOOTED,
@@ -80,6 +81,10 @@ class Resync:
         self.restarts = 0               # restarts seen (and recovered from) in this run
         self._restart_asked = False     # the case reset the HAT itself (a world action)
         self._restart_at: Optional[int] = None
+        #: Which set-up commands the target accepts (conformance/setup_check.py).
+        self.setup_check = SetupCheck()
+        #: Lines said about refused set-up commands not yet shown (the case fixture takes them).
+        self.setup_said: List[str] = []
 
     def _recover(self, start: int, start_byte: int, waited: float) -> TargetFault:
         """The counted fence found no answer: sync by content to put the link back in step, and
@@ -164,23 +169,29 @@ class Resync:
                                         "end of the flood heard in the case before")
         return None
 
-    def cleanup_lines(self, powered: tuple[int, ...] = (), separate: bool = False) -> List[str]:
-        """What the fence between test cases sends: echo/debug off, every port quiet and in
-        direct-PWM mode with a zero constant setpoint and the default limit. Ports in
-        ``powered`` keep their drive: a light matrix disconnects when its power goes.
-        ``separate``: one command per line (the `;` separator is not trusted)."""
+    def cleanup_commands(self, powered: tuple[int, ...] = ()) -> List[str]:
+        """What the set-up between test cases puts the HAT back with, one command each: echo/debug
+        off, every port quiet and in direct-PWM mode with a zero constant setpoint and the default
+        bias and PWM parameters, as far as the profile has those commands. Ports in ``powered``
+        keep their drive: a light matrix disconnects when its power goes."""
         parts = ["echo 0", "debug 0"]
         for p in range(4):
             parts += [f"port {p}", "select"] + ([] if p in powered else ["pwm", "off"])
             if self.profile.has("bias"):      # the profile's table: a cleanup is never a verdict
                 parts.append("bias 0")
-        if self.profile.has("pwmparams"):
-            parts = parts + [f"port {p} ; pwmparams 0 0" for p in range(4)]
+            if self.profile.has("pwmparams"):
+                parts.append("pwmparams 0 0")
         # plimit is left alone: a powered light matrix needs it, and tests that depend on the
         # default limit set it themselves.
-        parts += ["port 0"]
+        return parts + ["port 0"]
+
+    def cleanup_lines(self, powered: tuple[int, ...] = (), separate: bool = False) -> List[str]:
+        """The set-up's lines: :meth:`cleanup_commands` less those the target refuses (each
+        replaced by what resets the same, conformance/setup_check.py), several to a line.
+        ``separate``: one command per line (the `;` separator is not trusted)."""
+        parts = self.setup_check.commands(self.cleanup_commands(powered))
         if separate:
-            return [part for line in parts for part in line.split(" ; ")]
+            return parts
         # One line per 200 bytes at most: the line buffer holds 256 (FACTS §1).
         lines, line = [], ""
         for part in parts:
@@ -200,17 +211,26 @@ class Resync:
         self._case_bytes = len(s.received)
         self._case_events = s.mark()
         self._cases += 1
+        relearnt = False
         for _round in range(3):
             start, began = s.mark(), s.clock()
             try:
-                if not self._powered_checked:
+                if not self._powered_checked or self.setup_check.due:
                     self._find_place()                # in step before asking `list`
+                if not self._powered_checked:
                     self._powered_checked = True
                     self.powered_ports = self._ports_needing_power()
+                if self.setup_check.due:                    # each set-up command on its own, answer seen
+                    self.setup_said += self.setup_check.learn(self.cleanup_commands(self.powered_ports),
+                                                        self.exchange)
                 # The lines go back to back under one sync (H10: a fence each made three round
                 # trips per case); they fit the 8192-byte receive ring many times over (FACTS §1).
                 lines = self.cleanup_lines(self.powered_ports, separate=not self.clauses.trusted("separator"))
+                sent = s.mark()
                 after = self._find_place(b"\r" + b"".join(line.encode() + b"\r" for line in lines))
+                if self.setup_check.refusals_seen(s.events[sent:after]) and not relearnt:
+                    relearnt = True   # an `Error` in the set-up's output: learn again, set up again
+                    continue
             except ExpectTimeout:
                 raise describe_silence(bytes(s.received[self._case_bytes:]), s.events[start:],
                                        s.clock() - began) from None
@@ -228,6 +248,7 @@ class Resync:
             # found again; then the set-up above runs once more.
             self.rebooted = False
             self._powered_checked = False
+            self.setup_check.due = True             # a restart may have brought other firmware
             self.devices_settled = False
             self.restarts += 0 if self._restart_asked else 1
             self._restart_asked = False

@@ -32,6 +32,7 @@ from ..harness.cli_options import (
     expand_target,
 )
 from ..harness.parent_death import die_with_parent
+from .case_order import order_argv, resolve_seed
 
 __all__ = ["run", "pytest_argv", "suite_dir"]
 EXIT_INTERRUPTED = 130
@@ -96,6 +97,8 @@ def pytest_argv(args: argparse.Namespace) -> List[str]:
         argv += ["--image", os.path.abspath(args.image), "--signature", os.path.abspath(args.signature)]
     if args.operator:
         argv += ["--operator", "-s"]
+    # the suite's own order, or shuffled by pytest-randomly with this seed (conformance/case_order.py)
+    argv += order_argv(getattr(args, "random_order_seed", None))
     return argv + extra
 
 
@@ -136,6 +139,16 @@ def preflight(args: argparse.Namespace) -> None:
                 raise TargetError(mismatch)
             print(f"buildhat-conformance run: {url} runs firmware {answer.version_string or 'unknown'}; "
                   f"judged as {judged.name} ({judged.number}) because of --firmware", file=sys.stderr)
+
+
+def _seed(args: argparse.Namespace) -> Optional[int]:
+    """The seed of ``--random-order`` (None: the suite's own order); a wrong one is a usage error."""
+    from ..harness.cli_options import UsageError
+
+    try:
+        return resolve_seed(getattr(args, "random_order", None))
+    except ValueError as exc:
+        raise UsageError(str(exc)) from None
 
 
 def _inventory_urls(path: str) -> List[str]:
@@ -268,6 +281,10 @@ def run(args: argparse.Namespace) -> int:
     from .report import runs
 
     preflight(args)   # before the run folder and the load: a mistake is one line, reports/ untouched
+    seed = args.random_order_seed = _seed(args)
+    if seed is not None:
+        print(f"buildhat-conformance run: cases in a shuffled order, seed {seed} (the same order again: "
+              f"--random-order {seed})", flush=True)
     made = _missing_folders(os.path.join(runs.DEFAULT_ROOT, runs.RUNS)) if not args.junit else []
     folder = runs.start_for(args)        # None when --junit names the file explicitly
     if args.image or args.signature:

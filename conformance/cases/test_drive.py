@@ -178,6 +178,10 @@ def test_pwmparams_shape_the_drive(hat: Hat, world: World, motor_port: int, para
     if not hat.has("pwmparams"):
         rejected(hat.exchange(f"port {p} ; pwmparams {params}"))
         return
+    # Slow PWM carries an accumulator from the port's last slow-PWM drive, and a motor an earlier case
+    # left in some state of its own may drop out mid-window (a port reset: drive 0 from there on).
+    # A port reset first, where the world can (#fb-port-reset), so the window starts from defaults.
+    world.replug(p)
     drive(hat, p, f"pwm ; plimit 1 ; pwmparams {params} ; set {setpoint}")
     try:
         hat.wait_ms(100)
@@ -198,8 +202,10 @@ def test_pid_output_drives_the_motor(hat: Hat, world: World, motor_port: int, sp
     # -1 drives -255. The shaft is held, so the error stays. APOS / 360: the PV is in turns, |PV| < 1.
     p = motor_port
     world.require("hold", "holding a motor's shaft")
-    world.action(f"@hold {p} 1")
+    # Before the hold: an unknown build's PID syntax is undecided (UnknownBuild), and a hold not let
+    # go would stop the motor in every later case.
     pid = hat.pid_command(p, 3, 0, "s2", "0.0027777778", "0", "100", "0", "0", "0")
+    world.action(f"@hold {p} 1")
     try:
         drive(hat, p, f"select 3 ; plimit 1 ; {pid} ; set {sp}")
         hat.wait_ms(100)

@@ -136,6 +136,9 @@ def test_pid_lines_are_self_consistent_on_live_data(hat: Hat, motor_port: int) -
 def test_unwrap_across_plus_minus_180(hat: Hat, world: World, verdict: Verdict, motor_port: int) -> None:
     world.require("data", "control of the motor's reported position (world @data)")
     p = motor_port
+    # R1-R5 keep the unwrapped PV until a port reset (#fb-unwrap-r1): one an earlier case left (a u4
+    # read, 3e9) leaves no float32 steps of 1 to see. A port reset where the world can.
+    world.replug(p)
     raws = [170, 179, -180, -170, 175, -175, 0, 90, -91]
     world.action(f"@data {p} 3 {_le16(raws[0])}")
     try:

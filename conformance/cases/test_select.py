@@ -178,8 +178,12 @@ def test_modes_of_a_device_with_more_than_eight(hat: Hat, world: World, verdict:
 @pytest.mark.req("CMD-WRITE1", "CMD-WRITE2", "EX-DISTANCE-LEDS")
 @pytest.mark.parametrize("line", ["write1 c5 10 20 30 40", "write1 c0 5", "write1 40", "write2 44 11 22",
                                   "write1 c2 12 23 34 45 12 23 34 45 12", "write1 C5 0A 0b 123 fff"])
-def test_write_accepts_hex_bytes(hat: Hat, motor_port: int, line: str, verdict: Verdict) -> None:
-    reply = hat.exchange(f"port {motor_port} ; {line}")
+def test_write_accepts_hex_bytes(hat: Hat, world: World, motor_port: int, line: str,
+                                 verdict: Verdict) -> None:
+    try:
+        reply = hat.exchange(f"port {motor_port} ; {line}")
+    finally:
+        world.replug(motor_port)      # the message changed the motor itself (a preset position ...)
     same(reply, b"\r\n")
     verdict.note("what reaches the device is only visible on the device side "
                  "(docs/FIRMWARE-BEHAVIOUR.md#fb-device-messages)")
@@ -199,7 +203,10 @@ FRAMES = {"write1 c5 10 20 30 40": "D5 10 20 30 40 6A", "write1 c0 5": "C0 05 3A
 @pytest.mark.parametrize("line", list(FRAMES))
 def test_write_delivers_the_framed_message(hat: Hat, world: World, motor_port: int, line: str) -> None:
     # Only the device side shows it: skipped (with the reason) on a target without that view.
-    reply, frames = world.frames_to_device(motor_port, f"port {motor_port} ; {line}")
+    try:
+        reply, frames = world.frames_to_device(motor_port, f"port {motor_port} ; {line}")
+    finally:
+        world.replug(motor_port)      # the message changed the motor itself (a preset position ...)
     assert reply.raw == b"\r\n", f"`{line}`: {reply.raw!r}"
     expected = bytes.fromhex(FRAMES[line])
     got = [f.hex(" ").upper() for f in frames]

@@ -10,6 +10,7 @@ import pytest
 
 from ..link import Hat
 from ..link_clauses import MARKER as CLAUSE_MARKER
+from ..setup_check import SetupRefused
 from ..target_fault import first_line
 from ..verdict import Verdict
 from .run import (
@@ -90,9 +91,20 @@ def _conformance_case(request: Any, _run: Run) -> Any:
     waited = getattr(hat.session, "waited_hat_ms", 0.0)   # H10: see Session.note_wait
     restarts = hat.restarts
     try:
-        hat.resync()
+        try:
+            hat.resync()
+        except SetupRefused as exc:      # nothing can begin from a known state: the run's failure
+            _run.no_job = str(exc)
+            _run.stopped = str(exc)
+            item.stash[_not_run_key] = _run.stopped
+            pytest.skip(f"not run: {exc}")
         if hat.restarts > restarts:
             verdict.note("the HAT restarted before this case; the suite's set-up was restored")
+        if hat.setup_said:               # a set-up command refused: said once, in one line each
+            for line in hat.setup_said:
+                verdict.note(line)
+            hat.setup_said = []
+            _run.junit.set_property("setup_refused", " | ".join(hat.setup_check.said))
         yield
         if not item.stash.get(_call_failed_key, False):
             hat.check_reboot()     # a restart late in a case that did not fence after it

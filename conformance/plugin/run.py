@@ -25,6 +25,8 @@ import pytest
 
 from ...harness.errors import BrokenClause
 from ...harness.targets.base import TargetError
+from ..case_order import MARKER as TOGETHER_MARKER
+from ..case_order import keep_together, seed_in_use
 from ..link import Hat
 from ..link_clauses import MARKER as CLAUSE_MARKER
 from ..target_fault import TargetFault, fault_line, first_line, is_target_fault
@@ -55,6 +57,8 @@ def pytest_configure(config: Any) -> None:
     config.addinivalue_line("markers", "slow: takes more than a few seconds")
     config.addinivalue_line("markers", f"{CLAUSE_MARKER}(name): a clause the harness relies on, checked "
                                        "first (conformance/link_clauses.py)")
+    config.addinivalue_line("markers", f"{TOGETHER_MARKER}(name): cases that share state, kept next to each "
+                                       "other in a shuffled order (conformance/case_order.py)")
     if not hasattr(config, "workerinput"):
         run = Run(config)
         config.stash[_run_key] = run
@@ -110,6 +114,7 @@ class Run:
         self.target_faults: List[Tuple[str, str]] = []    # (nodeid, what the target did)
         self.recovery = ResetRecovery(config.getoption("image"), config.getoption("signature"))
         self.reset_due: Optional[str] = None    # why the next case begins with the run's one reset
+        self.seed: Optional[int] = None       # the shuffled order's seed (conformance/case_order.py)
         self.junit = JUnitFile(config.getoption("conformance_junit"), "buildhat-conformance",
                                [("target", self.url)])
         self.firmware = FirmwareFindings()      # a firmware in the loop's own defects (sanitizers)
@@ -202,7 +207,12 @@ class Run:
     # -- hooks -----------------------------------------------------------------------------
     @pytest.hookimpl(trylast=True)
     def pytest_collection_modifyitems(self, items: List[Any]) -> None:
-        # The clauses the harness relies on are checked before anything relies on them.
+        # Cases that share state stay together in a shuffled order (conformance/case_order.py); the
+        # clauses the harness relies on are checked before anything relies on them.
+        keep_together(items)
+        self.seed = seed_in_use(self.config)
+        if self.seed is not None:
+            self.junit.set_property("random_order", str(self.seed))
         items[:] = sorted(items, key=lambda item: item.get_closest_marker(CLAUSE_MARKER) is None)
         for item in items:
             self.collected_ids[item.nodeid] = requirement_ids(item)
@@ -276,6 +286,14 @@ class Run:
         if report.when == "call" and verdict is not None and isinstance(exc, UnknownBuild):
             # The check needed a behaviour the releases around this unknown build differ on.
             verdict.inform(str(exc))
+            report.outcome, report.longrepr, exc = "passed", None, None
+        unreset = self.hat.setup_check.unreset if self.hat is not None else []
+        if report.when == "call" and verdict is not None and report.failed and unreset \
+                and not is_target_fault(exc) and not isinstance(exc, FirmwareDefect):
+            # The set-up could not reset it (conformance/setup_check.py): the failure may be the
+            # last case's leftovers, not this one's finding.
+            verdict.inform(f"not reset between cases on this build: {', '.join(unreset)}; failed: "
+                           f"{first_line(str(exc))}")
             report.outcome, report.longrepr, exc = "passed", None, None
         if report.failed and not is_target_fault(exc) and self.hat is not None and \
                 not isinstance(exc, FirmwareDefect):

@@ -56,6 +56,8 @@ def write_summary(tr: Any, run: Any) -> None:
     hat = run.hat
     for line in (hat.clauses.broken() if hat is not None else []):
         tr.write_line(f"clause the harness relies on broke: {line}; its set-up went on without it", red=True)
+    for line in (hat.setup_check.said if hat is not None else []):
+        tr.write_line(line, yellow=True)
     if run.recovery.outcome:
         tr.write_line(run.recovery.outcome, yellow=True)
     if run.no_job:
@@ -69,4 +71,7 @@ def write_summary(tr: Any, run: Any) -> None:
         judged = " (--firmware)" if run.config.getoption("firmware") else ""
         tr.write_line(f"target {run.url}: firmware {firmware_of(hat)} judged as profile "
                       f"{p.name}{judged}{exact}")
+    if run.seed is not None:
+        tr.write_line(f"cases in a shuffled order, seed {run.seed} (the same order again: --random-order "
+                      f"{run.seed})")
     tr.write_line(f"JUnit: {run.junit.path}   transcripts: {run.transcripts}")

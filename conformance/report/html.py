@@ -89,9 +89,11 @@ def _runs_section(runs: Sequence[Run]) -> str:
         cells = "".join(f'<td class="n {v if counts[v] else "zero"}">{counts[v]}</td>' for v in VERDICTS)
         problems = ("<br>".join(f'<span class="warn">{_e(p)}</span>' for p in run.problems)
                     or '<span class="muted">valid for common CI readers</span>')
-        # What happened to the target (conformance/plugin/run.py): a reset, a stop, an interrupted run.
+        # What happened to the target (conformance/plugin/run.py): a reset, a stop, an interrupted run,
+        # set-up commands it refused (conformance/setup_check.py).
         problems += "".join(f'<br><span class="warn">{key}: {_e(run.properties[key][0])}</span>'
-                            for key in ("reset", "stopped", "partial") if run.properties.get(key))
+                            for key in ("reset", "stopped", "partial", "setup_refused")
+                            if run.properties.get(key))
         rows.append(f"<tr><td>{i}</td><td>{_e(run.target or '?')}</td><td>{_e(run.firmware or '?')}</td>"
                     f"<td>{_e(run.profile or '?')}</td><td class=n>{len(run.cases)}</td>{cells}"
                     f"<td><code>{_e(run.path)}</code><br>{problems}</td></tr>")
