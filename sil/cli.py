@@ -64,8 +64,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                           "'none': the suite's own order)")
     mut.add_argument("--plant", action="append", default=[], metavar="FILE:OLD:NEW",
                      help="also run this hand-made mutant (the first OLD in FILE becomes NEW)")
+    mut.add_argument("--shard", default=None, metavar="K/N",
+                     help="run only the K-th of N parts of the campaign (every N-th mutant of the draw); "
+                          "sil mutate-merge makes one page and JSON of the parts")
     mut.add_argument("-o", "--output", default=os.path.join("reports", "mutation"), metavar="DIR",
                      help="where the page, the JSON and survivors' transcripts go (default %(default)s)")
+    _add_bisect(sub)
+    _add_mutate_merge(sub)
     cov = sub.add_parser("coverage", help="the firmware's line and branch coverage (a --coverage build)")
     cov.add_argument("tree", metavar="TREE", help="the firmware tree the build was made from")
     cov.add_argument("--sanitize", type=_sanitizers, default=[], metavar="LIST", help="as given to sil build")
@@ -78,6 +83,10 @@ def main(args: argparse.Namespace) -> int:
         raise UsageError("sil needs an action: sil build TREE (see sil --help)")
     if args.sil_command == "mutate":
         return _mutate(args)
+    if args.sil_command == "bisect":
+        return _bisect(args)
+    if args.sil_command == "mutate-merge":
+        return _mutate_merge(args)
     if args.sil_command == "serve":
         from .serve import main as serve_main
         return serve_main(args.rest)
@@ -144,6 +153,17 @@ def _mutate(args: argparse.Namespace) -> int:
         chosen.append(hand)
     if not chosen:
         raise UsageError("no mutants to run (--count 0 and no --plant)")
+    indices = None
+    if args.shard is not None:
+        from .mutation_shards import parse_shard, shard_of
+        try:
+            k, n = parse_shard(args.shard)
+        except ValueError as exc:
+            raise UsageError(str(exc)) from None
+        indices, chosen = shard_of(chosen, k, n)
+        if not chosen:
+            raise UsageError(f"--shard {args.shard}: this part has no mutants (the campaign has "
+                             f"{n - 1 if k > 1 else 0} or fewer); use fewer parts")
     out = Path(args.output)
     earlier = Path(args.killers_first) if args.killers_first not in (None, "none") else out / "mutation.json"
     killers: list = []
@@ -160,7 +180,8 @@ def _mutate(args: argparse.Namespace) -> int:
                 f"  <- {o.verdict_text()}" if o.cases else (f"  ({o.detail})" if o.detail else ""))
         print(f"[{i}/{n}] {o.status:<17} {o.mutant.describe()}{said}", flush=True)
 
-    print(f"sil mutate: {len(chosen)} mutants of {tree} (seed {args.seed}); reference run first"
+    print(f"sil mutate: {len(chosen)} mutants of {tree} (seed {args.seed}"
+          + (f", part {args.shard}" if args.shard else "") + "); reference run first"
           + (f"; the {len(killers)} cases that killed mutants in {earlier} run first" if killers else ""),
           flush=True)
     try:
@@ -169,6 +190,86 @@ def _mutate(args: argparse.Namespace) -> int:
     except (BuildError, RuntimeError) as exc:
         print(f"buildhat-conformance sil: {exc}", file=sys.stderr)
         return 3
+    campaign.seed, campaign.shard, campaign.indices = args.seed, args.shard or "", indices
+    page = write_reports(campaign, out)
+    print(campaign.summary_line())
+    print(f"report: {page}  json: {out / 'mutation.json'}")
+    return 0
+
+
+def _add_bisect(sub) -> None:  # type: ignore[no-untyped-def]
+    bis = sub.add_parser(
+        "bisect", help="find the first commit where the selected cases' verdicts (or output) change",
+        description="In a git checkout of a firmware repository: build and run the commits between GOOD "
+                    "and BAD (BAD's first-parent line) in a scratch worktree, halving as git bisect does, "
+                    "and name the first commit whose selected cases' verdicts (--output: HAT output) "
+                    "differ from GOOD's. Commits whose tree does not build are skipped. The checkout "
+                    "itself is left as it is (docs/COMPARING-BUILDS.md).",
+        epilog="exit status: 0 the commit was found; 1 nothing changed between GOOD and BAD, or only "
+               "commits that do not build are left; 2 usage (not a repository, an unknown commit, GOOD "
+               "not an ancestor of BAD, GOOD does not build or runs no case)")
+    bis.add_argument("good", metavar="GOOD", help="a commit whose behaviour is the reference")
+    bis.add_argument("bad", metavar="BAD", help="a later commit whose behaviour differs")
+    bis.add_argument("-C", dest="repo", default=".", metavar="REPO",
+                     help="the repository's checkout (default: the current folder)")
+    bis.add_argument("--folder", default=None, metavar="PATH",
+                     help="the firmware tree's folder inside the repository (default: the folder you stand "
+                          "in, else firmware-pico/ when BAD has one, else the repository's root)")
+    bis.add_argument("-k", dest="keyword", default=None, metavar="EXPR",
+                     help="only the suite's cases matching EXPR (faster; the change must show in them)")
+    bis.add_argument("--firmware", default=None, metavar="RELEASE",
+                     help="judge every commit as this release (as run --firmware)")
+    bis.add_argument("--output", action="store_true",
+                     help="look for a change of the cases' HAT output, not of their verdicts")
+    bis.add_argument("--work", default=os.path.join("reports", "bisect"), metavar="DIR",
+                     help="where each step's run is kept (default %(default)s)")
+
+
+def _bisect(args: argparse.Namespace) -> int:
+    from .bisect import BisectError, bisect
+
+    extra = ["--firmware", args.firmware] if args.firmware else []
+    try:
+        result = bisect(Path(args.repo), args.good, args.bad, Path(args.work), folder=args.folder,
+                        keyword=args.keyword, extra=extra, output=args.output,
+                        say=lambda line: print(line, flush=True))
+    except BisectError as exc:
+        raise UsageError(str(exc)) from None
+    what = "HAT output" if args.output else "verdicts"
+    if result.first is None and not result.suspects:
+        print(f"no change: the selected cases' {what} at BAD are GOOD's ({result.builds} build(s))")
+        return 1
+    if result.first is None or len(result.suspects) > 1:
+        listed = ", ".join(f"{c.short} {c.subject}" for c in result.suspects)
+        print(f"the first change is one of {len(result.suspects)} commit(s), the others not buildable: "
+              f"{listed} ({result.builds} build(s))")
+        return 1 if result.first is None else 0
+    first = result.first
+    print(f"first changed: {first.sha} {first.subject}: {result.case} ({result.builds} build(s))")
+    return 0
+
+
+def _add_mutate_merge(sub) -> None:  # type: ignore[no-untyped-def]
+    merge = sub.add_parser("mutate-merge", help="one page and JSON from the parts of a sil mutate --shard campaign",
+                           description="Merge the parts (--shard 1/N ... N/N) of one seeded sil mutate "
+                                       "campaign, run on one machine each, into one page and one JSON.",
+                           epilog="exit status: 0 merged; 2 the parts do not make one campaign (a part "
+                                  "missing or given twice, another seed or tree), or a file is not a part")
+    merge.add_argument("parts", nargs="+", metavar="PART",
+                       help="each part's mutation.json, or the --output folder holding it")
+    merge.add_argument("-o", "--output", default=os.path.join("reports", "mutation"), metavar="DIR",
+                       help="where the merged page and JSON go (default %(default)s)")
+
+
+def _mutate_merge(args: argparse.Namespace) -> int:
+    from .mutation_report import write_reports
+    from .mutation_shards import MergeError, merge, read_part
+
+    try:
+        campaign = merge([read_part(Path(p)) for p in args.parts])
+    except MergeError as exc:
+        raise UsageError(str(exc)) from None
+    out = Path(args.output)
     page = write_reports(campaign, out)
     print(campaign.summary_line())
     print(f"report: {page}  json: {out / 'mutation.json'}")
