@@ -2,7 +2,7 @@
 cases' verdicts (``output=True``: their HAT output) change from GOOD's.
 
 The user's checkout is left as it is: each tried commit is checked out in one scratch git worktree
-(``git worktree add --detach``, removed at the end), its firmware tree (``folder`` inside the
+(``git worktree add --detach``: one for GOOD, one for the commit tried; removed at the end), its firmware tree (``folder`` inside the
 repository) built with the stand-in, reusing GOOD's objects for files that did not change, and the
 suite run on it. The commits are BAD's first-parent line back to GOOD (a merge counts as one
 commit). As ``git bisect`` does, BAD is taken as changed without a build (it is built only when
@@ -112,14 +112,20 @@ class _Tryer:
 
     def __init__(self, repo: Path, scratch: Path, folder: str, work: Path, keyword: Optional[str],
                  extra: Sequence[str], output: bool):
+        # GOOD stays checked out in its own worktree: a tried commit's files are compared with it
+        # to reuse GOOD's objects (build_tree's base), so the tried commits need another.
         self.repo, self.scratch, self.folder, self.work = repo, scratch, folder, work
         self.keyword, self.extra, self.output = keyword, list(extra), output
         self.base: Optional[Build] = None
         self.builds = 0
 
     def build(self, commit: Commit) -> Build:
-        git(self.scratch, "checkout", "--quiet", "--force", "--detach", commit.sha)
-        tree = self.scratch / self.folder
+        where = self.scratch / ("good" if self.base is None else "tried")
+        if where.exists():
+            git(where, "checkout", "--quiet", "--force", "--detach", commit.sha)
+        else:
+            git(self.repo, "worktree", "add", "--quiet", "--detach", str(where), commit.sha)
+        tree = where / self.folder
         if not tree.is_dir():
             raise BuildError(f"no folder {self.folder} in this commit")
         self.builds += 1
@@ -169,15 +175,16 @@ def bisect(repo: Path, good_ref: str, bad_ref: str, work: Path, folder: Optional
     folder = folder or default_folder(repo, bad.sha)
     commits = _line(repo, good, bad)
     work.mkdir(parents=True, exist_ok=True)
-    scratch = Path(tempfile.mkdtemp(prefix="bisect-", dir=work)) / "tree"
-    git(repo, "worktree", "add", "--quiet", "--detach", str(scratch), good.sha)
+    scratch = Path(tempfile.mkdtemp(prefix="bisect-", dir=work))
     try:
         return _search(_Tryer(repo, scratch, folder, work, keyword, extra, output), good, commits, say)
     finally:
-        subprocess.run(["git", "-C", str(repo), "worktree", "remove", "--force", str(scratch)],
-                       capture_output=True)
+        for name in ("good", "tried"):
+            if (scratch / name).exists():
+                subprocess.run(["git", "-C", str(repo), "worktree", "remove", "--force", str(scratch / name)],
+                               capture_output=True)
         subprocess.run(["git", "-C", str(repo), "worktree", "prune"], capture_output=True)
-        shutil.rmtree(scratch.parent, ignore_errors=True)
+        shutil.rmtree(scratch, ignore_errors=True)
 
 
 def _search(tryer: _Tryer, good: Commit, commits: List[Commit], say: Say) -> BisectResult:

@@ -19,8 +19,8 @@ def baseline_section(runs: Sequence[Run]) -> str:
             continue
         listed = [c for c in run.cases if c.prop("baseline.difference")]
         timing = (run.properties.get("baseline.timing_sensitive") or ["0"])[0]
-        note = (f" {esc(timing)} case(s) whose output varies between the baseline's own runs were not "
-                "compared." if timing not in ("", "0") else "")
+        note = (f" {esc(timing)} case(s) differ by timing only (asynchronous lines, or answers the "
+                "baseline's own runs do not agree on either): not listed." if timing not in ("", "0") else "")
         if not listed:
             parts.append(f"<p class=changes>Compared with the baseline <code>{esc(baseline)}</code>: no case's "
                          f"HAT output differs.{note}</p>")
