@@ -54,8 +54,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "'buildhat-conformance load')")
     parser.add_argument("--signature", default=None, metavar="FILE", help="the image's 64-byte signature")
     parser.add_argument("--baseline", default=None, metavar="URL",
-                        help="also run the suite on this target (e.g. sil:OLD-TREE) and list every case whose "
-                             "HAT output differs from it, timing-only differences told apart "
+                        help="also run the suite on this target (e.g. sil:OLD-TREE) and list every case "
+                             "whose HAT output differs from it, timing-only differences told apart "
                              "(docs/COMPARING-BUILDS.md)")
     parser.add_argument("--expect-changes", default=None, metavar="FILE",
                         help="with --baseline: the cases meant to change (one case id or pattern a line, "

@@ -10,7 +10,7 @@ any of the baseline's runs is unchanged; one whose output the baseline's own run
 timing-sensitive and not judged; every other difference is listed, with both sides' first differing
 lines.
 
-The expect-changes file (docs/BASELINE.md): one case a line, as the JUnit file names it
+The expect-changes file (docs/COMPARING-BUILDS.md): one case a line, as the JUnit file names it
 (``module::case[param]``) or its ``case[param]`` part alone, with ``*`` standing for any text;
 ``#`` starts a comment; blank lines are ignored.
 """
@@ -37,7 +37,7 @@ _CASE_CHARS = re.compile(r"^[^\s#]+$")
 class ExpectedChange:
     pattern: str
     line: int
-    regex: "re.Pattern[str]"
+    regex: re.Pattern[str]
 
     def matches(self, case: str) -> bool:
         return bool(self.regex.fullmatch(case) or self.regex.fullmatch(case.split("::", 1)[-1]))

@@ -1,16 +1,17 @@
 """`sil bisect GOOD BAD`: the first commit of a firmware repository's history where the selected
 cases' verdicts (``output=True``: their HAT output) change from GOOD's.
 
-The user's checkout is left as it is: each tried commit is checked out in one scratch git worktree
-(``git worktree add --detach``: one for GOOD, one for the commit tried; removed at the end), its firmware tree (``folder`` inside the
-repository) built with the stand-in, reusing GOOD's objects for files that did not change, and the
-suite run on it. The commits are BAD's first-parent line back to GOOD (a merge counts as one
-commit). As ``git bisect`` does, BAD is taken as changed without a build (it is built only when
-every commit before it turns out the same, to confirm), so ten commits take at most five builds:
-GOOD's and four halvings. A commit whose tree does not build (or that has no tree at ``folder``) is
-skipped, as ``git bisect skip`` does: the next commit nearest the middle is tried instead, and if
-only skipped commits are left between the last same and the first changed one, all of them are
-named. A commit whose firmware does not answer counts as changed (every verdict changed).
+The user's checkout is left as it is: each tried commit is checked out in a scratch git worktree
+(``git worktree add --detach``: one stays at GOOD, one takes the commit tried; both removed at the
+end), its firmware tree (``folder`` inside the repository) built with the stand-in, reusing GOOD's
+objects for the files that did not change, and the suite run on it. The commits are BAD's
+first-parent line back to GOOD (a merge counts as one commit). As ``git bisect`` does, BAD is taken
+as changed without a build (it is built only when every commit before it turns out the same, to
+confirm), so ten commits take at most five builds: GOOD's and four halvings. A commit whose tree does
+not build (or that has no tree at ``folder``) is skipped, as ``git bisect skip`` does: the commit
+nearest the middle is tried instead, and if only skipped commits are left between the last same and
+the first changed one, all of them are named. A commit whose firmware does not answer counts as
+changed (every verdict changed).
 
 With ``output=True`` a case counts as changed when its HAT output differs from GOOD's by
 sil/case_output.py's measure; GOOD also runs as a chip started a little later (sil/mutate.py's

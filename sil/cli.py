@@ -250,7 +250,8 @@ def _bisect(args: argparse.Namespace) -> int:
 
 
 def _add_mutate_merge(sub) -> None:  # type: ignore[no-untyped-def]
-    merge = sub.add_parser("mutate-merge", help="one page and JSON from the parts of a sil mutate --shard campaign",
+    merge = sub.add_parser("mutate-merge",
+                           help="one page and JSON from the parts of a sil mutate --shard campaign",
                            description="Merge the parts (--shard 1/N ... N/N) of one seeded sil mutate "
                                        "campaign, run on one machine each, into one page and one JSON.",
                            epilog="exit status: 0 merged; 2 the parts do not make one campaign (a part "

@@ -104,5 +104,6 @@ def merge(parts: Sequence[dict]) -> Campaign:
                 o.status, o.requirements = "likely-equivalent", []
     return Campaign(first["tree"], outcomes, sum(float(p.get("seconds", 0)) for p in parts),
                     int(first["reference_cases"]), len(unstable),
-                    controls=sum(int(p.get("controls", 0)) for p in parts), stop_at_first=first["stop_at_first"],
+                    controls=sum(int(p.get("controls", 0)) for p in parts),
+                    stop_at_first=first["stop_at_first"],
                     unstable=unstable, seed=first.get("seed"))

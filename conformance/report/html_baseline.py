@@ -22,12 +22,13 @@ def baseline_section(runs: Sequence[Run]) -> str:
         note = (f" {esc(timing)} case(s) differ by timing only (asynchronous lines, or answers the "
                 "baseline's own runs do not agree on either): not listed." if timing not in ("", "0") else "")
         if not listed:
-            parts.append(f"<p class=changes>Compared with the baseline <code>{esc(baseline)}</code>: no case's "
-                         f"HAT output differs.{note}</p>")
+            parts.append(f"<p class=changes>Compared with the baseline <code>{esc(baseline)}</code>: no "
+                         f"case's HAT output differs.{note}</p>")
             continue
+        intended = "intended", "<b class=warn>changed</b>"
         rows = "".join(
-            f"<tr><td>{'intended' if c.prop('baseline.difference') == 'intended' else '<b class=warn>changed</b>'}"
-            f"</td><td><code>{esc(c.test_id)}</code></td><td><code>{esc(c.prop('baseline.target_line'))}</code>"
+            f"<tr><td>{intended[0] if c.prop('baseline.difference') == 'intended' else intended[1]}</td>"
+            f"<td><code>{esc(c.test_id)}</code></td><td><code>{esc(c.prop('baseline.target_line'))}</code>"
             f"</td><td><code>{esc(c.prop('baseline.baseline_line'))}</code></td></tr>" for c in listed)
         parts.append(f"<section id=baseline><p class=changes>Compared with the baseline <code>{esc(baseline)}"
                      f"</code>: {len(listed)} case(s) whose HAT output differs.{note}</p>"

@@ -51,7 +51,8 @@ def test_expect_changes_patterns(tmp_path):
     path.write_text("# intended\n\ntest_commands::test_help[*]   # the help text\n*[?]\n")
     found = read_expect_changes(str(path))
     assert [(e.pattern, e.line) for e in found] == [("test_commands::test_help[*]", 3), ("*[?]", 4)]
-    assert found[0].matches("test_commands::test_help[help]") and not found[0].matches("test_link::test_help[x]")
+    assert found[0].matches("test_commands::test_help[help]")
+    assert not found[0].matches("test_link::test_help[x]")
     assert found[1].matches("test_abbreviation::test_prefix[?]") and not found[1].matches("test_a::b[help]")
 
 
@@ -86,7 +87,8 @@ def _run(folder, cases):
     ET.SubElement(suite, "properties")
     for name, lines in cases.items():
         transcript = folder / f"{name}.jsonl"
-        transcript.write_text("".join(json.dumps({"t": 0, "dir": "hat", "line": line}) + "\n" for line in lines))
+        entries = [json.dumps({"t": 0, "dir": "hat", "line": line}) for line in lines]
+        transcript.write_text("".join(e + "\n" for e in entries))
         case = ET.SubElement(suite, "testcase", classname="test_m", name=name)
         props = ET.SubElement(case, "properties")
         ET.SubElement(props, "property", name="verdict", value="pass")

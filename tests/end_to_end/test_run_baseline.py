@@ -39,7 +39,8 @@ def _cases_that_printed(junit: pathlib.Path, text: str):
 
 def _listed(stdout: str):
     """(tag, case) of each case the closing lines list."""
-    return [(m.group(1), m.group(2)) for m in re.finditer(r"^  (changed|intended|UNEXPECTED): (\S+)", stdout, re.M)]
+    found = re.finditer(r"^  (changed|intended|UNEXPECTED): (\S+)", stdout, re.M)
+    return [(m.group(1), m.group(2)) for m in found]
 
 
 def test_a_changed_help_line_lists_exactly_the_cases_that_print_it(tmp_path):

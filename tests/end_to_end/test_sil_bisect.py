@@ -34,7 +34,8 @@ def _history(repo, folder=".", broken=None):
         if n == broken:
             (tree / "main.c").write_text((tree / "main.c").read_text() + "\nthis does not compile\n")
         if broken and n == broken + 1:
-            (tree / "main.c").write_text((tree / "main.c").read_text().replace("\nthis does not compile\n", ""))
+            mended = (tree / "main.c").read_text().replace("\nthis does not compile\n", "")
+            (tree / "main.c").write_text(mended)
         _git(repo, "add", "-A")
         _git(repo, "commit", "-q", "-m", f"commit {n}")
         shas.append(_git(repo, "rev-parse", "HEAD").strip())
@@ -44,7 +45,8 @@ def _history(repo, folder=".", broken=None):
 def test_bisect_names_the_sixth_commit_in_at_most_five_builds(tmp_path):
     repo = tmp_path / "fw"
     shas = _history(repo)
-    before = (_git(repo, "status", "--porcelain"), _git(repo, "rev-parse", "HEAD"), _git(repo, "worktree", "list"))
+    before = (_git(repo, "status", "--porcelain"), _git(repo, "rev-parse", "HEAD"),
+              _git(repo, "worktree", "list"))
     done = cli("sil", "bisect", shas[0], shas[-1], "-C", str(repo), "-k", "test_help_prints",
                "--work", str(tmp_path / "work"), cache=tmp_path / "cache")
     assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-2000:]
@@ -83,7 +85,8 @@ def test_bisect_usage_mistakes_are_one_line_exit_2(tmp_path, good, bad, says):
     repo.mkdir()
     _git(repo, "init", "-q")
     for n in (1, 2):
-        _git(repo, "-c", "user.email=t@e", "-c", "user.name=t", "commit", "-q", "--allow-empty", "-m", f"c{n}")
+        _git(repo, "-c", "user.email=t@e", "-c", "user.name=t", "commit", "-q", "--allow-empty",
+             "-m", f"c{n}")
     done = cli("sil", "bisect", good, bad, "-C", str(repo), cache=tmp_path / "cache")
     assert done.returncode == 2 and done.stdout == "", done.stdout + done.stderr
     assert len(done.stderr.strip().splitlines()) == 1 and says in done.stderr, done.stderr

@@ -15,9 +15,8 @@ CAMPAIGN = ["--count", "4", "--seed", "5", "-k", "test_commands", "--jobs", "1",
 def _effort_aside(summary):
     """The JSON without what depends on the machines, not on the campaign: seconds and how many
     control runs were made (each part makes its own)."""
-    summary = dict(summary, seconds=0, controls=0)
-    summary["mutants"] = [dict(m, seconds=0) for m in summary["mutants"]]
-    return summary
+    mutants = [dict(m, seconds=0) for m in summary["mutants"]]
+    return dict(summary, seconds=0, controls=0, mutants=mutants)
 
 
 def test_two_shards_merged_are_the_whole_campaign(tmp_path):
