@@ -63,12 +63,10 @@ def read_expect_changes(path: str) -> List[ExpectedChange]:
     """The patterns of an expect-changes file; a mistake is a UsageError naming the file and line."""
     try:
         text = Path(path).read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise UsageError(f"--expect-changes {path}: no such file") from None
-    except UnicodeDecodeError:
-        raise UsageError(f"--expect-changes {path}: not a text file") from None
-    except OSError as exc:
-        raise UsageError(f"--expect-changes {path}: {exc.strerror or exc}") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        why = ("no such file" if isinstance(exc, FileNotFoundError) else "not a text file"
+               if isinstance(exc, UnicodeDecodeError) else exc.strerror or str(exc))
+        raise UsageError(f"--expect-changes {path}: {why}") from None
     out: List[ExpectedChange] = []
     for number, raw in enumerate(text.splitlines(), 1):
         item = raw.split("#", 1)[0].strip()
@@ -171,6 +169,15 @@ def compare_runs(baseline: str, target_junit: Path, baseline_junits: Sequence[Pa
                       [c for c in ref_verdict if c not in target_verdict], len(baseline_junits), unmatched)
 
 
+def _add_properties(elem: ET.Element, pairs: Sequence[Tuple[str, str]]) -> None:
+    props = elem.find("properties")
+    if props is None:
+        props = ET.Element("properties")
+        elem.insert(0, props)
+    for name, value in pairs:
+        ET.SubElement(props, "property", name=name, value=value)
+
+
 def annotate_junit(junit: Path, comparison: Comparison) -> None:
     """Write the comparison into the target's JUnit file: per differing case
     ``baseline.difference`` (``changed`` or ``intended``), ``baseline.target_line`` and
@@ -182,27 +189,17 @@ def annotate_junit(junit: Path, comparison: Comparison) -> None:
     suite = next(root.iter("testsuite"), None)
     if suite is None:
         return
-    props = suite.find("properties")
-    if props is None:
-        props = ET.Element("properties")
-        suite.insert(0, props)
-    for name, value in ((BASELINE_PROPERTY, comparison.baseline),
-                        ("baseline.changed", str(len(comparison.unexpected))),
-                        ("baseline.intended", str(len(comparison.differences) - len(comparison.unexpected))),
-                        ("baseline.timing_sensitive", str(len(comparison.timing_sensitive)))):
-        ET.SubElement(props, "property", name=name, value=value)
+    intended = len(comparison.differences) - len(comparison.unexpected)
+    _add_properties(suite, ((BASELINE_PROPERTY, comparison.baseline),
+                            ("baseline.changed", str(len(comparison.unexpected))),
+                            ("baseline.intended", str(intended)),
+                            ("baseline.timing_sensitive", str(len(comparison.timing_sensitive)))))
     for case in root.iter("testcase"):
         found = by_case.get(f"{case.get('classname')}::{case.get('name')}")
-        if found is None:
-            continue
-        cprops = case.find("properties")
-        if cprops is None:
-            cprops = ET.Element("properties")
-            case.insert(0, cprops)
-        for name, value in (("baseline.difference", "intended" if found.intended else "changed"),
-                            ("baseline.target_line", found.target_line),
-                            ("baseline.baseline_line", found.baseline_line)):
-            ET.SubElement(cprops, "property", name=name, value=value)
+        if found is not None:
+            _add_properties(case, (("baseline.difference", "intended" if found.intended else "changed"),
+                                   ("baseline.target_line", found.target_line),
+                                   ("baseline.baseline_line", found.baseline_line)))
     tmp = junit.with_name(junit.name + ".baseline-tmp")
     tree.write(tmp, encoding="utf-8", xml_declaration=True)
     tmp.replace(junit)

@@ -21,8 +21,10 @@ EXIT_STATUSES: Dict[str, Tuple[Tuple[int, str], ...]] = {
         (0, "success (conforms)"), (1, "conformance failures (fuzz: a finding; replay: a difference)"),
         (2, _USAGE), (3, _TARGET), _CTRL_C),
     "run": (
-        (0, "conforms"), (1, "conformance failures (a fail, even if the target faulted later)"), (2, _USAGE),
-        (3, "target unreachable or faulted (target faults or cases not run, and no failure)"),
+        (0, "conforms"), (1, "conformance failures (a fail, even if the target faulted later), or with "
+                             "--expect-changes a case that differs from --baseline outside it"), (2, _USAGE),
+        (3, "target unreachable or faulted (target faults or cases not run, and no failure), or the "
+            "--baseline run left nothing to compare with"),
         (130, _STOPPED)),
     "script": ((0, "the script ran to its end"), (2, _USAGE),
                (3, "target unreachable, gone mid-run, or without what the script needs"), _CTRL_C),

@@ -69,7 +69,8 @@ def case_lines(verdicts: Sequence[Verdict]) -> Dict[str, List[str]]:
     stream: a ``partial`` entry (the head of a line the reader saw before its end came) is
     joined to what follows, and a line counts in the case where it began. Where the reads cut
     the stream, and so which transcript a line's end lands in, depends on the wall clock, not
-    on what the HAT sent. The harness's own sync tokens (a fresh one each run) are blanked."""
+    on what the HAT sent (a CRLF cut between two entries is a line end all the same). The
+    harness's own sync tokens (a fresh one each run) are blanked."""
     out: Dict[str, List[str]] = {}
     head, head_case = "", ""
     for case, _verdict, _reqs, transcript in verdicts:
@@ -79,11 +80,17 @@ def case_lines(verdicts: Sequence[Verdict]) -> Dict[str, List[str]]:
                 head_case = case
             head += text
             if not partial:
-                out[head_case].append(_SYNC_TOKEN.sub("sync-*", head))
+                out[head_case] += _lines(head)
                 head = ""
     if head:
-        out[head_case].append(_SYNC_TOKEN.sub("sync-*", head))
+        out[head_case] += _lines(head)
     return out
+
+
+def _lines(text: str) -> List[str]:
+    """A joined entry as the HAT's lines: a read can cut a line's CRLF after the CR, so the next
+    entry begins with the LF and the two, joined, hold a whole line end."""
+    return [_SYNC_TOKEN.sub("sync-*", line) for line in text.split("\r\n")]
 
 
 def split_asynchronous(lines: Sequence[str]) -> Tuple[List[str], List[str]]:

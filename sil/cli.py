@@ -241,11 +241,15 @@ def _bisect(args: argparse.Namespace) -> int:
     if result.first is None and not result.suspects:
         print(f"no change: the selected cases' {what} at BAD are GOOD's ({result.builds} build(s))")
         return 1
-    if result.first is None or len(result.suspects) > 1:
+    if result.first is None:        # BAD, and the commits left before it, do not build
         listed = ", ".join(f"{c.short} {c.subject}" for c in result.suspects)
-        print(f"the first change is one of {len(result.suspects)} commit(s), the others not buildable: "
+        print(f"no commit found: the change is in one of {len(result.suspects)} commit(s) that do not build: "
               f"{listed} ({result.builds} build(s))")
-        return 1 if result.first is None else 0
+        return 1
+    if len(result.suspects) > 1:
+        listed = ", ".join(f"{c.short} {c.subject}" for c in result.suspects[:-1])
+        print(f"{len(result.suspects) - 1} commit(s) just before the one below do not build (skipped): the "
+              f"change may be in them: {listed}")
     first = result.first
     print(f"first changed: {first.sha} {first.subject}: {result.case} ({result.builds} build(s))")
     return 0
