@@ -278,6 +278,19 @@ def _baseline_checks(args: argparse.Namespace) -> list:
     return read_expect_changes(expect) if expect is not None else []
 
 
+def _preflight_baseline(args: argparse.Namespace) -> None:
+    """The baseline checked as the target is; its problem says it is the baseline's."""
+    from ..harness.cli_options import UsageError
+    from ..harness.targets.base import TargetError
+
+    try:
+        preflight(argparse.Namespace(**{**vars(args), "target": [args.baseline], "inventory": None}))
+    except UsageError as exc:
+        raise UsageError(f"--baseline: {exc}") from None
+    except TargetError as exc:
+        raise TargetError(f"--baseline: {exc}") from None
+
+
 def run(args: argparse.Namespace) -> int:
     """The run: preflight, a new run folder, the image loaded if given, the suite in a child pytest,
     the report; the exit status of the table in cli_exits.py."""
@@ -286,9 +299,7 @@ def run(args: argparse.Namespace) -> int:
     expected = _baseline_checks(args)
     preflight(args)   # before the run folder and the load: a mistake is one line, reports/ untouched
     if getattr(args, "baseline", None):
-        checked = argparse.Namespace(**{**vars(args), "target": [args.baseline], "junit": None,
-                                        "transcripts": None, "firmware": args.firmware})
-        preflight(checked)
+        _preflight_baseline(args)
     made = _missing_folders(os.path.join(runs.DEFAULT_ROOT, runs.RUNS)) if not args.junit else []
     folder = runs.start_for(args)        # None when --junit names the file explicitly
     if args.image or args.signature:

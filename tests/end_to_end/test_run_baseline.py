@@ -43,6 +43,7 @@ def _listed(stdout: str):
     return [(m.group(1), m.group(2)) for m in found]
 
 
+@pytest.mark.slow
 def test_a_changed_help_line_lists_exactly_the_cases_that_print_it(tmp_path):
     expect = tmp_path / "expect.txt"
     expect.write_text("# the help text's vin line changed\n*[help]\n*[?]\n\n"
@@ -71,6 +72,7 @@ def test_a_changed_help_line_lists_exactly_the_cases_that_print_it(tmp_path):
     assert "Compared with the baseline" in head and NEW in head
 
 
+@pytest.mark.slow
 def test_a_tree_against_itself_lists_nothing(tmp_path):
     tree = f"sil:{firmware_tree()}"
     junit = tmp_path / "run" / "junit.xml"
@@ -80,6 +82,7 @@ def test_a_tree_against_itself_lists_nothing(tmp_path):
     assert "0 case(s) whose HAT output differs" in done.stdout and not _listed(done.stdout)
 
 
+@pytest.mark.slow
 def test_a_difference_outside_expect_changes_fails_the_run(tmp_path):
     """Only the help cases of test_commands are meant to change: those of test_link and
     test_abbreviation are not, and fail the run, listed as such."""
@@ -114,3 +117,21 @@ def test_a_bad_expect_changes_line_is_one_line_exit_2(tmp_path, text, says):
 def test_expect_changes_without_a_baseline_is_a_usage_error(tmp_path):
     done = cli("run", "-t", "emulator", "--expect-changes", "/dev/null", cache=tmp_path / "cache")
     assert done.returncode == 2 and "--expect-changes needs --baseline" in done.stderr, done.stderr
+
+
+def test_a_baseline_that_cannot_run_is_one_line_naming_it(tmp_path):
+    done = cli("run", "-t", "emulator", "--baseline", f"sil:{tmp_path / 'nope'}",
+               "--junit", str(tmp_path / "run" / "junit.xml"), cache=tmp_path / "cache")
+    assert done.returncode == 2 and done.stdout == "", done.stdout + done.stderr
+    assert done.stderr.strip().startswith("buildhat-conformance run: --baseline: sil: ")
+    assert len(done.stderr.strip().splitlines()) == 1 and not (tmp_path / "run").exists()
+
+
+def test_two_emulators_of_the_same_release_differ_in_nothing(tmp_path):
+    """Any two targets: the emulator against itself (a second run as its only control)."""
+    junit = tmp_path / "run" / "junit.xml"
+    done = cli("run", "-t", "inprocess:R7", "--baseline", "inprocess:R7", "-k", "help or version",
+               "--expect-changes", "/dev/null", "--junit", str(junit), cache=tmp_path / "cache")
+    assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-2000:]
+    assert "(2 run(s) of it): 0 case(s) whose HAT output differs" in done.stdout
+    assert sorted(p.name for p in (junit.parent / "baseline").iterdir()) == ["again", "reference"]

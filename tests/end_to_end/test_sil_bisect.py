@@ -42,6 +42,7 @@ def _history(repo, folder=".", broken=None):
     return shas
 
 
+@pytest.mark.slow
 def test_bisect_names_the_sixth_commit_in_at_most_five_builds(tmp_path):
     repo = tmp_path / "fw"
     shas = _history(repo)
@@ -62,6 +63,7 @@ def test_bisect_names_the_sixth_commit_in_at_most_five_builds(tmp_path):
             _git(repo, "worktree", "list")) == before
 
 
+@pytest.mark.slow
 def test_bisect_skips_a_commit_that_does_not_build_and_compares_output(tmp_path):
     """The tree in firmware-pico/ (found without --folder); the seventh commit does not compile and
     is skipped; --output looks for a change of the HAT's lines."""

@@ -19,6 +19,7 @@ def _effort_aside(summary):
     return dict(summary, seconds=0, controls=0, mutants=mutants)
 
 
+@pytest.mark.slow
 def test_two_shards_merged_are_the_whole_campaign(tmp_path):
     tree = str(firmware_tree())
     cache = tmp_path / "cache"
