@@ -31,7 +31,8 @@ from .build import Build, BuildError, build_tree
 from .case_output import case_lines, read_verdicts, same_output
 from .mutate import PHASE_CONTROLS_NS, run_suite
 
-__all__ = ["BisectError", "Commit", "Step", "BisectResult", "bisect", "default_folder", "git"]
+__all__ = ["BisectError", "Commit", "Step", "BisectResult", "bisect", "default_folder", "git",
+           "resolve_commit", "first_parent_line"]
 
 
 class BisectError(Exception):
@@ -89,7 +90,7 @@ def default_folder(repo: Path, bad: str) -> str:
     return "firmware-pico" if has else "."
 
 
-def _commit(repo: Path, ref: str, what: str) -> Commit:
+def resolve_commit(repo: Path, ref: str, what: str) -> Commit:
     try:
         sha = git(repo, "rev-parse", "--verify", "--quiet", f"{ref}^{{commit}}")
     except BisectError:
@@ -97,7 +98,7 @@ def _commit(repo: Path, ref: str, what: str) -> Commit:
     return Commit(sha, git(repo, "log", "-1", "--format=%s", sha))
 
 
-def _line(repo: Path, good: Commit, bad: Commit) -> List[Commit]:
+def first_parent_line(repo: Path, good: Commit, bad: Commit) -> List[Commit]:
     if subprocess.run(["git", "-C", str(repo), "merge-base", "--is-ancestor", good.sha, bad.sha],
                       capture_output=True).returncode != 0:
         raise BisectError(f"GOOD {good.short} is not an ancestor of BAD {bad.short}")
@@ -172,9 +173,9 @@ def bisect(repo: Path, good_ref: str, bad_ref: str, work: Path, folder: Optional
            say: Say = print) -> BisectResult:
     """Find the first commit after GOOD up to BAD whose selected cases differ from GOOD's."""
     repo = Path(git(repo, "rev-parse", "--show-toplevel"))
-    good, bad = _commit(repo, good_ref, "GOOD"), _commit(repo, bad_ref, "BAD")
+    good, bad = resolve_commit(repo, good_ref, "GOOD"), resolve_commit(repo, bad_ref, "BAD")
     folder = folder or default_folder(repo, bad.sha)
-    commits = _line(repo, good, bad)
+    commits = first_parent_line(repo, good, bad)
     work.mkdir(parents=True, exist_ok=True)
     scratch = Path(tempfile.mkdtemp(prefix="bisect-", dir=work))
     try:

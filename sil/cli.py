@@ -73,6 +73,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                      help="where the page, the JSON and survivors' transcripts go (default %(default)s)")
     _add_bisect(sub)
     _add_mutate_merge(sub)
+    _add_history(sub)
     cov = sub.add_parser("coverage", help="the firmware's line and branch coverage (a --coverage build)")
     cov.add_argument("tree", metavar="TREE", help="the firmware tree the build was made from")
     cov.add_argument("--sanitize", type=_sanitizers, default=[], metavar="LIST", help="as given to sil build")
@@ -89,6 +90,8 @@ def main(args: argparse.Namespace) -> int:
         return _bisect(args)
     if args.sil_command == "mutate-merge":
         return _mutate_merge(args)
+    if args.sil_command in ("history", "history-merge"):
+        return _history(args)
     if args.sil_command == "serve":
         from .serve import main as serve_main
         return serve_main(args.rest)
@@ -280,4 +283,54 @@ def _mutate_merge(args: argparse.Namespace) -> int:
     page = write_reports(campaign, out)
     print(campaign.summary_line())
     print(f"report: {page}  json: {out / 'mutation.json'}")
+    return 0
+
+
+def _add_history(sub) -> None:  # type: ignore[no-untyped-def]
+    hist = sub.add_parser(
+        "history", help="run the suite on every commit from FIRST to LAST (or a --shard of them)",
+        description="In a git checkout of a firmware repository: build each commit of LAST's first-parent "
+                    "line from FIRST on in a scratch worktree and run the suite on it; one line per "
+                    "commit, a page and a JSON (docs/COMPARING-BUILDS.md).",
+        epilog="exit status: 0 every commit was tried (one that does not build is said, not an error); "
+               "2 usage (not a repository, an unknown commit, FIRST not an ancestor of LAST, a bad --shard)")
+    hist.add_argument("first", metavar="FIRST", help="the first commit to run")
+    hist.add_argument("last", metavar="LAST", help="the last commit to run (a descendant of FIRST)")
+    hist.add_argument("-C", dest="repo", default=".", metavar="REPO", help="the checkout (default: here)")
+    hist.add_argument("--folder", default=None, metavar="PATH",
+                      help="the firmware tree's folder in the repository (default as sil bisect)")
+    hist.add_argument("-k", dest="keyword", default=None, metavar="EXPR", help="only the cases matching EXPR")
+    hist.add_argument("--firmware", default=None, metavar="RELEASE",
+                      help="judge every commit as this release")
+    hist.add_argument("--shard", default=None, metavar="K/N", help="run only every N-th commit from the K-th")
+    hist.add_argument("-o", "--output", default=os.path.join("reports", "history"), metavar="DIR",
+                      help="where the page, the JSON and each commit's run go (default %(default)s)")
+    merge = sub.add_parser("history-merge", help="one page and JSON from the parts of a sil history --shard",
+                           description="Merge the parts (--shard 1/N ... N/N) of one sil history run.",
+                           epilog="exit status: 0 merged; 2 the parts do not make one history")
+    merge.add_argument("parts", nargs="+", metavar="PART", help="each part's history.json, or its folder")
+    merge.add_argument("-o", "--output", default=os.path.join("reports", "history"), metavar="DIR",
+                       help="where the merged page and JSON go (default %(default)s)")
+
+
+def _history(args: argparse.Namespace) -> int:
+    from .bisect import BisectError
+    from .history import merge_history, read_history_part, run_history, write_history
+    from .mutation_shards import MergeError, parse_shard
+
+    try:
+        if args.sil_command == "history-merge":
+            data = merge_history([read_history_part(Path(p)) for p in args.parts])
+        else:
+            if args.shard is not None:
+                parse_shard(args.shard)
+            out = Path(args.output)
+            extra = ["--firmware", args.firmware] if args.firmware else []
+            data = run_history(Path(args.repo), args.first, args.last, out / "runs", folder=args.folder,
+                               keyword=args.keyword, extra=extra, shard=args.shard,
+                               say=lambda line: print(line, flush=True))
+    except (BisectError, MergeError, ValueError) as exc:
+        raise UsageError(str(exc)) from None
+    page = write_history(data, Path(args.output))
+    print(f"{len(data['commits'])} commit(s); report: {page}  json: {Path(args.output) / 'history.json'}")
     return 0
