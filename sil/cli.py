@@ -5,7 +5,8 @@
 one line: where the program is and the target URL that runs it. The build is cached.
 ``sil coverage PROGRAM`` prints the firmware's line and branch coverage from the runs of a
 program built with ``--coverage`` (``--reset`` clears it first, for one run's figure).
-``sil mutate`` (``--shard K/N``), ``sil mutate-merge`` and ``sil bisect``: docs/COMPARING-BUILDS.md
+``sil mutate`` (``--shard K/N``), ``sil mutate-merge``, ``sil bisect``, ``sil history`` (``--shard``) and
+``sil history-merge``: docs/COMPARING-BUILDS.md
 and the modules they call.
 """
 from __future__ import annotations

@@ -23,7 +23,7 @@ from .bisect import default_folder, first_parent_line, git, resolve_commit
 from .build import BuildError, build_tree
 from .case_output import read_verdicts
 from .mutate import run_suite
-from .mutation_shards import MergeError, parse_shard, shard_of
+from .mutation_shards import MergeError, parse_shard, read_part, shard_of
 
 __all__ = ["run_history", "merge_history", "write_history", "read_history_part"]
 
@@ -91,19 +91,7 @@ def _counts_text(entry: dict) -> str:
 
 
 def read_history_part(path: Path) -> dict:
-    path = path / "history.json" if path.is_dir() else path
-    try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise MergeError(f"{path}: no such file") from None
-    except (OSError, ValueError) as exc:
-        raise MergeError(f"{path}: not a sil history's history.json ({exc})") from None
-    if not isinstance(data, dict) or "commits" not in data:
-        raise MergeError(f"{path}: not a sil history's history.json (no commits)")
-    if not data.get("shard"):
-        raise MergeError(f"{path}: not a part (run sil history with --shard K/N)")
-    data["_path"] = str(path)
-    return data
+    return read_part(path, "history.json", "commits", "a sil history run")
 
 
 def merge_history(parts: Sequence[dict]) -> dict:

@@ -47,19 +47,20 @@ def shard_of(items: Sequence[T], k: int, n: int) -> Tuple[List[int], List[T]]:
     return indices, [items[i] for i in indices]
 
 
-def read_part(path: Path) -> dict:
-    """A part's mutation.json (or the folder that holds one)."""
-    path = path / "mutation.json" if path.is_dir() else path
+def read_part(path: Path, file_name: str = "mutation.json", items: str = "mutants",
+              what: str = "a sil mutate campaign") -> dict:
+    """A part's JSON (``file_name``, or the folder that holds one), which lists its ``items``."""
+    path = path / file_name if path.is_dir() else path
     try:
         data = json.loads(path.read_text(encoding="utf-8"))
     except FileNotFoundError:
         raise MergeError(f"{path}: no such file") from None
     except (OSError, ValueError) as exc:
-        raise MergeError(f"{path}: not a campaign's mutation.json ({exc})") from None
-    if not isinstance(data, dict) or "mutants" not in data:
-        raise MergeError(f"{path}: not a campaign's mutation.json (no mutants)")
+        raise MergeError(f"{path}: not the {file_name} of {what} ({exc})") from None
+    if not isinstance(data, dict) or items not in data:
+        raise MergeError(f"{path}: not the {file_name} of {what} (no {items})")
     if not data.get("shard"):
-        raise MergeError(f"{path}: not a part of a sharded campaign (run with --shard K/N)")
+        raise MergeError(f"{path}: not a part of {what} (run it with --shard K/N)")
     data["_path"] = str(path)
     return data
 

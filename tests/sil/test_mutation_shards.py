@@ -61,3 +61,16 @@ def test_parts_that_are_not_one_campaign_are_refused(parts, says):
 
 
 
+
+
+def test_a_whole_campaign_or_no_file_is_not_a_part(tmp_path):
+    from buildhat_conformance.sil.mutation_shards import read_part
+    whole = tmp_path / "mutation.json"
+    whole.write_text('{"mutants": [], "seed": 1}')
+    with pytest.raises(MergeError, match="not a part of a sil mutate campaign"):
+        read_part(tmp_path)
+    with pytest.raises(MergeError, match="no such file"):
+        read_part(tmp_path / "nope.json")
+    whole.write_text("{")
+    with pytest.raises(MergeError, match="not the mutation.json of a sil mutate campaign"):
+        read_part(whole)
