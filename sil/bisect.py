@@ -215,7 +215,8 @@ def _search(tryer: _Tryer, good: Commit, commits: List[Commit], say: Say) -> Bis
         try:
             built = tryer.build(commit)
         except BuildError as exc:
-            step = Step(commit, "skipped", str(exc).splitlines()[0] if str(exc) else "does not build")
+            said = str(exc).replace(f"{tryer.scratch}/tried/", "")     # the path in the repository
+            step = Step(commit, "skipped", said.splitlines()[0] if said else "does not build")
         else:
             state, why = tryer.state(built, f"step-{len(tried) + 1}-{commit.short}")
             what = _changed(reference, state, left_out, tryer.output) if state else f"no case ran ({why})"

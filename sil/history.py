@@ -59,7 +59,9 @@ def run_history(repo: Path, first_ref: str, last_ref: str, work: Path, folder: O
                     raise BuildError(f"no folder {folder} in this commit")
                 build = build_tree(str(tree))
             except BuildError as exc:
-                entry.update(status="no-build", detail=(str(exc).splitlines() or ["does not build"])[0])
+                # the scratch worktree's path says nothing to the reader (and differs between parts)
+                said = str(exc).replace(f"{scratch}/", "")
+                entry.update(status="no-build", detail=(said.splitlines() or ["does not build"])[0])
             else:
                 out = work / f"{index + 1:04d}-{commit.short}"
                 if out.exists():

@@ -25,9 +25,11 @@ def _history(repo):
     shas = []
     for n in range(1, 5):
         if n == 2:
-            (tree / "main.c").write_text((tree / "main.c").read_text() + "\nthis does not compile\n")
+            broken = (tree / "main.c").read_text() + "\nthis does not compile\n"
+            (tree / "main.c").write_text(broken)
         if n == 3:
-            (tree / "main.c").write_text((tree / "main.c").read_text().replace("\nthis does not compile\n", ""))
+            mended = (tree / "main.c").read_text().replace("\nthis does not compile\n", "")
+            (tree / "main.c").write_text(mended)
             plant(tree, "command.c", "report main power input voltage", "report main power input volts!!")
         (tree / "NOTES.txt").write_text(f"note {n}\n")
         _git(repo, "add", "-A")
@@ -46,6 +48,7 @@ def test_two_parts_of_a_history_merged_are_the_whole(tmp_path):
     data = json.loads((tmp_path / "whole" / "history.json").read_text())
     assert [c["sha"] for c in data["commits"]] == shas
     assert [c["status"] for c in data["commits"]] == ["ran", "no-build", "ran", "ran"]
+    assert data["commits"][1]["detail"].startswith("main.c: firmware-pico/main.c:"), data["commits"][1]
     assert set(data["commits"][0]["verdicts"].values()) == {"pass"}
     assert set(data["commits"][2]["verdicts"].values()) == {"fail"}     # R7's help text no longer
     page = (tmp_path / "whole" / "history.html").read_text()
@@ -60,5 +63,6 @@ def test_two_parts_of_a_history_merged_are_the_whole(tmp_path):
     assert json.loads((tmp_path / "merged" / "history.json").read_text()) == data
     assert (tmp_path / "merged" / "history.html").read_text() == page
     # a part alone is refused as a whole
-    alone = cli("sil", "history-merge", str(tmp_path / "part1"), "-o", str(tmp_path / "m2"), cache=tmp_path / "c")
+    alone = cli("sil", "history-merge", str(tmp_path / "part1"), "-o", str(tmp_path / "m2"),
+                cache=tmp_path / "c")
     assert alone.returncode == 2 and "1/2 to 2/2, each once" in alone.stderr, alone.stderr
