@@ -88,7 +88,7 @@ def emulator_lines() -> List[str]:
     return lines
 
 
-# Options of the URLs (emulator/process_target.py, inprocess.py, serial.py from_url).
+# Options of the URLs (emulator/process_target.py, inprocess.py, sil/target.py, serial.py from_url).
 URL_OPTIONS = [
     ("emulator: speed=N", "N times real time (default 10 for a bare 'emulator'; speed=1: real time)"),
     ("emulator: device=P=SPEC", "start-up layout, e.g. device=1=0x30 or device=2=passive+8 (repeatable)"),
@@ -98,6 +98,12 @@ URL_OPTIONS = [
     ("emulator: seed=N", "seed of the emulated sensors' noise"),
     ("inprocess: device=, seed=, baud=", "as for emulator"),
     ("inprocess: scale=S, boot=0", "virtual-time scale; boot=0 starts before the start-up"),
+    ("sil: device=, seed=", "as for emulator (the world's device models around the firmware)"),
+    ("sil: booted=0", "open before the start-up (default: a HAT whose start-up is done)"),
+    ("sil: sanitize=address,undefined", "build with sanitizers (as sil build --sanitize)"),
+    ("sil: coverage=1", "build with gcov coverage of the firmware's files (sil coverage)"),
+    ("sil: firmware=RELEASE", "the release whose device-side timing the world uses (default latest)"),
+    ("sil: speed=N", "paced to the wall clock, N times real time, on a pty (for host libraries)"),
     ("serial: baud=N", "serial:///dev/ttyAMA0?baud=N (default 115200)"),
     ("serial: reset=gpio", "reset the HAT through a Raspberry Pi's GPIO (gpio extra; docs/LAB.md)"),
     ("  chip=, reset_line=, boot0_line=", "with reset=gpio (default /dev/gpiochip0, 4, 22)"),

@@ -47,6 +47,29 @@ EXIT_STATUSES: Dict[str, Tuple[Tuple[int, str], ...]] = {
     "sil": ((0, "built (or served until the host side ended, or coverage printed)"),
             (2, "usage error: not a firmware tree, a compile error, no C compiler, no coverage data"),
             (3, "sil serve: the firmware crashed, exited or never finished its start-up"), _CTRL_C),
+    # sil's actions: each --help ends with its own (sil/cli.py)
+    "sil build": ((0, "built (or up to date)"),
+                  (2, "usage error: not a firmware tree, files that clash, a compile or link error, "
+                      "no C compiler"), _CTRL_C),
+    "sil serve": ((0, "the host side ended"),
+                  (2, "usage error (bad option, not a firmware tree, a build error)"),
+                  (3, "the firmware crashed, exited or never finished its start-up"),
+                  (130, "interrupted (Ctrl-C); 143 after SIGTERM")),
+    "sil mutate": ((0, "the campaign ran (survivors are in its report, not the status)"), (2, _USAGE),
+                   (3, "the unmutated tree does not build or does not pass the suite"), _CTRL_C),
+    "sil bisect": ((0, "the commit was found"),
+                   (1, "nothing changed between GOOD and BAD, or only commits that do not build are left"),
+                   (2, "usage error: not a repository, an unknown commit, GOOD not an ancestor of BAD, GOOD "
+                       "does not build or runs no case"), _CTRL_C),
+    "sil mutate-merge": ((0, "merged"), (2, "usage error: the parts do not make one campaign (a part missing "
+                                            "or given twice, another seed or tree), or a file is not a part"),
+                         _CTRL_C),
+    "sil history": ((0, "every commit was tried (one that does not build is said, not an error)"),
+                    (2, "usage error: not a repository, an unknown commit, FIRST not an ancestor of LAST, a "
+                        "bad --shard"), _CTRL_C),
+    "sil history-merge": ((0, "merged"), (2, "usage error: the parts do not make one history"), _CTRL_C),
+    "sil coverage": ((0, "coverage printed (or cleared)"),
+                     (2, "usage error: not a --coverage build, no counts yet, gcovr missing"), _CTRL_C),
     "buildhat-emulator": ((0, "the host side ended or the emulator was stopped"), (2, _USAGE),
                           (3, "with --strict-host: a host-lint finding"),
                           (130, "interrupted (Ctrl-C); 128+N after signal N (SIGTERM, SIGHUP)")),

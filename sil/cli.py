@@ -2,7 +2,9 @@
 
 ``sil build TREE [--sanitize address,undefined] [--coverage]`` compiles a firmware tree (a
 ``firmware-pico/`` folder or a checkout with one) against the project's stand-in and prints
-one line: where the program is and the target URL that runs it. The build is cached.
+one line: where the program is and the target URL (``sil:TREE`` with the options) that runs it;
+and one more naming the tree's C files its CMakeLists.txt leaves out, if any. The build is cached.
+Each action's ``--help`` ends with its own exit statuses (harness/cli_exits.py).
 ``sil coverage PROGRAM`` prints the firmware's line and branch coverage from the runs of a
 program built with ``--coverage`` (``--reset`` clears it first, for one run's figure).
 ``sil mutate`` (``--shard K/N``), ``sil mutate-merge``, ``sil bisect``, ``sil history`` (``--shard``) and
@@ -16,8 +18,9 @@ import os
 import sys
 from pathlib import Path
 
+from ..harness.cli_exits import exit_status_help
 from ..harness.cli_options import UsageError
-from .build import SANITIZERS, BuildError, build_tree, find_tree
+from .build import SANITIZERS, Build, BuildError, build_tree, find_tree
 from .mutants import DEFAULT_FILES, KINDS
 
 __all__ = ["add_arguments", "main"]
@@ -31,11 +34,23 @@ def _sanitizers(text: str) -> list:
     return names
 
 
+def _serve_help() -> str:
+    """``sil serve``'s own help (its options are sil/serve.py's), ending with its exit statuses."""
+    from .serve import build_parser as serve_parser
+    parser = serve_parser()
+    parser.epilog = " ".join(filter(None, [parser.epilog, exit_status_help("sil serve")]))
+    return parser.format_help()
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     sub = parser.add_subparsers(dest="sil_command", metavar="ACTION")
     build = sub.add_parser("build", help="build a firmware tree for this host (cached)",
-                           description="Compile every C file of a Build HAT firmware tree, unchanged, "
-                                       "against the project's stand-in for the pico-sdk.")
+                           description="Compile the C files a Build HAT firmware tree's CMakeLists.txt "
+                                       "makes the firmware of (with its compile definitions and include "
+                                       "folders; without one, every C file of the folder), unchanged, "
+                                       "against the project's stand-in for the pico-sdk. The C files it "
+                                       "leaves out are named.",
+                           epilog=exit_status_help("sil build"))
     build.add_argument("tree", metavar="TREE", help="a firmware-pico/ folder, or a checkout containing one")
     build.add_argument("--sanitize", type=_sanitizers, default=[], metavar="LIST",
                        help="build with sanitizers: address, undefined (comma-separated)")
@@ -45,10 +60,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                            help="serve a firmware at wall-clock pace on a pty/TCP/stdio "
                                 "(see sil serve --help)")
     serve.add_argument("rest", nargs=argparse.REMAINDER)
+    # its options are parsed by sil/serve.py; -h first (REMAINDER takes none) asks it for its help
+    serve.add_argument("-h", "--help", dest="serve_help", action="store_true", help=argparse.SUPPRESS)
     mut = sub.add_parser("mutate", help="plant single-site changes in a tree and run the suite on each",
                          description="Seeded single-site mutants of a firmware tree, each built and run "
                                      "against the suite in virtual time: killed, survived, "
-                                     "likely equivalent.")
+                                     "likely equivalent.",
+                         epilog=exit_status_help("sil mutate"))
     mut.add_argument("tree", metavar="TREE", help="a firmware-pico/ folder, or a checkout containing one")
     mut.add_argument("--files", default=",".join(DEFAULT_FILES), metavar="LIST",
                      help="the C files to mutate, comma-separated (default: %(default)s)")
@@ -75,7 +93,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     _add_bisect(sub)
     _add_mutate_merge(sub)
     _add_history(sub)
-    cov = sub.add_parser("coverage", help="the firmware's line and branch coverage (a --coverage build)")
+    cov = sub.add_parser("coverage", help="the firmware's line and branch coverage (a --coverage build)",
+                         description="The firmware's line and branch coverage from the runs of a tree "
+                                     "built with --coverage (gcovr).",
+                         epilog=exit_status_help("sil coverage"))
     cov.add_argument("tree", metavar="TREE", help="the firmware tree the build was made from")
     cov.add_argument("--sanitize", type=_sanitizers, default=[], metavar="LIST", help="as given to sil build")
     cov.add_argument("--reset", action="store_true", help="clear the counts (before a run)")
@@ -94,6 +115,9 @@ def main(args: argparse.Namespace) -> int:
     if args.sil_command in ("history", "history-merge"):
         return _history(args)
     if args.sil_command == "serve":
+        if args.serve_help or any(a in ("-h", "--help") for a in args.rest):
+            print(_serve_help(), end="")
+            return 0
         from .serve import main as serve_main
         return serve_main(args.rest)
     try:
@@ -104,7 +128,9 @@ def main(args: argparse.Namespace) -> int:
     if args.sil_command == "build":
         what = "up to date" if build.cached else "built"
         extra = "".join(f" +{s}" for s in build.sanitize) + (" +coverage" if build.coverage else "")
-        print(f"{what}: {build.tree}{extra} -> {build.program} (target: sil:{build.program})")
+        print(f"{what}: {build.tree}{extra} -> {build.program} (target: {target_url(build)})")
+        for line in build.plan.said() if build.plan is not None else []:
+            print(line)
         return 0
     from .coverage import coverage_summary, reset_counts
     if args.reset:
@@ -117,6 +143,13 @@ def main(args: argparse.Namespace) -> int:
         print(f"buildhat-conformance sil: {exc}", file=sys.stderr)
         return 2
     return 0
+
+
+def target_url(build: Build) -> str:
+    """The ``sil:`` URL that runs this build: the tree and the options it was built with."""
+    options = ([f"sanitize={','.join(build.sanitize)}"] if build.sanitize else []) + \
+        (["coverage=1"] if build.coverage else [])
+    return f"sil:{build.tree}" + (f"?{'&'.join(options)}" if options else "")
 
 
 def _mutate(args: argparse.Namespace) -> int:
@@ -211,9 +244,7 @@ def _add_bisect(sub) -> None:  # type: ignore[no-untyped-def]
                     "and name the first commit whose selected cases' verdicts (--output: HAT output) "
                     "differ from GOOD's. Commits whose tree does not build are skipped. The checkout "
                     "itself is left as it is (docs/COMPARING-BUILDS.md).",
-        epilog="exit status: 0 the commit was found; 1 nothing changed between GOOD and BAD, or only "
-               "commits that do not build are left; 2 usage (not a repository, an unknown commit, GOOD "
-               "not an ancestor of BAD, GOOD does not build or runs no case)")
+        epilog=exit_status_help("sil bisect"))
     bis.add_argument("good", metavar="GOOD", help="a commit whose behaviour is the reference")
     bis.add_argument("bad", metavar="BAD", help="a later commit whose behaviour differs")
     bis.add_argument("-C", dest="repo", default=".", metavar="REPO",
@@ -264,8 +295,7 @@ def _add_mutate_merge(sub) -> None:  # type: ignore[no-untyped-def]
                            help="one page and JSON from the parts of a sil mutate --shard campaign",
                            description="Merge the parts (--shard 1/N ... N/N) of one seeded sil mutate "
                                        "campaign, run on one machine each, into one page and one JSON.",
-                           epilog="exit status: 0 merged; 2 the parts do not make one campaign (a part "
-                                  "missing or given twice, another seed or tree), or a file is not a part")
+                           epilog=exit_status_help("sil mutate-merge"))
     merge.add_argument("parts", nargs="+", metavar="PART",
                        help="each part's mutation.json, or the --output folder holding it")
     merge.add_argument("-o", "--output", default=os.path.join("reports", "mutation"), metavar="DIR",
@@ -293,8 +323,7 @@ def _add_history(sub) -> None:  # type: ignore[no-untyped-def]
         description="In a git checkout of a firmware repository: build each commit of LAST's first-parent "
                     "line from FIRST on in a scratch worktree and run the suite on it; one line per "
                     "commit, a page and a JSON (docs/COMPARING-BUILDS.md).",
-        epilog="exit status: 0 every commit was tried (one that does not build is said, not an error); "
-               "2 usage (not a repository, an unknown commit, FIRST not an ancestor of LAST, a bad --shard)")
+        epilog=exit_status_help("sil history"))
     hist.add_argument("first", metavar="FIRST", help="the first commit to run")
     hist.add_argument("last", metavar="LAST", help="the last commit to run (a descendant of FIRST)")
     hist.add_argument("-C", dest="repo", default=".", metavar="REPO", help="the checkout (default: here)")
@@ -308,7 +337,7 @@ def _add_history(sub) -> None:  # type: ignore[no-untyped-def]
                       help="where the page, the JSON and each commit's run go (default %(default)s)")
     merge = sub.add_parser("history-merge", help="one page and JSON from the parts of a sil history --shard",
                            description="Merge the parts (--shard 1/N ... N/N) of one sil history run.",
-                           epilog="exit status: 0 merged; 2 the parts do not make one history")
+                           epilog=exit_status_help("sil history-merge"))
     merge.add_argument("parts", nargs="+", metavar="PART", help="each part's history.json, or its folder")
     merge.add_argument("-o", "--output", default=os.path.join("reports", "history"), metavar="DIR",
                        help="where the merged page and JSON go (default %(default)s)")

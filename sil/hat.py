@@ -18,6 +18,7 @@ import copy
 import re
 from typing import Any, Callable, Dict, List, Mapping, Optional
 
+from ..emulator.uart import WIRE_AHEAD, WIRE_AHEAD_MS
 from ..emulator.world import WorldError, perform_line
 from ..protocol.devices import DEFAULT_LAYOUT, parse_device_spec
 from .process import FirmwareDied, FirmwareProcess
@@ -27,7 +28,15 @@ from .world import SilWorld
 __all__ = ["SilHat", "FirmwareDied", "BOOT_LIMIT_MS"]
 
 BOOT_LIMIT_MS = 20000
+# The command port's byte time at 115200 baud 8N1 (docs/FIRMWARE-BEHAVIOUR.md#fb-uart), as the
+# stand-in reckons it (whole ns): host bytes reach the firmware no faster than this.
+HOST_BYTE_NS = 10 * 1_000_000_000 // 115200
+# Host bytes taken ahead of the wire: as many as it carries in WIRE_AHEAD_MS, the emulator's figure
+# (emulator/uart.py), so a real-time runner that wakes a little late still keeps the wire busy.
+HOST_AHEAD = max(WIRE_AHEAD, WIRE_AHEAD_MS * 1_000_000 // HOST_BYTE_NS)
 SEEN_LIMIT = 256 * 1024     # output since power-on kept for settled(): the start-up is a few KB
+_VERSION_LINE = re.compile(rb"Firmware version: ([^\r\n]*)\r\n")
+VERSION_WAIT_MS = 2000      # HAT time for a copy to answer `version`
 _CONNECTED = re.compile(rb"P([0-3]): (connected to passive ID|established serial communication)")
 Event = Dict[str, Any]
 
@@ -53,7 +62,9 @@ class SilHat:
         self._seen = bytearray()          # output since power-on, for boot()'s connect lines
         self._base_ns = 0                 # virtual time at the current process's power-on
         self._now_ns = 0
+        self._host_free_ns = 0            # when the last host byte written will have crossed the wire
         self.died: Optional[FirmwareDied] = None
+        self._version: Optional[str] = None   # what `version` prints, once asked (reported_version)
         self._died_unreported = False
         self.hung = False
         self._start()
@@ -61,6 +72,7 @@ class SilHat:
     # -- the child process ---------------------------------------------------------------
     def _start(self) -> None:
         self._base_ns = self._now_ns
+        self._host_free_ns = self._now_ns     # a new process: nothing of the host's is on its wire
         self._seen.clear()
         self.outside = SilWorld(self.devices, seed=self.seed, features=self.features, event=self._event)
         self.outside.base_ns = self._base_ns
@@ -138,13 +150,24 @@ class SilHat:
     def now(self) -> int:
         return self._now_ns // NS_PER_MS
 
+    @property
+    def power_on_ms(self) -> int:
+        """When the running firmware process was powered on (a reset starts a new one), HAT ms."""
+        return self._base_ns // NS_PER_MS
+
     def write(self, data: bytes) -> None:
         if self.proc is not None and self.died is None and not self.hung:
             for i in range(0, len(data), 4096):
                 self.outside.send(encode("H", self._now_ns - self._base_ns, bytes(data[i:i + 4096])))
+            # The stand-in queues them on the command port's wire, one byte time each (sil/README.md).
+            self._host_free_ns = max(self._host_free_ns, self._now_ns) + len(data) * HOST_BYTE_NS
 
     def host_room(self) -> Optional[int]:
-        return None
+        """Host bytes the wire takes now: a real-time runner reads no more than this from its link, so
+        a host that writes faster than 115200 baud is pushed back as a UART pushes it back, and the
+        firmware's own receive ring meets the host's bytes at the wire's rate (issue 39)."""
+        queued = -(-max(0, self._host_free_ns - self._now_ns) // HOST_BYTE_NS)
+        return max(0, HOST_AHEAD - queued)
 
     def read(self) -> bytes:
         out = bytes(self._out)
@@ -234,7 +257,7 @@ class SilHat:
         if head == "@firmware":
             if self.died is not None:
                 return "ok dead"
-            return "ok hung" if self.hung else "ok sil"
+            return "ok hung" if self.hung else f"ok {self.reported_version()}"
         self.outside.catch_up(self.now)        # the shafts move up to the action first
         perform_line(self.outside, line)
         if head == "@plug":
@@ -242,6 +265,29 @@ class SilHat:
         elif head == "@unplug":
             self.devices[int(words[1])] = None
         return "ok"
+
+    def reported_version(self) -> str:
+        """What the firmware prints after ``Firmware version: `` (``@firmware``, as the emulator answers
+        it). Asked of a copy of this HAT, so the host's session sees nothing of it; learned once."""
+        if self._version is None:
+            dup = self.copy()
+            try:
+                if not dup.settled():
+                    dup.boot()
+                dup.read()
+                # a CR first: a line the host left unfinished is run (in the copy) and out of the way
+                dup.write(b"\rversion\r")
+                got = b""
+                for _ in range(VERSION_WAIT_MS // 10):
+                    dup.advance(10)
+                    got += dup.read()
+                    found = _VERSION_LINE.search(got)
+                    if found:
+                        self._version = found.group(1).decode("latin-1")
+                        break
+            finally:
+                dup.close()
+        return self._version or "unknown"
 
     def reset(self, bootloader: bool = False) -> None:
         """Power-cycle the HAT: a new firmware process, the same layout, time goes on."""

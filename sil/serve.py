@@ -8,6 +8,10 @@ emulator target's process handling serves both: ``--pty | --tcp [HOST:]PORT | --
 ``--speed N``, ``--device P=SPEC``, ``--booted``, ``--seed N``, ``--control PATH``,
 ``--firmware RELEASE`` (the release whose device-side timing the world uses).
 A firmware that crashes or exits ends this program with status 3 and its report on stderr.
+
+The host's bytes reach the firmware at the wire's pace (``SilHat.host_room``), so a host that writes faster
+is pushed back as a serial port pushes it back; ``@firmware`` names the version the firmware reports and
+``@lint`` is the emulator's host lint (``host_lint.py``), as ``buildhat-emulator`` answers them.
 """
 from __future__ import annotations
 
@@ -23,6 +27,7 @@ from .process import FirmwareDied
 
 if TYPE_CHECKING:
     from .hat import SilHat
+    from .host_lint import FirmwareLint
 
 __all__ = ["main", "build_parser"]
 
@@ -62,9 +67,17 @@ def _hat(args: argparse.Namespace, parser: argparse.ArgumentParser) -> SilHat:
         parser.error(str(exc))
 
 
+def _lint(hat: SilHat, booted: bool) -> FirmwareLint:
+    """The host lint, reading host lines as the release the firmware reports (sil/host_lint.py)."""
+    from ..protocol.profiles import resolve_version
+    from .host_lint import FirmwareLint
+    words = hat.reported_version().split()
+    release = resolve_version(int(words[0]))[0].name if words and words[0].isdigit() else None
+    return FirmwareLint(profile_of=lambda: None, firmware=hat, release=release, booted=booted)
+
+
 def main(argv: Optional[Sequence[str]] = None) -> int:
     from ..emulator.control import ENV_TOKEN, ControlHandler, ControlServer
-    from ..emulator.hostlint import HostLint
     from ..emulator.runners.clock import RealTimeClock
     from ..emulator.runners.links import PtyLink, StdioLink, TcpLink
     from ..emulator.runners.realtime import run_realtime
@@ -74,13 +87,13 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     if args.speed <= 0:
         parser.error("--speed must be positive")
     hat = _hat(args, parser)
-    link = control = None
+    link = control = lint = None
     signal.signal(signal.SIGTERM, lambda s, f: (_ for _ in ()).throw(SystemExit(128 + s)))
     try:
         if args.booted:
             hat.boot()
             hat.read()                       # printed to nobody: the host was not there yet
-        lint = HostLint(profile_of=lambda: None, strict=False)
+        lint = _lint(hat, args.booted)
         clock = RealTimeClock(args.speed)
         if args.control:
             control = ControlServer(args.control, ControlHandler(hat, clock, lint),
@@ -90,14 +103,14 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
             link = PtyLink(args.link)
             where = link.path
         elif args.tcp:
-            link = TcpLink(args.tcp, paced=False)
+            link = TcpLink(args.tcp, paced=True)     # the wire's pace: a small window pushes back
             where = link.address
         else:
             link = StdioLink()
             where = "stdio"
         if not args.stdio:
             print(where, flush=True)
-        return run_realtime(hat, link, clock, control, None)
+        return run_realtime(hat, link, clock, control, lint)
     except FirmwareDied as exc:
         print(f"buildhat-conformance sil serve: {exc.summary}", file=sys.stderr)
         if exc.report:
@@ -109,6 +122,9 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     except KeyboardInterrupt:
         return 130
     finally:
+        if lint is not None and (lint.lines or not lint.clean):   # its report on stderr, as the emulator's
+            lint.finish()
+            print(lint.report(), file=sys.stderr, flush=True)
         if control is not None:
             control.close()
         if link is not None:

@@ -15,6 +15,7 @@ from typing import Dict, List
 
 import pytest
 import serial
+import workflow_steps  # noqa: E402
 from hostlib.scenario import run_scenario  # noqa: E402
 from hostlib.venvs import buildhat_python  # noqa: E402
 from repo_paths import REPO  # noqa: E402
@@ -26,30 +27,7 @@ pytestmark = pytest.mark.timeout(180)
 
 
 def job_steps(job: str) -> Dict[str, str]:
-    """step name -> its `run: |` script, for one job (a tiny reader for this file's own layout)."""
-    lines = WORKFLOW.read_text().splitlines()
-    start = lines.index(f"  {job}:")
-    steps: Dict[str, str] = {}
-    name = None
-    i = start + 1
-    while i < len(lines) and (not lines[i].strip() or lines[i].startswith("    ")):
-        line = lines[i]
-        found = re.match(r"\s+- name: (.+)$", line)
-        if found:
-            name = found.group(1)
-        elif name and line.strip() == "run: |":
-            indent = len(lines[i + 1]) - len(lines[i + 1].lstrip())
-            body = []
-            i += 1
-            while i < len(lines) and (not lines[i].strip() or lines[i].startswith(" " * indent)):
-                body.append(lines[i][indent:])
-                i += 1
-            steps[name] = "\n".join(body) + "\n"
-            continue
-        elif name and line.strip().startswith("run: "):
-            steps[name] = line.strip()[5:] + "\n"
-        i += 1
-    return steps
+    return workflow_steps.job_steps(WORKFLOW, job)
 
 
 def matrix_entries() -> List[Dict[str, str]]:

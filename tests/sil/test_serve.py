@@ -70,3 +70,52 @@ def test_the_served_firmware_keeps_no_event_list(cache, monkeypatch):
         assert hat.events == []
     finally:
         hat.close()
+
+
+# -- the wire's pace (issue 39) ----------------------------------------------------------------------------
+# docs/FIRMWARE-BEHAVIOUR.md#fb-uart: 115200 baud, 8N1: a byte takes 10 bits, 86.8 us, on the wire.
+BYTE_US = 10 / 115200 * 1e6
+
+
+def _served_hat(cache, monkeypatch, *options: str):
+    from buildhat_conformance.sil.serve import _hat
+    tree = firmware_tree()
+    assert cli("sil", "build", str(tree), cache=cache).returncode == 0
+    monkeypatch.setenv("BUILDHAT_SIL_CACHE", str(cache))
+    parser = build_parser()
+    return _hat(parser.parse_args([str(tree), "--stdio", *options]), parser)
+
+
+def test_host_bytes_are_taken_no_faster_than_the_wire_carries_them(cache, monkeypatch):
+    hat = _served_hat(cache, monkeypatch)
+    try:
+        hat.boot()
+        room = hat.host_room()
+        assert room is not None and 0 < room < 200, "a few ms of the wire's bytes, never an unbounded queue"
+        hat.write(b"#" * 2000)                  # a comment line's bytes (no CR): nothing runs, nothing prints
+        assert hat.host_room() == 0, "2000 bytes take 174 ms on the wire: no room until they have crossed it"
+        hat.advance(int(2000 * BYTE_US / 1000) - 20)      # 20 ms before the last of them arrives
+        assert hat.host_room() == 0
+        hat.advance(40)                        # all across, the wire idle again
+        assert hat.host_room() == room
+    finally:
+        hat.close()
+
+
+def test_the_control_channel_names_the_version_the_firmware_reports(cache, monkeypatch):
+    hat = _served_hat(cache, monkeypatch)
+    try:
+        # asked before the start-up is done: the copy it is asked of finishes its own
+        assert hat.world("@firmware") == "ok 1737564117 2025-01-22T16:41:57+00:00"
+        hat.boot()
+        hat.read()
+        hat.write(b"vi")                       # a line the host has not finished: the answer must not mix in
+        hat.advance(5)
+        hat._version = None                    # noqa: SLF001 - asked again, now with a line half typed
+        assert hat.world("@firmware") == "ok 1737564117 2025-01-22T16:41:57+00:00"
+        hat.write(b"n\r")
+        hat.advance(50)
+        out = hat.read()
+        assert b"V\r\n" in out and b"Firmware version" not in out, out   # the host's own `vin`, and only it
+    finally:
+        hat.close()
