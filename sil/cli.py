@@ -236,6 +236,19 @@ def _mutate(args: argparse.Namespace) -> int:
     return 0
 
 
+def _add_repository_options(parser: argparse.ArgumentParser, last: str) -> None:
+    """What `sil bisect` and `sil history` share: the checkout, the tree's folder in it, the cases."""
+    parser.add_argument("-C", dest="repo", default=".", metavar="REPO",
+                        help="the repository's checkout (default: the current folder)")
+    parser.add_argument("--folder", default=None, metavar="PATH",
+                        help="the firmware tree's folder inside the repository (default: the folder you "
+                             f"stand in, else firmware-pico/ when {last} has one, else the root)")
+    parser.add_argument("-k", dest="keyword", default=None, metavar="EXPR",
+                        help="only the suite's cases matching EXPR (faster; a change must show in them)")
+    parser.add_argument("--firmware", default=None, metavar="RELEASE",
+                        help="judge every commit as this release (as run --firmware)")
+
+
 def _add_bisect(sub) -> None:  # type: ignore[no-untyped-def]
     bis = sub.add_parser(
         "bisect", help="find the first commit where the selected cases' verdicts (or output) change",
@@ -247,15 +260,7 @@ def _add_bisect(sub) -> None:  # type: ignore[no-untyped-def]
         epilog=exit_status_help("sil bisect"))
     bis.add_argument("good", metavar="GOOD", help="a commit whose behaviour is the reference")
     bis.add_argument("bad", metavar="BAD", help="a later commit whose behaviour differs")
-    bis.add_argument("-C", dest="repo", default=".", metavar="REPO",
-                     help="the repository's checkout (default: the current folder)")
-    bis.add_argument("--folder", default=None, metavar="PATH",
-                     help="the firmware tree's folder inside the repository (default: the folder you stand "
-                          "in, else firmware-pico/ when BAD has one, else the repository's root)")
-    bis.add_argument("-k", dest="keyword", default=None, metavar="EXPR",
-                     help="only the suite's cases matching EXPR (faster; the change must show in them)")
-    bis.add_argument("--firmware", default=None, metavar="RELEASE",
-                     help="judge every commit as this release (as run --firmware)")
+    _add_repository_options(bis, "BAD")
     bis.add_argument("--output", action="store_true",
                      help="look for a change of the cases' HAT output, not of their verdicts")
     bis.add_argument("--work", default=os.path.join("reports", "bisect"), metavar="DIR",
@@ -326,12 +331,7 @@ def _add_history(sub) -> None:  # type: ignore[no-untyped-def]
         epilog=exit_status_help("sil history"))
     hist.add_argument("first", metavar="FIRST", help="the first commit to run")
     hist.add_argument("last", metavar="LAST", help="the last commit to run (a descendant of FIRST)")
-    hist.add_argument("-C", dest="repo", default=".", metavar="REPO", help="the checkout (default: here)")
-    hist.add_argument("--folder", default=None, metavar="PATH",
-                      help="the firmware tree's folder in the repository (default as sil bisect)")
-    hist.add_argument("-k", dest="keyword", default=None, metavar="EXPR", help="only the cases matching EXPR")
-    hist.add_argument("--firmware", default=None, metavar="RELEASE",
-                      help="judge every commit as this release")
+    _add_repository_options(hist, "LAST")
     hist.add_argument("--shard", default=None, metavar="K/N", help="run only every N-th commit from the K-th")
     hist.add_argument("-o", "--output", default=os.path.join("reports", "history"), metavar="DIR",
                       help="where the page, the JSON and each commit's run go (default %(default)s)")

@@ -2,44 +2,20 @@
 ten commits, a behaviour change planted in the sixth (the help text's `vin` line), the firmware
 tree at the repository's root or in `firmware-pico/`."""
 import re
-import subprocess
 
 import pytest
-from sil_support import cli, firmware_tree, plant
+from sil_support import cli, git, git_history
 
 pytestmark = pytest.mark.timeout(900)
 
-HELP_LINE = "report main power input voltage"
-
-
 def _git(repo, *args):
-    return subprocess.run(["git", "-C", str(repo), *args], check=True, capture_output=True, text=True).stdout
+    return git(repo, *args)
 
 
 def _history(repo, folder=".", broken=None):
     """Ten commits; the sixth changes the help text; ``broken``: that commit's tree does not compile
     (the next one mends it)."""
-    import shutil
-    repo.mkdir()
-    _git(repo, "init", "-q")
-    _git(repo, "config", "user.email", "t@example.com")
-    _git(repo, "config", "user.name", "test")
-    tree = repo / folder
-    shutil.copytree(firmware_tree(), tree, dirs_exist_ok=True)
-    shas = []
-    for n in range(1, 11):
-        (tree / "NOTES.txt").write_text(f"note {n}\n")
-        if n == 6:
-            plant(tree, "command.c", HELP_LINE, "report main power input volts!!")
-        if n == broken:
-            (tree / "main.c").write_text((tree / "main.c").read_text() + "\nthis does not compile\n")
-        if broken and n == broken + 1:
-            mended = (tree / "main.c").read_text().replace("\nthis does not compile\n", "")
-            (tree / "main.c").write_text(mended)
-        _git(repo, "add", "-A")
-        _git(repo, "commit", "-q", "-m", f"commit {n}")
-        shas.append(_git(repo, "rev-parse", "HEAD").strip())
-    return shas
+    return git_history(repo, folder, 10, 6, broken)
 
 
 @pytest.mark.slow

@@ -2,40 +2,16 @@
 makes from the R7 tree: four commits, the second does not build, the third changes the help text.
 Two parts merged give what one run over every commit gives."""
 import json
-import subprocess
 
 import pytest
-from sil_support import cli, firmware_tree, plant
+from sil_support import cli, git_history
 
 pytestmark = pytest.mark.timeout(900)
 
 
-def _git(repo, *args):
-    return subprocess.run(["git", "-C", str(repo), *args], check=True, capture_output=True, text=True).stdout
-
-
 def _history(repo):
-    import shutil
-    repo.mkdir()
-    _git(repo, "init", "-q")
-    _git(repo, "config", "user.email", "t@example.com")
-    _git(repo, "config", "user.name", "test")
-    tree = repo / "firmware-pico"
-    shutil.copytree(firmware_tree(), tree)
-    shas = []
-    for n in range(1, 5):
-        if n == 2:
-            broken = (tree / "main.c").read_text() + "\nthis does not compile\n"
-            (tree / "main.c").write_text(broken)
-        if n == 3:
-            mended = (tree / "main.c").read_text().replace("\nthis does not compile\n", "")
-            (tree / "main.c").write_text(mended)
-            plant(tree, "command.c", "report main power input voltage", "report main power input volts!!")
-        (tree / "NOTES.txt").write_text(f"note {n}\n")
-        _git(repo, "add", "-A")
-        _git(repo, "commit", "-q", "-m", f"commit {n}")
-        shas.append(_git(repo, "rev-parse", "HEAD").strip())
-    return shas
+    """Four commits in firmware-pico/: the second does not build, the third changes the help text."""
+    return git_history(repo, "firmware-pico", 4, 3, broken=2)
 
 
 @pytest.mark.slow
