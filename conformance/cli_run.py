@@ -57,6 +57,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "and again if the run resets a dead HAT (with --signature; as "
                              "'buildhat-conformance load')")
     parser.add_argument("--signature", default=None, metavar="FILE", help="the image's 64-byte signature")
+    parser.add_argument("--baseline", default=None, metavar="URL",
+                        help="also run the suite on this target (e.g. sil:OLD-TREE) and list every case "
+                             "whose HAT output differs from it, timing-only differences told apart "
+                             "(docs/COMPARING-BUILDS.md)")
+    parser.add_argument("--expect-changes", default=None, metavar="FILE",
+                        help="with --baseline: the cases meant to change (one case id or pattern a line, "
+                             "# comments); a difference outside them fails the run")
     add_lab_arguments(parser)
 
 

@@ -275,16 +275,50 @@ def load_image_first(args: argparse.Namespace) -> int:
     return 0
 
 
+def _baseline_checks(args: argparse.Namespace) -> list:
+    """``--baseline``/``--expect-changes`` checked before anything runs; the expected changes."""
+    from ..harness.cli_options import UsageError
+    from .comparison import read_expect_changes
+
+    baseline = getattr(args, "baseline", None)
+    expect = getattr(args, "expect_changes", None)
+    if expect is not None and baseline is None:
+        raise UsageError("--expect-changes needs --baseline (the build the changes are made against)")
+    if baseline is None:
+        return []
+    if len(_targets(args)) != 1 or getattr(args, "inventory", None):
+        raise UsageError("--baseline compares one target with one baseline: give one --target")
+    if args.image or args.signature:
+        raise UsageError("--baseline runs the suite on two targets; --image would load only one of them")
+    return read_expect_changes(expect) if expect is not None else []
+
+
+def _preflight_baseline(args: argparse.Namespace) -> None:
+    """The baseline checked as the target is; its problem says it is the baseline's."""
+    from ..harness.cli_options import UsageError
+    from ..harness.targets.base import TargetError
+
+    try:
+        preflight(argparse.Namespace(**{**vars(args), "target": [args.baseline], "inventory": None}))
+    except UsageError as exc:
+        raise UsageError(f"--baseline: {exc}") from None
+    except TargetError as exc:
+        raise TargetError(f"--baseline: {exc}") from None
+
+
 def run(args: argparse.Namespace) -> int:
     """The run: preflight, a new run folder, the image loaded if given, the suite in a child pytest,
     the report; the exit status of the table in cli_exits.py."""
     from .report import runs
 
+    expected = _baseline_checks(args)
     preflight(args)   # before the run folder and the load: a mistake is one line, reports/ untouched
     seed = args.random_order_seed = _seed(args)
     if seed is not None:
         print(f"buildhat-conformance run: cases in a shuffled order, seed {seed} (the same order again: "
               f"--random-order {seed})", flush=True)
+    if getattr(args, "baseline", None):
+        _preflight_baseline(args)
     made = _missing_folders(os.path.join(runs.DEFAULT_ROOT, runs.RUNS)) if not args.junit else []
     folder = runs.start_for(args)        # None when --junit names the file explicitly
     if args.image or args.signature:
@@ -294,12 +328,25 @@ def run(args: argparse.Namespace) -> int:
                 print(runs.finish(folder))   # no case ran: reports/ stays as it was
                 _remove_if_empty(made)
             return status
-    # The suite's own folder is the rootdir; pytest.ini options of the caller's project are not ours.
-    code, stopped_by = run_child(pytest_argv(args))
     junit = os.path.abspath(args.junit)
+    baseline = _start_baseline(args, junit) if getattr(args, "baseline", None) else None
+    # The suite's own folder is the rootdir; pytest.ini options of the caller's project are not ours.
+    if baseline is not None:
+        with baseline.slots:
+            code, stopped_by = run_child(pytest_argv(args))
+    else:
+        code, stopped_by = run_child(pytest_argv(args))
     if stopped_by is not None:
         print(f"buildhat-conformance run: interrupted ({signal.Signals(stopped_by).name}); the cases that "
               f"ran are in {args.junit} (marked partial)", file=sys.stderr)
+    differ = False
+    if baseline is not None:
+        if stopped_by is not None:
+            baseline.stop()
+        compared = _finish_baseline(args, baseline, junit, expected) if stopped_by is None else None
+        if compared is None and stopped_by is None:
+            code = 3        # the comparison, which the run was for, could not be made
+        differ = bool(compared)
     if os.path.isfile(junit) and (folder is None or runs.cases_ran(folder.junit)):
         build_html_report(junit)
     if folder is not None:
@@ -307,4 +354,45 @@ def run(args: argparse.Namespace) -> int:
         _remove_if_empty(made)     # nothing ran (e.g. pytest refused an option after --)
     if stopped_by is not None:
         return EXIT_INTERRUPTED
-    return _PYTEST_TO_EXIT.get(code, EXIT_FAILED if code else EXIT_OK)
+    if code == 3:
+        return EXIT_TARGET
+    status = _PYTEST_TO_EXIT.get(code, EXIT_FAILED if code else EXIT_OK)
+    return EXIT_FAILED if differ and status == EXIT_OK else status
+
+
+def _start_baseline(args: argparse.Namespace, junit: str):  # type: ignore[no-untyped-def]
+    """Start the baseline's runs beside the target's (conformance/baseline_runs.py)."""
+    import threading
+    from pathlib import Path
+
+    from .baseline_runs import BaselineRuns
+
+    folder = Path(os.path.dirname(junit)) / "baseline"
+    runs_ = BaselineRuns(args, folder, pytest_argv, threading.Semaphore(2))
+    print(f"buildhat-conformance run: the baseline {args.baseline} runs the suite {len(runs_.names)} times "
+          f"beside this run (logs in {folder})", flush=True)
+    runs_.start()
+    return runs_
+
+
+def _finish_baseline(args: argparse.Namespace, baseline, junit: str,  # type: ignore[no-untyped-def]
+                     expected: list) -> Optional[bool]:
+    """Wait for the baseline's runs, compare, write the comparison into the JUnit file and print
+    it. Returns whether a difference fails the run (one outside --expect-changes), None when the
+    baseline left nothing to compare with."""
+    from pathlib import Path
+
+    from .comparison import annotate_junit, closing_lines, compare_runs
+
+    junits = baseline.wait()
+    first = baseline.folder / "reference" / "junit.xml"
+    if not junits or junits[0] != first or not os.path.isfile(junit):
+        why = (f"the baseline's run left no JUnit file ({baseline.reference_log()})" if not junits or
+               junits[0] != first else "this run left no JUnit file")
+        print(f"buildhat-conformance run: no comparison with {args.baseline}: {why}", file=sys.stderr)
+        return None
+    comparison = compare_runs(args.baseline, Path(junit), junits, expected)
+    annotate_junit(Path(junit), comparison)
+    for line in closing_lines(comparison, args.expect_changes):
+        print(line)
+    return bool(comparison.unexpected) if args.expect_changes is not None else False

@@ -21,8 +21,10 @@ EXIT_STATUSES: Dict[str, Tuple[Tuple[int, str], ...]] = {
         (0, "success (conforms)"), (1, "conformance failures (fuzz: a finding; replay: a difference)"),
         (2, _USAGE), (3, _TARGET), _CTRL_C),
     "run": (
-        (0, "conforms"), (1, "conformance failures (a fail, even if the target faulted later)"), (2, _USAGE),
-        (3, "target unreachable or faulted (target faults or cases not run, and no failure)"),
+        (0, "conforms"), (1, "conformance failures (a fail, even if the target faulted later), or with "
+                             "--expect-changes a case that differs from --baseline outside it"), (2, _USAGE),
+        (3, "target unreachable or faulted (target faults or cases not run, and no failure), or the "
+            "--baseline run left nothing to compare with"),
         (130, _STOPPED)),
     "script": ((0, "the script ran to its end"), (2, _USAGE),
                (3, "target unreachable, gone mid-run, or without what the script needs"), _CTRL_C),
@@ -58,6 +60,17 @@ EXIT_STATUSES: Dict[str, Tuple[Tuple[int, str], ...]] = {
                   (130, "interrupted (Ctrl-C); 143 after SIGTERM")),
     "sil mutate": ((0, "the campaign ran (survivors are in its report, not the status)"), (2, _USAGE),
                    (3, "the unmutated tree does not build or does not pass the suite"), _CTRL_C),
+    "sil bisect": ((0, "the commit was found"),
+                   (1, "nothing changed between GOOD and BAD, or only commits that do not build are left"),
+                   (2, "usage error: not a repository, an unknown commit, GOOD not an ancestor of BAD, GOOD "
+                       "does not build or runs no case"), _CTRL_C),
+    "sil mutate-merge": ((0, "merged"), (2, "usage error: the parts do not make one campaign (a part missing "
+                                            "or given twice, another seed or tree), or a file is not a part"),
+                         _CTRL_C),
+    "sil history": ((0, "every commit was tried (one that does not build is said, not an error)"),
+                    (2, "usage error: not a repository, an unknown commit, FIRST not an ancestor of LAST, a "
+                        "bad --shard"), _CTRL_C),
+    "sil history-merge": ((0, "merged"), (2, "usage error: the parts do not make one history"), _CTRL_C),
     "sil coverage": ((0, "coverage printed (or cleared)"),
                      (2, "usage error: not a --coverage build, no counts yet, gcovr missing"), _CTRL_C),
     "buildhat-emulator": ((0, "the host side ended or the emulator was stopped"), (2, _USAGE),

@@ -15,11 +15,14 @@ from __future__ import annotations
 
 import json
 import re
+import xml.etree.ElementTree as ET
+from pathlib import Path
 from typing import Dict, List, Sequence, Tuple
 
 from ..harness.events import UNASKED_KINDS, classify
 
-__all__ = ["case_lines", "same_output", "split_asynchronous", "MOVABLE_KINDS"]
+__all__ = ["case_lines", "same_output", "split_asynchronous", "first_difference", "read_verdicts",
+           "MOVABLE_KINDS"]
 
 #: The lines whose place among the answers is not compared: the classifier's unasked kinds, but
 #: not a passive device's connect line, which is also a line of `list`'s answer (fb-list): there
@@ -30,6 +33,20 @@ _SYNC_TOKEN = re.compile(r"sync-[0-9a-f]+-\d+")
 
 #: (case, verdict, requirement IDs, transcript path), as sil/mutate.py reads them from a JUnit file.
 Verdict = Tuple[str, str, List[str], str]
+
+
+def read_verdicts(junit: Path) -> List[Verdict]:
+    """(case, verdict, requirement IDs, transcript path) of every case in a JUnit file of the
+    suite, in run order; the case as ``module::case[param]``. No file: no cases."""
+    if not junit.exists():
+        return []
+    out = []
+    for case in ET.parse(junit).getroot().iter("testcase"):
+        props = {p.get("name"): p.get("value") or "" for p in case.iter("property")}
+        reqs = [r for r in props.get("requirements", "").replace(",", " ").split() if r]
+        out.append((f"{case.get('classname')}::{case.get('name')}", props.get("verdict", ""), reqs,
+                    props.get("transcript", "")))
+    return out
 
 
 def _hat_entries(path: str) -> List[Tuple[bool, str]]:
@@ -52,7 +69,8 @@ def case_lines(verdicts: Sequence[Verdict]) -> Dict[str, List[str]]:
     stream: a ``partial`` entry (the head of a line the reader saw before its end came) is
     joined to what follows, and a line counts in the case where it began. Where the reads cut
     the stream, and so which transcript a line's end lands in, depends on the wall clock, not
-    on what the HAT sent. The harness's own sync tokens (a fresh one each run) are blanked."""
+    on what the HAT sent (a CRLF cut between two entries is a line end all the same). The
+    harness's own sync tokens (a fresh one each run) are blanked."""
     out: Dict[str, List[str]] = {}
     head, head_case = "", ""
     for case, _verdict, _reqs, transcript in verdicts:
@@ -62,11 +80,17 @@ def case_lines(verdicts: Sequence[Verdict]) -> Dict[str, List[str]]:
                 head_case = case
             head += text
             if not partial:
-                out[head_case].append(_SYNC_TOKEN.sub("sync-*", head))
+                out[head_case] += _lines(head)
                 head = ""
     if head:
-        out[head_case].append(_SYNC_TOKEN.sub("sync-*", head))
+        out[head_case] += _lines(head)
     return out
+
+
+def _lines(text: str) -> List[str]:
+    """A joined entry as the HAT's lines: a read can cut a line's CRLF after the CR, so the next
+    entry begins with the LF and the two, joined, hold a whole line end."""
+    return [_SYNC_TOKEN.sub("sync-*", line) for line in text.split("\r\n")]
 
 
 def split_asynchronous(lines: Sequence[str]) -> Tuple[List[str], List[str]]:
@@ -82,3 +106,18 @@ def same_output(reference: Sequence[str], other: Sequence[str]) -> bool:
     """One case's lines in two runs: the same answers in order and the same asynchronous lines
     in order; only how the two interleave may differ."""
     return list(reference) == list(other) or split_asynchronous(reference) == split_asynchronous(other)
+
+
+def first_difference(reference: Sequence[str], other: Sequence[str]) -> Tuple[str, str]:
+    """The first line where two outputs of a case differ by :func:`same_output`'s measure, each
+    side's (``(none)`` where one side has no more lines): among the answers if they differ,
+    else among the asynchronous lines."""
+    ref_parts, other_parts = split_asynchronous(reference), split_asynchronous(other)
+    for ref, oth in zip(ref_parts, other_parts):
+        if ref != oth:
+            for i in range(max(len(ref), len(oth))):
+                a = ref[i] if i < len(ref) else "(none)"
+                b = oth[i] if i < len(oth) else "(none)"
+                if a != b:
+                    return a, b
+    return "", ""

@@ -29,17 +29,17 @@ import shutil
 import subprocess
 import sys
 import time
-import xml.etree.ElementTree as ET
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Callable, Dict, List, Optional, Sequence, Tuple
 
 from .build import Build, BuildError, build_tree
-from .case_output import case_lines, same_output
+from .case_output import case_lines, read_verdicts, same_output
 from .mutants import Mutant
 
-__all__ = ["Outcome", "Campaign", "run_campaign", "STATUSES", "CONTROL_EVERY", "PHASE_CONTROLS_NS"]
+__all__ = ["Outcome", "Campaign", "run_campaign", "run_suite", "STATUSES", "CONTROL_EVERY",
+           "PHASE_CONTROLS_NS"]
 
 STATUSES = ("killed", "killed-by-fault", "survived", "likely-equivalent", "no-build", "no-boot")
 #: One run of the unmutated tree among every this many mutants: the output that varies between
@@ -81,6 +81,10 @@ class Campaign:
     unstable_cases: int = 0      # cases whose output the runs of the unmutated tree do not agree on
     controls: int = 0            # runs of the unmutated tree besides the reference
     stop_at_first: bool = True   # a killed mutant's run stopped at its first failing case
+    unstable: List[str] = field(default_factory=list)   # those cases (sil mutate-merge needs them)
+    seed: Optional[int] = None   # the campaign's draw, and for a shard (--shard K/N) which part it is
+    shard: str = ""
+    indices: Optional[List[int]] = None   # each outcome's place in the whole campaign (default: its own)
 
     def count(self, status: str) -> int:
         return sum(1 for o in self.outcomes if o.status == status)
@@ -115,11 +119,13 @@ class Campaign:
         return {"tree": self.tree, "score": None if score is None else round(score, 2), "judged": self.judged,
                 "seconds": round(self.seconds, 1), "reference_cases": self.reference_cases,
                 "unstable_cases": self.unstable_cases, "stop_at_first": self.stop_at_first,
+                "unstable": self.unstable, "controls": self.controls, "seed": self.seed,
+                **({"shard": self.shard} if self.shard else {}),
                 "counts": {s: self.count(s) for s in STATUSES},
                 "mutants": [dict(asdict(o.mutant), ident=o.mutant.ident, status=o.status, cases=o.cases,
                                  requirements=o.requirements, detail=o.detail, seconds=round(o.seconds, 1),
-                                 stopped_at_first_failure=o.stopped)
-                            for o in self.outcomes]}
+                                 stopped_at_first_failure=o.stopped, index=index)
+                            for index, o in zip(self.indices or range(len(self.outcomes)), self.outcomes)]}
 
 
 def _phases() -> str:
@@ -140,11 +146,13 @@ def _copy_tree(tree: Path, dest: Path) -> Path:
     return dest
 
 
-def _suite(program: str, folder: Path, keyword: Optional[str], stop_at_first: bool,
-           order: Optional[Path] = None, start_ns: int = 0) -> Tuple[int, Path]:
+def run_suite(program: str, folder: Path, keyword: Optional[str], stop_at_first: bool = False,
+              order: Optional[Path] = None, start_ns: int = 0, extra: Sequence[str] = ()) -> Tuple[int, Path]:
+    """One run of the suite on a built program, its JUnit file, transcripts and log in ``folder``:
+    (the run's exit status, the JUnit file). ``extra``: more options of ``run``."""
     junit = folder / "junit.xml"
     argv = _command() + ["run", "--target", f"sil:{program}", "--junit", str(junit),
-                         "--transcripts", str(folder / "transcripts"), "--max-target-faults", "3"]
+                         "--transcripts", str(folder / "transcripts"), "--max-target-faults", "3", *extra]
     if keyword:
         argv += ["-k", keyword]
     # A target fault does not stop the run (pytest's -x would): a later case may still fail.
@@ -155,19 +163,6 @@ def _suite(program: str, folder: Path, keyword: Optional[str], stop_at_first: bo
     done = subprocess.run(argv, capture_output=True, text=True, timeout=1800, env=env)
     (folder / "run.log").write_text(done.stdout + done.stderr, encoding="utf-8")
     return done.returncode, junit
-
-
-def _verdicts(junit: Path) -> List[Tuple[str, str, List[str], str]]:
-    """(case, verdict, requirement IDs, transcript path) of every case in a JUnit file."""
-    if not junit.exists():
-        return []
-    out = []
-    for case in ET.parse(junit).getroot().iter("testcase"):
-        props = {p.get("name"): p.get("value") or "" for p in case.iter("property")}
-        reqs = [r for r in props.get("requirements", "").replace(",", " ").split() if r]
-        out.append((f"{case.get('classname')}::{case.get('name')}", props.get("verdict", ""), reqs,
-                    props.get("transcript", "")))
-    return out
 
 
 def _differences(reference: Dict[str, Tuple[List[str], List[str]]],
@@ -201,8 +196,8 @@ def _one(mutant: Mutant, tree: Path, base: Build, work: Path, keyword: Optional[
         return Outcome(mutant, "no-build", detail=str(exc), seconds=time.monotonic() - t0)
     finally:
         shutil.rmtree(folder / "tree", ignore_errors=True)
-    code, junit = _suite(str(build.program), folder, keyword, stop_at_first, order)
-    verdicts = _verdicts(junit)
+    code, junit = run_suite(str(build.program), folder, keyword, stop_at_first, order)
+    verdicts = read_verdicts(junit)
     failed = [c for c, v, _r, _t in verdicts if v == "fail"]
     reqs = sorted({r for c, v, rs, _t in verdicts if v == "fail" for r in rs})
     faults = [c for c, v, _r, _t in verdicts if v in ("target-fault", "not-run")]
@@ -227,7 +222,7 @@ def _one(mutant: Mutant, tree: Path, base: Build, work: Path, keyword: Optional[
 def _judge(out: Outcome, reference: Dict[str, Tuple[List[str], List[str]]]) -> None:
     """A pending mutant: survived (the cases whose lines differ) or likely equivalent."""
     junit = Path(out.detail)
-    diff = _differences(reference, _verdicts(junit))
+    diff = _differences(reference, read_verdicts(junit))
     out.detail = ""
     if diff:
         out.status, out.cases = "survived", [c for c, _r in diff][:10]
@@ -244,8 +239,8 @@ def _control(program: str, folder: Path, keyword: Optional[str],
     if folder.exists():
         shutil.rmtree(folder)
     folder.mkdir(parents=True)
-    _code, junit = _suite(program, folder, keyword, False, order, start_ns)
-    return case_lines(_verdicts(junit))
+    _code, junit = run_suite(program, folder, keyword, False, order, start_ns)
+    return case_lines(read_verdicts(junit))
 
 
 Progress = Callable[[Outcome, int, int], None]
@@ -276,19 +271,19 @@ def run_campaign(tree: str, mutants: Sequence[Mutant], work: Path, jobs: int = 2
         order = work / "case-order.txt"
         order.write_text("".join(c + "\n" for c in killers_first), encoding="utf-8")
     with ThreadPoolExecutor(max_workers=2 if jobs > 1 else 1) as pool:
-        first = pool.submit(_suite, str(base.program), ref_folder, keyword, False, order)
-        second = pool.submit(_suite, str(base.program), again_folder, keyword, False, order)
+        first = pool.submit(run_suite, str(base.program), ref_folder, keyword, False, order)
+        second = pool.submit(run_suite, str(base.program), again_folder, keyword, False, order)
         phases = [pool.submit(_control, str(base.program), work / "controls" / f"phase-{ns}ns", keyword,
                               order, ns) for ns in PHASE_CONTROLS_NS]
         code, junit = first.result()
         second.result()
-    ref = _verdicts(junit)
+    ref = read_verdicts(junit)
     bad = [c for c, v, _r, _t in ref if v in ("fail", "target-fault", "not-run")]
     if code not in (0,) or bad:
         raise RuntimeError(f"the unmutated tree does not pass the suite (exit {code}; "
                            f"{len(bad)} case(s) not passing, first: {bad[:1]}): mutants cannot be judged")
     ref_lines = case_lines(ref)
-    runs = [case_lines(_verdicts(again_folder / "junit.xml"))] + [p.result() for p in phases]
+    runs = [case_lines(read_verdicts(again_folder / "junit.xml"))] + [p.result() for p in phases]
     outcomes: List[Outcome] = []
     with ThreadPoolExecutor(max_workers=max(1, jobs)) as pool:
         futures = []
@@ -313,4 +308,4 @@ def run_campaign(tree: str, mutants: Sequence[Mutant], work: Path, jobs: int = 2
             _judge(outcome, reference)
             progress(outcome, i, len(outcomes))
     return Campaign(str(base.tree), outcomes, time.monotonic() - t0, len(ref), len(unstable),
-                    controls=len(runs), stop_at_first=stop_at_first)
+                    controls=len(runs), stop_at_first=stop_at_first, unstable=unstable)

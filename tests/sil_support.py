@@ -55,3 +55,35 @@ def whole_suite(cache: pathlib.Path, folder: pathlib.Path, options: str = "") ->
     done = cli("run", "--target", f"sil:{firmware_tree()}{options}", "--junit", str(junit), cache=cache,
                timeout=900)
     return done, junit_verdicts(junit)
+
+
+BROKEN = "\nthis does not compile\n"
+
+
+def git(repo: pathlib.Path, *args: str) -> str:
+    return subprocess.run(["git", "-C", str(repo), *args], check=True, capture_output=True, text=True).stdout
+
+
+def git_history(repo: pathlib.Path, folder: str, count: int, changed_at: int, broken=None) -> List[str]:
+    """A repository of ``count`` commits ("commit 1" ...) of the R7 tree in ``folder`` (each changes a
+    note file); commit ``changed_at`` changes the help text's vin line, commit ``broken`` adds a line
+    that does not compile to main.c and the next one takes it out. Their SHAs, oldest first."""
+    repo.mkdir()
+    git(repo, "init", "-q")
+    git(repo, "config", "user.email", "t@example.com")
+    git(repo, "config", "user.name", "test")
+    tree = repo / folder
+    shutil.copytree(firmware_tree(), tree, dirs_exist_ok=True)
+    shas = []
+    for n in range(1, count + 1):
+        (tree / "NOTES.txt").write_text(f"note {n}\n")
+        if n == changed_at:
+            plant(tree, "command.c", "report main power input voltage", "report main power input volts!!")
+        if n == broken:
+            (tree / "main.c").write_text((tree / "main.c").read_text() + BROKEN)
+        if broken and n == broken + 1:
+            (tree / "main.c").write_text((tree / "main.c").read_text().replace(BROKEN, ""))
+        git(repo, "add", "-A")
+        git(repo, "commit", "-q", "-m", f"commit {n}")
+        shas.append(git(repo, "rev-parse", "HEAD").strip())
+    return shas

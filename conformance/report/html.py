@@ -263,6 +263,7 @@ def _side_by_side(runs: Sequence[Run]) -> str:
 
 def render_html(runs: Sequence[Run], cov: Coverage, excerpts: Dict[int, List[str]], plots: List[Plot],
                 tool_version: str, triage: Optional[Triage] = None) -> str:
+    from .html_baseline import baseline_section
     from .triage import group_failures
 
     triage = triage or Triage()
@@ -279,6 +280,7 @@ def render_html(runs: Sequence[Run], cov: Coverage, excerpts: Dict[int, List[str
     body = "".join([
         summary_section(runs, triage.changes, f"built {now} by buildhat-conformance {tool_version}"),
         defects_section(runs),          # a firmware in the loop's own defects (sanitizers, crashes)
+        baseline_section(runs),
         failure_groups_section(groups),
         faults_section(faults),
         skips_section(skips),

@@ -48,3 +48,15 @@ def test_answers_in_another_order_are_a_difference(tmp_path):
     # A passive device's connect line is also a line of `list`'s answer: its place counts.
     listing = ["P0: connected to passive ID 8", "P1: no device detected", ""]
     assert not same_output(listing, ["P1: no device detected", "P0: connected to passive ID 8", ""])
+
+
+def test_a_crlf_cut_between_two_reads_is_a_line_end(tmp_path):
+    """Seen in a run: a read ended after a line's CR, the next began with its LF; the transcript
+    has a partial ending in CR and a line beginning with LF. Those are the same two lines as a
+    run whose reads fell elsewhere."""
+    path = tmp_path / "cut.jsonl"
+    entries = [{"t": 1, "dir": "hat", "partial": "    format count=1 type=0 chars=1 dp=0\r"},
+               {"t": 2, "dir": "hat", "line": "\n    RAW: 00000000 00000002"}]
+    path.write_text("".join(json.dumps(e) + "\n" for e in entries))
+    got = case_lines([("test_m::case", "pass", [], str(path))])
+    assert got["test_m::case"] == ["    format count=1 type=0 chars=1 dp=0", "    RAW: 00000000 00000002"]
