@@ -104,6 +104,8 @@ URL_OPTIONS = [
     ("sil: coverage=1", "build with gcov coverage of the firmware's files (sil coverage)"),
     ("sil: firmware=RELEASE", "the release whose device-side timing the world uses (default latest)"),
     ("sil: speed=N", "paced to the wall clock, N times real time, on a pty (for host libraries)"),
+    ("sil: suppressions=FILE", "sanitizer reports acknowledged in FILE (the sanitizers' kind:pattern lines) "
+                               "are listed as suppressed, not failed"),
     ("serial: baud=N", "serial:///dev/ttyAMA0?baud=N (default 115200)"),
     ("serial: reset=gpio", "reset the HAT through a Raspberry Pi's GPIO (gpio extra; docs/LAB.md)"),
     ("  chip=, reset_line=, boot0_line=", "with reset=gpio (default /dev/gpiochip0, 4, 22)"),
