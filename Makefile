@@ -5,7 +5,7 @@ PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed-stamp
 TARGET ?= emulator
 
-.PHONY: conformance test bench lint clean wheel-check
+.PHONY: conformance test test-long test-all bench lint clean wheel-check
 
 $(STAMP): pyproject.toml setup.py
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
@@ -21,8 +21,17 @@ conformance: $(STAMP)
 ## The project's own tests, in parallel (pytest-xdist): many of them wait on a child process or a pty,
 ## so more workers than cores pay off. Tests sharing a module-scoped fixture stay on one worker
 ## (tests/conftest.py marks them xdist_group). TEST_WORKERS=0 runs them in this process, one by one.
+## The long tier (tests/conftest.py LONG_TESTS: whole-suite runs, campaigns and histories on a firmware
+## in the loop) is left out to keep the quick tier, which CI runs, well under ten minutes; `make test-long`
+## runs it alone (about ten minutes here), `make test-all` both.
 TEST_WORKERS ?= 3
 test: $(STAMP)
+	$(PY) -m pytest tests -n $(TEST_WORKERS) --dist loadgroup -m "not long"
+
+test-long: $(STAMP)
+	$(PY) -m pytest tests -n $(TEST_WORKERS) --dist loadgroup -m long
+
+test-all: $(STAMP)
 	$(PY) -m pytest tests -n $(TEST_WORKERS) --dist loadgroup
 
 ## Benchmarks: prints each figure next to its goal; never fails on wall-clock numbers.

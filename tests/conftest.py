@@ -41,7 +41,33 @@ def pytest_terminal_summary(terminalreporter: Any) -> None:
 OFFLINE_ENV = "BUILDHAT_TESTS_OFFLINE"
 
 
+# The long tier (`make test-long`): tests that run the whole suite, a campaign or a history several
+# times on a firmware in the loop, 30-100 s each on this project's 2-core machines. `make test` (CI)
+# leaves them out so it stays well under ten minutes; each is listed here, by file or by test, so one
+# place says what the quick tier does not run. Run them before a release and after changing what they
+# cover (sil/, conformance/comparison.py, conformance/case_order.py, fuzz crash handling).
+LONG_TESTS = (
+    "end_to_end/test_sil_mutate_shards.py::test_two_shards_merged_are_the_whole_campaign",
+    "end_to_end/test_sil_history.py::",
+    "end_to_end/test_run_baseline.py::test_a_changed_help_line_lists_exactly_the_cases_that_print_it",
+    "end_to_end/test_run_baseline.py::test_a_tree_against_itself_lists_nothing",
+    "end_to_end/test_conformance_case_order.py::test_two_shuffled_orders_give_the_suite_s_own_verdicts",
+    "end_to_end/test_sil_crashes.py::test_r7_sanitized_gives_the_plain_verdicts",
+    "end_to_end/test_sil_crashes.py::test_fuzzing_the_sanitized_r7_keeps_its_findings",
+    "end_to_end/test_firmware_example_workflow.py::test_the_steps_run_on_a_tree_with_a_stray_test_program",
+    "end_to_end/test_sil_bisect.py::test_bisect_skips_a_commit_that_does_not_build",
+)
+
+
+def _is_long(item: pytest.Item) -> bool:
+    where = item.nodeid.replace("\\", "/")
+    return any(f"tests/{name}" in where or where.startswith(name) for name in LONG_TESTS)
+
+
 def pytest_collection_modifyitems(config: pytest.Config, items: list) -> None:
+    for item in items:
+        if _is_long(item):
+            item.add_marker(pytest.mark.long)
     if os.environ.get(OFFLINE_ENV, "") not in ("", "0"):
         skip = pytest.mark.skip(reason=f"offline run ({OFFLINE_ENV}=1): needs the network")
         for item in items:
