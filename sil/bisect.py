@@ -15,7 +15,10 @@ changed (every verdict changed).
 
 With ``output=True`` a case counts as changed when its HAT output differs from GOOD's by
 sil/case_output.py's measure; GOOD also runs as a chip started a little later (sil/mutate.py's
-phase controls) and the cases whose output moves with that are left out, as ``sil mutate`` does.
+phase controls). A case whose answers move with that is left out; one whose answers stay but whose
+asynchronous lines move (a ``deltat=`` stall line: a pass of 2-3 ms prints it or not as the 1 ms tick
+falls, docs/FIRMWARE-BEHAVIOUR.md#fb-stall) is compared by its answers alone, as ``run --baseline``
+counts such a difference as timing only (docs/COMPARING-BUILDS.md).
 """
 from __future__ import annotations
 
@@ -28,7 +31,7 @@ from pathlib import Path
 from typing import Callable, Dict, List, Optional, Sequence, Tuple
 
 from .build import Build, BuildError, build_tree
-from .case_output import case_lines, read_verdicts, same_output
+from .case_output import case_lines, moving_cases, read_verdicts, same_answers, same_output
 from .mutate import PHASE_CONTROLS_NS, run_suite
 
 __all__ = ["BisectError", "Commit", "Step", "BisectResult", "bisect", "default_folder", "git",
@@ -151,8 +154,10 @@ class _Tryer:
         return {case: verdict for case, verdict, _r, _t in verdicts}, why
 
 
-def _changed(good: State, other: State, left_out: Sequence[str], output: bool) -> str:
-    """The first case whose state differs from GOOD's, described; '' when none does."""
+def _changed(good: State, other: State, left_out: Sequence[str], output: bool,
+             answers_only: Sequence[str] = ()) -> str:
+    """The first case whose state differs from GOOD's, described; '' when none does (the cases in
+    ``answers_only`` by their answers alone)."""
     for case, before in good.items():
         if case in left_out:
             continue
@@ -160,7 +165,8 @@ def _changed(good: State, other: State, left_out: Sequence[str], output: bool) -
         if after is None:
             return f"{case}: did not run"
         if output:
-            if not same_output(before, after):   # type: ignore[arg-type]
+            same = same_answers if case in answers_only else same_output
+            if not same(before, after):   # type: ignore[arg-type]
                 return f"{case}: its HAT output differs"
         elif after != before:
             return f"{case}: {before} -> {after}"
@@ -201,10 +207,11 @@ def _search(tryer: _Tryer, good: Commit, commits: List[Commit], say: Say) -> Bis
     reference, why = states[0]
     if not reference:
         raise BisectError(f"GOOD {good.short}: no case ran ({why}); check -k")
-    left_out = [c for c in reference if any(c not in s or not same_output(reference[c], s[c])  # type: ignore
-                                            for s, _w in states[1:])]
+    left_out, answers_only = moving_cases(reference, [s for s, _w in states[1:]])  # type: ignore[arg-type]
     say(f"GOOD {good.short} {good.subject}: {len(reference)} case(s)"
-        + (f", {len(left_out)} left out (their output moves with the chip's start)" if left_out else "")
+        + (f", {len(left_out)} left out (their answers move with the chip's start)" if left_out else "")
+        + (f", {len(answers_only)} compared by their answers alone (their asynchronous lines move with the"
+           " chip's start)" if answers_only else "")
         + f"; {len(commits)} commit(s) up to BAD {commits[-1].short}")
     lo, hi = -1, len(commits) - 1            # lo: the last known same (GOOD), hi: the first known changed
     tried: Dict[int, Step] = {}
@@ -219,7 +226,8 @@ def _search(tryer: _Tryer, good: Commit, commits: List[Commit], say: Say) -> Bis
             step = Step(commit, "skipped", said.splitlines()[0] if said else "does not build")
         else:
             state, why = tryer.state(built, f"step-{len(tried) + 1}-{commit.short}")
-            what = _changed(reference, state, left_out, tryer.output) if state else f"no case ran ({why})"
+            what = (_changed(reference, state, left_out, tryer.output, answers_only) if state
+                    else f"no case ran ({why})")
             step = Step(commit, "changed" if what else "same", what)
             if what:
                 changed_at[i] = what

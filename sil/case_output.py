@@ -21,8 +21,8 @@ from typing import Dict, List, Sequence, Tuple
 
 from ..harness.events import UNASKED_KINDS, classify
 
-__all__ = ["case_lines", "same_output", "split_asynchronous", "first_difference", "read_verdicts",
-           "MOVABLE_KINDS"]
+__all__ = ["case_lines", "same_output", "same_answers", "moving_cases", "split_asynchronous",
+           "first_difference", "read_verdicts", "MOVABLE_KINDS"]
 
 #: The lines whose place among the answers is not compared: the classifier's unasked kinds, but
 #: not a passive device's connect line, which is also a line of `list`'s answer (fb-list): there
@@ -106,6 +106,25 @@ def same_output(reference: Sequence[str], other: Sequence[str]) -> bool:
     """One case's lines in two runs: the same answers in order and the same asynchronous lines
     in order; only how the two interleave may differ."""
     return list(reference) == list(other) or split_asynchronous(reference) == split_asynchronous(other)
+
+
+def same_answers(reference: Sequence[str], other: Sequence[str]) -> bool:
+    """One case's lines in two runs: the same answers in order, whatever the asynchronous lines.
+    For a case whose asynchronous lines move with the chip's phase (a ``deltat=`` stall line: a
+    pass of 2-3 ms prints it or not as the 1 ms tick falls, fb-stall) but whose answers do not."""
+    return split_asynchronous(reference)[0] == split_asynchronous(other)[0]
+
+
+def moving_cases(reference: Dict[str, List[str]], controls: Sequence[Dict[str, List[str]]]
+                 ) -> Tuple[List[str], List[str]]:
+    """(the cases whose answers differ in a control run, or that a control did not run; the
+    other cases whose asynchronous lines differ there): the reference run's cases against runs of
+    the same firmware (sil/mutate.py's phase controls), in the reference's order."""
+    answers = [c for c in reference if any(c not in run or not same_answers(reference[c], run[c])
+                                           for run in controls)]
+    asynchronous = [c for c in reference if c not in answers
+                    and any(not same_output(reference[c], run[c]) for run in controls)]
+    return answers, asynchronous
 
 
 def first_difference(reference: Sequence[str], other: Sequence[str]) -> Tuple[str, str]:

@@ -3,7 +3,13 @@ only fell elsewhere among the answers is no difference; one more, one fewer or a
 and so are answers in another order. The transcripts are written here, in the transcript format."""
 import json
 
-from buildhat_conformance.sil.case_output import case_lines, same_output, split_asynchronous
+from buildhat_conformance.sil.case_output import (
+    case_lines,
+    moving_cases,
+    same_answers,
+    same_output,
+    split_asynchronous,
+)
 from buildhat_conformance.sil.mutate import _differences
 
 VERSION = "Firmware version: 1737564117 2025-01-22T16:41:57+00:00"
@@ -48,6 +54,25 @@ def test_answers_in_another_order_are_a_difference(tmp_path):
     # A passive device's connect line is also a line of `list`'s answer: its place counts.
     listing = ["P0: connected to passive ID 8", "P1: no device detected", ""]
     assert not same_output(listing, ["P1: no device detected", "P0: connected to passive ID 8", ""])
+
+
+HELP = ["", "Commands available:", "  help                  : print this help", "", VERSION]
+STALL = "deltat=00000003"
+
+
+def test_a_stall_line_that_moves_with_the_chip_s_phase_leaves_the_answers_compared():
+    """Seen in `sil bisect --output`'s phase controls of R7: the pass printing `help` takes 2-3 ms,
+    so the `deltat=` line follows the first help case's at one start and the second's at another
+    (fb-stall). Those cases are compared by their answers; a case whose answers move is left out."""
+    reference = {"help[help]": HELP + [STALL], "help[?]": HELP, "list": ["P0: no device detected"]}
+    phase = {"help[help]": HELP, "help[?]": HELP + [STALL], "list": ["P0: no device detected", ""]}
+    assert not same_output(reference["help[help]"], phase["help[help]"])
+    assert same_answers(reference["help[help]"], phase["help[help]"])
+    assert moving_cases(reference, [phase]) == (["list"], ["help[help]", "help[?]"])
+    assert moving_cases(reference, [reference]) == ([], [])
+    assert moving_cases(reference, [{"list": reference["list"]}]) == (["help[help]", "help[?]"], [])
+    # a changed answer line is still a difference by the answers alone
+    assert not same_answers(HELP, [line.replace("print this help", "print this") for line in HELP])
 
 
 def test_a_crlf_cut_between_two_reads_is_a_line_end(tmp_path):
