@@ -56,6 +56,14 @@ def _first_report_line(text: str) -> str:
     return ""
 
 
+def _last_word(text: str) -> str:
+    """The last line a crashed program wrote that is not the stand-in's signal line: the rp2040
+    runner's one line on where the core stopped (rp2040/README.md, "Crashes"); a plain build says
+    nothing more."""
+    lines = [ln.strip() for ln in text.splitlines() if ln.strip() and not _SAID_SIGNAL.search(ln)]
+    return lines[-1] if lines else ""
+
+
 def _sanitizer(report: str) -> str:
     for name in ("AddressSanitizer", "UndefinedBehaviorSanitizer", "LeakSanitizer"):
         if name in report:
@@ -156,22 +164,22 @@ class FirmwareProcess:
         return frames
 
     # -- reports the firmware went on after ----------------------------------------------------
-    def _read_reports(self) -> List[FirmwareReport]:
-        """The reports written to stderr since the last look (complete: the firmware writes a
-        report before it runs on, and it has stopped)."""
+    def _read_reports(self) -> str:
+        """Take the reports written to stderr since the last look (complete: the firmware writes a
+        report before it runs on, and it has stopped); return the rest of what it wrote."""
         try:
             size = os.stat(self._stderr_path).st_size
         except OSError:
-            return []
+            return ""
         if size <= self._stderr_read:
-            return []
+            return ""
         with open(self._stderr_path, "rb") as fh:
             fh.seek(self._stderr_read)
             text = fh.read(size - self._stderr_read).decode("utf-8", "replace")
         self._stderr_read = size
-        found, _other = split_reports(text)
+        found, other = split_reports(text)
         self.reports.extend(found)
-        return found
+        return other
 
     def take_reports(self) -> List[FirmwareReport]:
         """The reports met since the last call (the fatal one too, once the firmware died)."""
@@ -233,7 +241,7 @@ class FirmwareProcess:
         code = self._exit_code()
         report = self.stderr_text()
         seen = len(self.reports)
-        self._read_reports()
+        other = self._read_reports()
         found = self.reports[seen:]
         first = found[-1].first if found else _first_report_line(report)
         said = _SAID_SIGNAL.search(report)
@@ -242,11 +250,12 @@ class FirmwareProcess:
             number = -(code or 0)
             name = said.group(1) if said else (
                 signal.Signals(number).name if number in signal.Signals._value2member_map_ else str(number))
-            died = FirmwareDied("crashed", f"the firmware crashed ({name})" + (f": {first}" if found else ""),
-                                report)
-            if not found:             # a plain build's signal: no sanitizer said where
-                found = [crash_report(name, report)]
+            if found:
+                died = FirmwareDied("crashed", f"the firmware crashed ({name}): {first}", report)
+            else:             # no sanitizer said where: the program's own last line, if it said one
+                found = [crash_report(name, report, _last_word(other))]
                 self.reports.extend(found)
+                died = FirmwareDied("crashed", found[0].first, report)
         elif code == _SANITIZER_EXIT or found:
             which = _sanitizer(found[-1].text if found else report)
             died = FirmwareDied("crashed", f"the firmware crashed ({which}): {first or 'sanitizer report'}",

@@ -141,9 +141,10 @@ def split_reports(text: str) -> Tuple[List[FirmwareReport], str]:
     return reports, "\n".join(other)
 
 
-def crash_report(signal_name: str, text: str) -> FirmwareReport:
-    """A death no sanitizer explained (a plain build's SIGSEGV): the signal is its kind."""
-    first = f"the firmware crashed ({signal_name})"
+def crash_report(signal_name: str, text: str, said: str = "") -> FirmwareReport:
+    """A death no sanitizer explained (a plain build's SIGSEGV, an emulated chip's stopped core):
+    the signal is its kind; ``said`` is the program's own line on it (the rp2040 runner's), if any."""
+    first = f"the firmware crashed ({signal_name})" + (f": {said}" if said else "")
     return FirmwareReport(signal_name, "", 0, first, (first + "\n" + text).strip(), fatal=True)
 
 

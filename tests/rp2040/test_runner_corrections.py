@@ -209,6 +209,11 @@ def crash_of(tmp_path, program: bytes) -> str:
     finally:
         chip.kill()
     assert died.value.kind == "crashed"
+    # The same line is the finding a run keeps (a case fails with it and the run goes on:
+    # conformance/plugin/firmware_findings.py), named by the signal the runner ends by.
+    finding = died.value.findings[-1]
+    assert finding.fatal and finding.kind == "SIGABRT" and finding.first == died.value.summary
+    assert chip.take_reports() == [finding]
     return died.value.summary
 
 

@@ -95,3 +95,6 @@ def test_a_crash_no_sanitizer_explained_is_named_by_its_signal():
     report = crash_report("SIGSEGV", "sil: the firmware was killed by SIGSEGV")
     assert report.key == ("SIGSEGV", "", 0) and report.fatal
     assert report.first == "the firmware crashed (SIGSEGV)"
+    # A program that said what happened (the rp2040 runner's stopped core): its line follows.
+    said = crash_report("SIGABRT", "rp2040: the core stopped at ...", "rp2040: the core stopped at ...")
+    assert said.first == "the firmware crashed (SIGABRT): rp2040: the core stopped at ..."
