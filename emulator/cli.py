@@ -38,7 +38,7 @@ default layout: P0 0x30, P1 0x40, P2 passive 8, P3 none.
 
 
 def build_parser() -> argparse.ArgumentParser:
-    # The options buildhat-conformance shares (README, "Options"): one line per mistake, no
+    # The options buildhat-conformance shares (docs/USING.md, "Options"): one line per mistake, no
     # abbreviations (--version is not --version-string), -o/--output for the file it writes.
     from ..harness.cli_exits import exit_status_help
     from ..harness.cli_options import RELEASE_HELP, SPEED_HELP, OneLineParser, add_hidden_alias

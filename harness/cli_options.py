@@ -1,5 +1,5 @@
 """What every command shares: the ``-t/--target`` option with its one default, the option
-names and help texts used in more than one command (the README's option table), the exit
+names and help texts used in more than one command (the option table of docs/USING.md), the exit
 status values, and the one-line error for a user's mistake.
 
 Exit statuses: 0 success / conforms, 1 conformance failures (or a finding reproduced), 2 usage
@@ -66,7 +66,7 @@ def add_target_option(parser: argparse.ArgumentParser, multiple: bool = False, e
 
 
 def add_hidden_alias(parser: argparse.ArgumentParser, *names: str, dest: str, **kwargs: Any) -> None:
-    """An old spelling of an option that still works but is not shown in ``--help`` (README,
+    """An old spelling of an option that still works but is not shown in ``--help`` (docs/USING.md,
     "Options"): same ``dest``, no default of its own (the shown option's default stands)."""
     parser.add_argument(*names, dest=dest, help=argparse.SUPPRESS, default=argparse.SUPPRESS,
                         **kwargs)

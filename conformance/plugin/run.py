@@ -41,7 +41,7 @@ from .run_outcome import banner, nothing_done, release_mismatch
 from .summary import firmware_of, write_summary
 
 DEFAULT_CASE_TIMEOUT = 120.0
-# The exit statuses every command shares (README): 0 conforms, 1 conformance failures, 2 usage
+# The exit statuses every command shares (docs/USING.md): 0 conforms, 1 conformance failures, 2 usage
 # error, 3 target unreachable or faulted.
 EXIT_OK, EXIT_FAILED, EXIT_TARGET = 0, 1, 3
 
