@@ -323,10 +323,10 @@ def test_version_on_both_programs(tmp_path, monkeypatch, capsys):
     assert proc.returncode == 0 and proc.stdout.strip() == f"buildhat-emulator {__version__}", proc
 
 
-# -- the README's option table, checked against the parsers -------------------------------------
+# -- the option table (docs/USING.md), checked against the parsers -------------------------------------
 def _readme_option_rows():
     """(options shown, programs, old spellings by program) for each row of README's option table."""
-    text = (ROOT / "README.md").read_text(encoding="utf-8")
+    text = (ROOT / "docs" / "USING.md").read_text(encoding="utf-8")
     table = text.split("### Options", 1)[1].split("| what |", 1)[1].split("\n\n", 1)[0]
     rows = []
     for line in table.splitlines()[2:]:
