@@ -9,7 +9,8 @@ import os
 from setuptools import setup
 
 ROOT = "buildhat_conformance"
-FOLDERS = ["protocol", "harness", "transcripts", "emulator", "sil", "rp2040", "conformance", "fuzz", "bench"]
+FOLDERS = ["plumbing", "protocol", "harness", "transcripts", "serving", "emulator", "sil", "rp2040",
+           "conformance", "fuzz", "campaigns", "bench"]
 # sil/standin/ is C source the user's machine compiles (`sil build`): shipped as data, the wheel stays pure.
 STANDIN = ["standin/*.c", "standin/*.h", "standin/include/*.h", "standin/include/*/*.h",
            "standin/include/*/*/*.h"]

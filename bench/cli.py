@@ -15,8 +15,8 @@ import platform
 import time
 from typing import Callable, List, Optional, Tuple
 
-from ..harness.cli_options import add_hidden_alias
-from ..harness.version import __version__
+from ..plumbing.cli_options import add_hidden_alias
+from ..plumbing.package_version import __version__
 from .figures import Figure, render_table, write_json
 
 # (name, measure, [(figure, key)], most runs or None). A group whose one run takes minutes
@@ -196,7 +196,7 @@ def _run(fn: Callable[[], dict], profile_to: Optional[str]) -> dict:
 
 
 def main(args: argparse.Namespace) -> int:
-    from ..harness.cli_options import UsageError, check_writable
+    from ..plumbing.cli_options import UsageError, check_writable
 
     runs = 1 if args.quick else max(1, args.runs)
     profile_dir = getattr(args, "cprofile", None)

@@ -5,9 +5,9 @@ folder (as strings: only the chosen sub-command is imported). Each sub-command l
 folder that owns it and provides two functions, ``add_arguments(parser)`` and
 ``main(args) -> int``.
 A user's mistake (a bad option, file or target) is one line on stderr, starting with
-``buildhat-conformance COMMAND:``, and the exit status of harness/cli_options.py, the same in
+``buildhat-conformance COMMAND:``, and the exit status of plumbing/cli_options.py, the same in
 every sub-command; a traceback means a bug of ours. Each ``--help`` ends with the exit statuses
-that command really returns (harness/cli_exits.py).
+that command really returns (plumbing/cli_exits.py).
 
 A sub-command that hands arguments on to another program (``run`` to pytest, ``record --proxy``
 to the host program) sets ``PASS_UNKNOWN_ARGS``: what follows ``--`` is handed on as it is, and
@@ -26,10 +26,10 @@ import sys
 from types import ModuleType
 from typing import List, Optional, Sequence, Tuple
 
-from .harness.cli_exits import exit_status_help
-from .harness.cli_options import EXIT_TARGET, EXIT_USAGE, OneLineParser, UsageError
 from .harness.targets.base import TargetError
-from .harness.version import __version__
+from .plumbing.cli_exits import exit_status_help
+from .plumbing.cli_options import EXIT_TARGET, EXIT_USAGE, OneLineParser, UsageError
+from .plumbing.package_version import __version__
 
 SUBCOMMANDS = {
     "run": ("buildhat_conformance.conformance.cli_run", "run the conformance suite against a target"),
@@ -42,9 +42,9 @@ SUBCOMMANDS = {
                "replay a transcript against a target and diff"),
     "mock": ("buildhat_conformance.transcripts.cli_mock", "serve a transcript as a fake HAT"),
     "report": ("buildhat_conformance.conformance.report.cli", "build the HTML report from JUnit files"),
-    "load": ("buildhat_conformance.harness.firmware.cli", "load firmware through the HAT's bootloader"),
+    "load": ("buildhat_conformance.cli_load", "load firmware through the HAT's bootloader"),
     "bench": ("buildhat_conformance.bench.cli", "benchmarks: timing, throughput, fidelity"),
-    "sil": ("buildhat_conformance.sil.cli", "the real firmware on this host: build a tree (sil build)"),
+    "sil": ("buildhat_conformance.cli_sil", "the real firmware on this host: build a tree (sil build)"),
     "rp2040": ("buildhat_conformance.rp2040.cli",
                "a release's firmware.bin on an emulated RP2040: install rp2040js (rp2040 setup)"),
 }

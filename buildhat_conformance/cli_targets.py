@@ -17,10 +17,10 @@ from typing import List
 
 from serial.tools import list_ports
 
-from .emulator.process_target import emulator_command
-from .harness.cli_options import DEFAULT_SPEED
+from .emulator.targets.pty_process import emulator_command
 from .harness.targets import TargetError, url_forms
-from .harness.targets.serial import pi5_debug_uart_remark
+from .harness.targets.serial_device import pi5_debug_uart_remark
+from .plumbing.cli_options import DEFAULT_SPEED
 from .protocol.profiles import DEFAULT_FIRMWARE, load_profiles
 
 # Raspberry Pi aliases that list_ports may not report (they are symlinks).
@@ -88,7 +88,7 @@ def emulator_lines() -> List[str]:
     return lines
 
 
-# Options of the URLs (emulator/process_target.py, inprocess.py, sil/target.py, serial.py from_url).
+# Options of the URLs (emulator/targets/pty_process.py, inprocess.py, sil/target.py, serial.py from_url).
 URL_OPTIONS = [
     ("emulator: speed=N", "N times real time (default 10 for a bare 'emulator'; speed=1: real time)"),
     ("emulator: device=P=SPEC", "start-up layout, e.g. device=1=0x30 or device=2=passive+8 (repeatable)"),

@@ -3,7 +3,7 @@
 The baseline runs as the target does (the same cases, options and pytest arguments), into
 ``baseline/<run>/`` beside the target's JUnit file: ``reference`` (what the target is compared
 with), ``again`` (the wall clock paces some of the harness's waits, so load can move a line), and
-for a ``sil:`` baseline ``phase-<ns>ns`` runs of a chip started that much later (sil/mutate.py's
+for a ``sil:`` baseline ``phase-<ns>ns`` runs of a chip started that much later (campaigns/mutation.py's
 phase controls, ``BUILDHAT_SIL_START_NS``). One of them runs beside the target's run, the rest
 after it, two at a time: the machine's two cores. Each is a child in its own process group that
 ends with this process; :meth:`BaselineRuns.stop` ends them on Ctrl-C.
@@ -20,8 +20,8 @@ from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path
 from typing import Callable, Dict, List, Optional, Tuple
 
-from ..harness.parent_death import die_with_parent
-from ..sil.mutate import PHASE_CONTROLS_NS
+from ..plumbing.parent_death import die_with_parent
+from .case_output import PHASE_CONTROLS_NS
 
 __all__ = ["BaselineRuns", "control_names"]
 

@@ -17,7 +17,7 @@ import importlib.util
 import random
 from typing import Any, Dict, List, Optional
 
-from ..harness.extras import install_hint
+from ..plumbing.optional_extras import install_hint
 
 __all__ = ["MARKER", "RANDOM", "resolve_seed", "order_argv", "keep_together", "seed_in_use"]
 

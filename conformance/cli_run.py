@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import argparse
 
-from ..harness.cli_options import DEFAULT_SPEED, RELEASE_HELP, SPEED_HELP, add_target_option
 from ..harness.lab.selection import add_lab_arguments
+from ..plumbing.cli_options import DEFAULT_SPEED, RELEASE_HELP, SPEED_HELP, add_target_option
 from .case_order import RANDOM
 from .lab_run import hold_for_run
 from .run_passthrough import PYTEST_HELP, UNKNOWN_ARGS_HINT, refused_arguments

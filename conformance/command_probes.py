@@ -11,7 +11,7 @@ import re
 from dataclasses import dataclass
 from typing import Callable, Dict, List, Optional
 
-from .link import Hat, Reply
+from .hat_under_test import HatUnderTest, Reply
 from .mismatch import first_difference
 from .oracles.listing import parse_list
 from .probes import TickClock, data_lines, pid_lines, reports_after, start_quiet_pid
@@ -28,7 +28,7 @@ class Outcome:
 
 @dataclass
 class Ctx:
-    hat: Hat
+    hat: HatUnderTest
     port: int            # a port with a motor (0x30) established
 
 
@@ -36,7 +36,7 @@ def _reply(r: Reply, ran: bool) -> Outcome:
     return Outcome(ran and r.errors == 0, r.errors > 0, repr(r.raw[:160]))
 
 
-def _exact(expected: Callable[[Hat], bytes]) -> Callable[[Ctx, str], Outcome]:
+def _exact(expected: Callable[[HatUnderTest], bytes]) -> Callable[[Ctx, str], Outcome]:
     def run(ctx: Ctx, token: str) -> Outcome:
         r = ctx.hat.exchange_quiet(token)
         want = expected(ctx.hat)
@@ -141,7 +141,7 @@ def pid_or_diff(pvs: List[float], positions: List[float]) -> Optional[str]:
     return None
 
 
-def _nudge(hat: Hat, port: int) -> None:
+def _nudge(hat: HatUnderTest, port: int) -> None:
     """Turn the motor a little (drive 0.4 for about two report periods, then coast about four)
     so it rests somewhere else. Timed by the HAT's own data reports, however fast it runs."""
     hat.exchange(f"port {port} ; select 3 ; pwm ; plimit 1 ; set 0.4")
@@ -244,7 +244,7 @@ PROBES: Dict[str, Callable[[Ctx, str], Outcome]] = {
 }
 
 
-def probe(hat: Hat, port: int, command: str, token: str) -> Outcome:
+def probe(hat: HatUnderTest, port: int, command: str, token: str) -> Outcome:
     """Run ``command``'s probe with ``token`` standing for the command name."""
     ctx = Ctx(hat, port)
     return PROBES[command](ctx, token)

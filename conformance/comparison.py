@@ -2,9 +2,9 @@
 developer meant to change (``--expect-changes FILE``).
 
 A case's output is what the HAT sent in it, compared by ``sil mutate``'s measure
-(sil/case_output.py: the same answers in order and the same asynchronous lines in order; where an
+(conformance/case_output.py: the same answers in order and the same asynchronous lines in order; where an
 asynchronous line fell among the answers does not count). The baseline runs more than once (again,
-and for a ``sil:`` target on a chip started a few microseconds later: sil/mutate.py's phase
+and for a ``sil:`` target on a chip started a few microseconds later: campaigns/mutation.py's phase
 controls), so what only timing moves is told apart: a case whose output in the target's run equals
 any of the baseline's runs is unchanged; one whose output the baseline's own runs do not agree on is
 timing-sensitive and not judged; every other difference is listed, with both sides' first differing
@@ -22,8 +22,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import List, Optional, Sequence, Set, Tuple
 
-from ..harness.cli_options import UsageError
-from ..sil.case_output import case_lines, first_difference, read_verdicts, same_output, split_asynchronous
+from ..plumbing.cli_options import UsageError
+from .case_output import case_lines, first_difference, read_verdicts, same_output, split_asynchronous
 
 __all__ = ["Difference", "Comparison", "ExpectedChange", "read_expect_changes", "compare_runs", "judge_case",
            "annotate_junit", "closing_lines", "BASELINE_PROPERTY"]
@@ -115,7 +115,7 @@ def judge_case(target: Sequence[str], baseline_runs: Sequence[Sequence[str]]) ->
     """``same``, ``timing`` or ``changed``: one case's HAT lines in the target's run against the
     baseline's runs (the reference first).
 
-    - the same as any baseline run (sil/case_output.py's measure): ``same``;
+    - the same as any baseline run (conformance/case_output.py's measure): ``same``;
     - the answers equal to a baseline run's, only asynchronous lines differ (data reports, PID
       lines, ``deltat=``: when they come, and what the motors' samples read then, moves with the
       host's pacing and the chip's phase): ``timing``;

@@ -19,8 +19,8 @@ __all__ = ["hold_for_run"]
 def hold_for_run(args: argparse.Namespace) -> Optional[Callable[[], None]]:
     """Hold the run's labgrid places and point ``args`` at them; returns the function that gives
     them back (None when the run uses no place). Raises UsageError / TargetError, one line."""
-    from ..harness.cli_options import UsageError
     from ..harness.lab.selection import hold_places
+    from ..plumbing.cli_options import UsageError
 
     places = getattr(args, "places", None)
     targets = args.target if isinstance(args.target, list) else [args.target or ""]

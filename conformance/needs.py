@@ -14,10 +14,10 @@ from typing import Any, Dict, List, Optional, Tuple
 import pytest
 
 from ..protocol.devices import active_device, format_device_spec, passive_device
-from . import operator
+from . import operator_prompt as operator
 from .oracles.listing import PortEntry, parse_list
 
-__all__ = ["World", "device_name", "missing_text"]
+__all__ = ["PortNeeds", "device_name", "missing_text"]
 
 Spec = Optional[Tuple[str, int]]          # ("active", 0x30) / ("passive", 8) / None
 
@@ -52,7 +52,7 @@ def missing_text(spec: Spec, have: List[int]) -> str:
             "to a free port and run again (or use --operator)")
 
 
-class World:
+class PortNeeds:
     def __init__(self, hat: Any, config: Any, original: Optional[Dict[int, Spec]] = None):
         self.hat = hat
         self.config = config

@@ -9,7 +9,7 @@ from __future__ import annotations
 import re
 from typing import Any, List, Optional
 
-from .link import Hat
+from .hat_under_test import HatUnderTest
 from .oracles.pid import PidLine, parse_pid_line
 
 __all__ = ["MOTOR", "pid_lines", "start_quiet_pid", "pid_running", "data_lines", "DATA_LINE",
@@ -40,7 +40,7 @@ def data_lines(events: List[Any], port: int) -> List[str]:
     return [t for t in lines_of(events) if DATA_LINE.fullmatch(t) and int(t[1]) == port]
 
 
-def start_quiet_pid(hat: Hat, port: int, sp: str = "0", mode: int = APOS_MODE, fmt: str = "s2",
+def start_quiet_pid(hat: HatUnderTest, port: int, sp: str = "0", mode: int = APOS_MODE, fmt: str = "s2",
                     scale: str = "0") -> None:
     """PID mode with zero gains (the motor is never driven) and ``debug 16`` on, so every
     tick prints its set-point. Needs an active device with data on ``port``."""
@@ -58,7 +58,7 @@ def _is_pid(event: Any, port: int) -> bool:
     return line is not None and line.port == port
 
 
-def reports_after(hat: Hat, port: int, count: int = 2, max_hat_ms: float = 1500) -> List[Any]:
+def reports_after(hat: HatUnderTest, port: int, count: int = 2, max_hat_ms: float = 1500) -> List[Any]:
     """Events until ``count`` data reports of the selected mode on ``port`` arrived (every
     100 ms by default, FACTS §6.2): proof that ~10 controller ticks passed, however slow the
     target, so "no PID line among them" means the controller really is not in PID mode."""
@@ -66,11 +66,11 @@ def reports_after(hat: Hat, port: int, count: int = 2, max_hat_ms: float = 1500)
                         and e.text[1] == str(port), count, max_hat_ms)
 
 
-def pid_running(hat: Hat, port: int, hat_ms: float = 150) -> bool:
+def pid_running(hat: HatUnderTest, port: int, hat_ms: float = 150) -> bool:
     return bool(pid_lines(hat.collect_ms(hat_ms), port))
 
 
-def last_sp(hat: Hat, port: int, hat_ms: float = 120) -> Optional[str]:
+def last_sp(hat: HatUnderTest, port: int, hat_ms: float = 120) -> Optional[str]:
     lines = pid_lines(hat.collect_ms(hat_ms), port)
     return lines[-1].sp if lines else None
 
@@ -80,7 +80,7 @@ class TickClock:
     each PID line is one 10 ms controller tick (FACTS §7), however fast or unevenly the
     target runs against the wall clock."""
 
-    def __init__(self, hat: Hat, port: int):
+    def __init__(self, hat: HatUnderTest, port: int):
         self.hat, self.port = hat, port
         self._pending: List[Any] = []          # events after the last window's end
         start_quiet_pid(hat, port)

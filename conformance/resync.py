@@ -1,6 +1,6 @@
 """Between cases and after a glitch: putting the link and the HAT back in step.
 
-The counted fence (conformance/link.py) is fast and exact on a sound link. When it finds no
+The counted fence (conformance/hat_under_test.py) is fast and exact on a sound link. When it finds no
 answer, or a case begins, the link is found again *by content* (harness/sync.py): a token only
 its own reply can contain, whatever came before it (half a line, a lost or extra line ending,
 garbage, a restart). A start-up banner seen mid-run is a restart: the case in flight is a target
@@ -13,7 +13,6 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any, List, Optional
 
 from ..harness.errors import ExpectTimeout, TargetError
-from .link_clauses import LinkClauses
 from .setup_check import SetupCheck
 from .target_fault import (
     GARBLED,
@@ -25,6 +24,7 @@ from .target_fault import (
     garbled_reply,
     target_fault_of,
 )
+from .trusted_clauses import LinkClauses
 
 __all__ = ["Resync", "BABBLE_LINES", "BABBLE_BURST", "BABBLE_BINARY", "QUIET_S"]
 
@@ -63,7 +63,7 @@ class Resync:
         def profile(self) -> Any: ...
 
     def _init_resync(self) -> None:
-        #: What the run knows of the clauses the set-up relies on (conformance/link_clauses.py).
+        #: What the run knows of the clauses the set-up relies on (conformance/trusted_clauses.py).
         self.clauses = LinkClauses()
         self._powered_checked = False
         #: Devices had their time to connect (conformance/needs.py waits for them once per run,
@@ -260,7 +260,7 @@ class Resync:
         """Send ``before`` (set-up lines) and find the link's place after their output; returns
         the index of the first event after it. By content (a sync) once the echo clause has
         passed; before that, and if it failed, by the counted ``version`` fence, with the sync
-        only as the way back when the count finds no answer (conformance/link_clauses.py)."""
+        only as the way back when the count finds no answer (conformance/trusted_clauses.py)."""
         s = self.session
         separate = not self.clauses.trusted("separator")
         if not self.clauses.trusted("echo"):

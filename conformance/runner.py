@@ -9,7 +9,7 @@ HTML report is built. pytest's own options go after ``--`` and are passed on unc
 (conformance/run_passthrough.py: which others still go on, and which are mistakes).
 
 The child and everything it starts end with this process: it has its own process group, a
-parent-death signal (harness/parent_death.py), and on Ctrl-C or SIGTERM it is told to stop,
+parent-death signal (plumbing/parent_death.py), and on Ctrl-C or SIGTERM it is told to stop,
 which closes the target and writes the JUnit file marked partial (conformance/plugin/interrupt.py);
 the HTML report is still built.
 """
@@ -23,7 +23,7 @@ import sys
 import time
 from typing import List, Optional, Tuple
 
-from ..harness.cli_options import (
+from ..plumbing.cli_options import (
     DEFAULT_SPEED,
     DEFAULT_TARGET,
     EXIT_FAILED,
@@ -31,7 +31,7 @@ from ..harness.cli_options import (
     EXIT_TARGET,
     expand_target,
 )
-from ..harness.parent_death import die_with_parent
+from ..plumbing.parent_death import die_with_parent
 from .case_order import order_argv, resolve_seed
 
 __all__ = ["run", "pytest_argv", "suite_dir"]
@@ -69,7 +69,7 @@ def pytest_argv(args: argparse.Namespace) -> List[str]:
             # plugin imports the library in the terminal summary, two seconds of every run (H10 profile).
             "-p", "no:hypothesispytest",
             "-p", "buildhat_conformance.conformance.plugin.interrupt",
-            # The host-library fixture plugin (emulator/pytest_fixture.py) is not the suite's.
+            # The host-library fixture plugin (emulator/host_fixtures/pytest_plugin.py) is not the suite's.
             "-p", "no:buildhat_emulator",
             # pytest's closing gc.collect() passes over the whole session's heap (twice): a tenth
             # of a virtual-time run in the profile; the suite raises nothing in __del__ to report.
@@ -104,8 +104,8 @@ def pytest_argv(args: argparse.Namespace) -> List[str]:
 
 def preflight(args: argparse.Namespace) -> None:
     """Check every target before the run (raises UsageError or TargetError, one line each)."""
-    from ..harness.cli_options import check_writable
     from ..harness.preflight import check_answers, check_release, checked_target
+    from ..plumbing.cli_options import check_writable
 
     judged = check_release(args.firmware, "--firmware") if args.firmware else None
     if args.junit:
@@ -143,7 +143,7 @@ def preflight(args: argparse.Namespace) -> None:
 
 def _seed(args: argparse.Namespace) -> Optional[int]:
     """The seed of ``--random-order`` (None: the suite's own order); a wrong one is a usage error."""
-    from ..harness.cli_options import UsageError
+    from ..plumbing.cli_options import UsageError
 
     try:
         return resolve_seed(getattr(args, "random_order", None))
@@ -155,7 +155,7 @@ def _inventory_urls(path: str) -> List[str]:
     """The URLs of an inventory file; its mistakes are one line naming the file and line."""
     import pytest
 
-    from ..harness.cli_options import UsageError
+    from ..plumbing.cli_options import UsageError
     from .plugin.multitarget import read_inventory
 
     try:
@@ -244,9 +244,9 @@ def run_child(argv: List[str]) -> Tuple[int, Optional[int]]:
 
 def load_image_first(args: argparse.Namespace) -> int:
     """``--image/--signature``: load the release under test into every target before any case
-    runs (harness/firmware/). Returns 0, or the exit status of a failed load (one line said why)."""
-    from ..harness.firmware.cli import load_from_args
-    from ..harness.firmware.errors import EXIT_USAGE, LoadError
+    runs (harness/bootloader/). Returns 0, or the exit status of a failed load (one line said why)."""
+    from ..harness.bootloader.errors import EXIT_USAGE, LoadError
+    from ..harness.bootloader.files import load_files
     from ..harness.targets import TargetError, make_target
 
     prog = "buildhat-conformance run"
@@ -267,7 +267,7 @@ def load_image_first(args: argparse.Namespace) -> int:
             return EXIT_USAGE
         transcript = os.path.join(os.path.dirname(os.path.abspath(args.junit)), "load.jsonl")
         try:
-            result = load_from_args(url, args.image, args.signature, transcript=transcript)
+            result = load_files(url, args.image, args.signature, transcript=transcript)
         except LoadError as exc:
             print(f"{prog}: loading {args.image} into {url}: {exc}", file=sys.stderr)
             return exc.exit_status
@@ -277,7 +277,7 @@ def load_image_first(args: argparse.Namespace) -> int:
 
 def _baseline_checks(args: argparse.Namespace) -> list:
     """``--baseline``/``--expect-changes`` checked before anything runs; the expected changes."""
-    from ..harness.cli_options import UsageError
+    from ..plumbing.cli_options import UsageError
     from .comparison import read_expect_changes
 
     baseline = getattr(args, "baseline", None)
@@ -295,8 +295,8 @@ def _baseline_checks(args: argparse.Namespace) -> list:
 
 def _preflight_baseline(args: argparse.Namespace) -> None:
     """The baseline checked as the target is; its problem says it is the baseline's."""
-    from ..harness.cli_options import UsageError
     from ..harness.targets.base import TargetError
+    from ..plumbing.cli_options import UsageError
 
     try:
         preflight(argparse.Namespace(**{**vars(args), "target": [args.baseline], "inventory": None}))

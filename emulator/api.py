@@ -15,12 +15,12 @@ from typing import Any, Callable, Dict, List, Mapping, Optional, Union
 
 from ..protocol.devices import DEFAULT_LAYOUT, format_device_spec, parse_device_spec
 from ..protocol.profiles import Profile, get_profile, load_profiles
+from ..serving.reset_pins import HeldInReset
 from .bootloader import Bootloader, bootloader_checksum
+from .command_uart import Uart
 from .hang import HangTrigger, Hung
 from .hat import DEFAULT_ADC, Hat
-from .reset_pins import HeldInReset
-from .uart import Uart
-from .world import WorldError, perform_line
+from .world_actions import WorldError, perform_line
 
 __all__ = ["Emulator", "WorldError", "BOOT_LIMIT_MS", "DEFAULT_ADC"]
 
@@ -318,7 +318,7 @@ class Emulator:
         return "ok"
 
     def hold_reset(self) -> None:
-        """RESET held low (emulator/reset_pins.py): the chip stops until :meth:`reset` releases it."""
+        """RESET held low (serving/reset_pins.py): the chip stops until :meth:`reset` releases it."""
         self.machine = HeldInReset(self.uart, now=self._now)
 
     def arm_hang(self, lines: int) -> None:

@@ -22,9 +22,9 @@ from typing import Any, Callable, Dict, List, Optional, Union
 
 from ..protocol.image_checksum import bootloader_checksum
 from ..protocol.profiles import bootloader_data
-from .lineeditor import CRLF, LineEditor
-from .parser import CommandError, Cursor
-from .uart import Uart
+from .command_uart import Uart
+from .commands.line_editor import CRLF, LineEditor
+from .commands.parser import CommandError, Cursor
 
 __all__ = ["Bootloader", "bootloader_checksum", "load_public_key", "RELEASE_PUBLIC_KEY",
            "DATA_TIMEOUT_MS", "REBOOT_DELAY_MS", "STX", "ETX"]

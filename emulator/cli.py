@@ -11,7 +11,9 @@ import os
 import signal
 import sys
 import textwrap
-from typing import Dict, List, Optional, Sequence
+from typing import Dict, Optional, Sequence
+
+from ..serving.device_options import device_options
 
 __all__ = ["main", "build_parser"]
 
@@ -40,9 +42,9 @@ default layout: P0 0x30, P1 0x40, P2 passive 8, P3 none.
 def build_parser() -> argparse.ArgumentParser:
     # The options buildhat-conformance shares (docs/USING.md, "Options"): one line per mistake, no
     # abbreviations (--version is not --version-string), -o/--output for the file it writes.
-    from ..harness.cli_exits import exit_status_help
-    from ..harness.cli_options import RELEASE_HELP, SPEED_HELP, OneLineParser, add_hidden_alias
-    from ..harness.version import __version__
+    from ..plumbing.cli_exits import exit_status_help
+    from ..plumbing.cli_options import RELEASE_HELP, SPEED_HELP, OneLineParser, add_hidden_alias
+    from ..plumbing.package_version import __version__
 
     p = OneLineParser(
         prog="buildhat-emulator", description="Reference emulator of the Raspberry Pi Build HAT "
@@ -94,22 +96,6 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
-def device_options(specs: List[str], parser: argparse.ArgumentParser) -> Dict[int, Optional[tuple]]:
-    """``--device P=SPEC`` options as a layout; a bad one is the parser's one-line error."""
-    from ..protocol.devices import parse_device_spec
-
-    out: Dict[int, Optional[tuple]] = {}
-    for item in specs:
-        port, sep, spec = item.partition("=")
-        if not sep or port.strip() not in ("0", "1", "2", "3"):
-            parser.error(f"--device {item!r}: expected P=SPEC with P in 0..3")
-        try:
-            out[int(port)] = parse_device_spec(spec)
-        except (ValueError, KeyError) as exc:
-            parser.error(f"--device {item!r}: {exc.args[0] if exc.args else exc}")
-    return out
-
-
 def _check(args: argparse.Namespace, parser: argparse.ArgumentParser) -> None:
     from ..protocol.profiles import get_profile
 
@@ -139,7 +125,7 @@ def _check(args: argparse.Namespace, parser: argparse.ArgumentParser) -> None:
     if args.transcript and args.stdio and args.transcript == "-":
         parser.error("-o -: stdout is the serial link with --stdio; give a file")
     if args.tcp:
-        from .runners.links import parse_tcp_address
+        from ..serving.realtime.host_links import parse_tcp_address
         try:
             parse_tcp_address(args.tcp)
         except ValueError as exc:
@@ -157,15 +143,15 @@ def link_baud(args: argparse.Namespace) -> Optional[int]:
 
 
 def _lint(args: argparse.Namespace):
-    from .hostlint import HostLint
+    from ..serving.host_lint.lint import HostLint
 
     return HostLint(profile_of=lambda: None, strict=args.strict_host)
 
 
 def _run_script(args: argparse.Namespace, devices: Dict[int, Optional[tuple]]) -> int:
-    from ..harness.version import __version__
+    from ..plumbing.package_version import __version__
     from ..transcripts.script import ScriptError, load_script
-    from .runners.script_mode import ScriptRunError, run_script
+    from .script_mode import ScriptRunError, run_script
 
     try:
         script = load_script(args.script)
@@ -200,13 +186,13 @@ def _run_script(args: argparse.Namespace, devices: Dict[int, Optional[tuple]]) -
 
 
 def _run_realtime(args: argparse.Namespace, devices: Dict[int, Optional[tuple]]) -> int:
-    from ..harness.version import __version__
+    from ..plumbing.package_version import __version__
+    from ..serving.control_channel import ENV_TOKEN, ControlHandler, ControlServer
+    from ..serving.realtime.clock import RealTimeClock
+    from ..serving.realtime.host_links import PtyLink, StdioLink, TcpLink
+    from ..serving.realtime.loop import run_realtime
+    from ..serving.realtime.recording import LinkRecorder
     from .api import Emulator
-    from .control import ENV_TOKEN, ControlHandler, ControlServer
-    from .runners.clock import RealTimeClock
-    from .runners.links import PtyLink, StdioLink, TcpLink
-    from .runners.realtime import run_realtime
-    from .runners.recording import LinkRecorder
 
     lint = _lint(args)
     baud = link_baud(args)

@@ -4,13 +4,13 @@ The Hat owns the command port (UART rings, line editor, dispatcher, start-up) an
 global state of FIRMWARE-FACTS §4 (current port, echo, debug, LED mode, input voltage).
 Ports, controllers and the fault monitor are separate objects it ticks:
 
-- ``emulator/ports.py``      ``Port(hat, index)``           with ``tick(now)``
-- ``emulator/controller.py`` ``PortController(hat, index)`` with ``tick(now)``
-- ``emulator/faults.py``     ``FaultMonitor(hat)``          with ``tick(now)``
+- ``emulator/ports/port.py``      ``Port(hat, index)``           with ``tick(now)``
+- ``emulator/motor/controller.py`` ``PortController(hat, index)`` with ``tick(now)``
+- ``emulator/power_faults.py``     ``FaultMonitor(hat)``          with ``tick(now)``
 
 The Hat is their composition root: it builds them and hands each itself, which each part sees
 only through its Protocol in ``emulator/services.py`` (``PortServices``, ``ControllerServices``,
-``FaultServices``, ``StartupServices``; the commands: ``emulator/command_context.py``). No part
+``FaultServices``, ``StartupServices``; the commands: ``emulator/commands/context.py``). No part
 imports this module (tests/emulator/test_layering.py).
 
 Each of them keeps ``due``: the first virtual millisecond in which its tick may do anything
@@ -24,15 +24,15 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any, Callable, Dict, List, Optional
 
+from ..protocol.pass_cost import PassCost, stall_line
 from ..protocol.profiles import Profile, get_profile
-from .commands import run_line
-from .controller import PortController
-from .faults import FaultMonitor
-from .lineeditor import CRLF, LineEditor
-from .pass_cost import PassCost, stall_line
-from .ports import Port
+from .command_uart import Uart
+from .commands.dispatch import run_line
+from .commands.line_editor import CRLF, LineEditor
+from .motor.controller import PortController
+from .ports.port import Port
+from .power_faults import FaultMonitor
 from .startup import Startup
-from .uart import Uart
 
 __all__ = ["Hat", "LineRecord", "DEFAULT_ADC", "NPORTS"]
 

@@ -6,7 +6,7 @@ part declares (``Port(hat: PortServices, index)``). A part may touch only what i
 names, and no part imports hat.py, not even for typing (tests/emulator/test_layering.py keeps it
 so): a part can be built and ticked with a small fake instead of a whole HAT
 (tests/emulator/test_services.py). The command modules see the HAT through ``CommandContext``
-(emulator/command_context.py), which needs the concrete part classes and so lives beside them;
+(emulator/commands/context.py), which needs the concrete part classes and so lives beside them;
 a ``Reporter`` sees its port as ``reporting.ReporterPort``. This module imports no part of the
 emulator (only ``drive.Duty``), so any part may import it.
 
@@ -23,7 +23,7 @@ from __future__ import annotations
 from typing import Any, Optional, Protocol, Sequence, Union
 
 from ..protocol.profiles import Profile
-from .drive import Duty
+from .motor.pwm_drive import Duty
 
 __all__ = ["Duty", "Output", "EventLog", "Scheduler", "Clock", "Firmware", "DebugBits", "Wakeable",
            "PortLink", "ControllerLink", "FaultLink", "InputRing", "PortServices", "LinkServices",
@@ -114,7 +114,7 @@ class InputRing(Protocol):
 
 # -- what each part receives ------------------------------------------------------------------
 class PortServices(Output, EventLog, Scheduler, Clock, Firmware, DebugBits, Protocol):
-    """``Port`` (emulator/ports.py), its ``Reporter`` and the device models reached through it."""
+    """``Port`` (emulator/ports/port.py), its ``Reporter`` and the device models reached through it."""
 
     @property
     def seed(self) -> int: ...
@@ -128,15 +128,15 @@ class PortServices(Output, EventLog, Scheduler, Clock, Firmware, DebugBits, Prot
 
 
 class LinkServices(Output, DebugBits, Protocol):
-    """``ActiveLink`` (emulator/active_link.py)."""
+    """``ActiveLink`` (emulator/ports/device_conversation.py)."""
 
 
 class UartServices(Output, EventLog, DebugBits, Protocol):
-    """``PortUart`` (emulator/port_uart.py)."""
+    """``PortUart`` (emulator/ports/device_uart.py)."""
 
 
 class ControllerServices(Output, Firmware, DebugBits, Protocol):
-    """``PortController`` (emulator/controller.py)."""
+    """``PortController`` (emulator/motor/controller.py)."""
 
     def set_drive(self, port: int, duty: Duty) -> None:
         """The motor driver of ``port`` now outputs ``duty``."""
@@ -150,7 +150,7 @@ class ControllerServices(Output, Firmware, DebugBits, Protocol):
 
 
 class FaultServices(Output, Scheduler, Firmware, Clock, Protocol):
-    """``FaultMonitor`` (emulator/faults.py)."""
+    """``FaultMonitor`` (emulator/power_faults.py)."""
 
     @property
     def ports(self) -> Sequence[Wakeable]: ...

@@ -3,7 +3,8 @@
     buildhat-conformance fuzz -t inprocess:R7 --budget 30s --seed 1
     buildhat-conformance fuzz -t /dev/serial0 --against emulator --budget 500x
     buildhat-conformance fuzz --reproduce reports/fuzz/fate.script -t emulator:R7
-    buildhat-conformance fuzz -t sil:~/buildhat/firmware-pico --against inprocess --jobs 2   # fuzz/jobs.py
+    buildhat-conformance fuzz -t sil:~/buildhat/firmware-pico --against inprocess --jobs 2   #
+    fuzz/running/workers.py
 
 Findings (one per oracle, confirmed by replays and reduced) are written to ``-o/--output`` (default
 ``reports/fuzz``; ``--out`` is its old spelling): ``<oracle>.script`` (replay with ``--reproduce``
@@ -12,7 +13,7 @@ Exit status: 0 no findings, 1 findings (with ``--reproduce``: 1 reproduced, 0 no
 errors, 3 a campaign that could not do its job
 (a target that cannot be reached, answers as another release than ``--firmware``, or took no input),
 130 interrupted: the first Ctrl-C (or SIGTERM) stops the campaign and still writes what it found
-(fuzz/stop_signals.py), a second kills it at once.
+(fuzz/running/stop_signals.py), a second kills it at once.
 """
 from __future__ import annotations
 
@@ -20,14 +21,14 @@ import argparse
 import os
 import sys
 
-from ..harness.cli_options import RELEASE_HELP, add_hidden_alias
 from ..harness.targets.base import TargetError
+from ..plumbing.cli_options import RELEASE_HELP, add_hidden_alias
 from ..transcripts.script import ScriptError
-from .command import DEFAULT_OUT, DEFAULT_TARGET, run
-from .generate import FAMILIES
-from .job_count import AUTO_JOBS_MAX, JOBS_ENV, jobs_value, resolve_jobs
-from .reproduce import reproduce
-from .target_kinds import is_fresh
+from .findings.reproduce import reproduce
+from .inputs.generate import FAMILIES
+from .running.from_arguments import DEFAULT_OUT, DEFAULT_TARGET, run
+from .running.target_kinds import is_fresh
+from .running.worker_count import AUTO_JOBS_MAX, JOBS_ENV, jobs_value, resolve_jobs
 
 __all__ = ["add_arguments", "main", "check_jobs"]
 
@@ -95,14 +96,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def main(args: argparse.Namespace) -> int:
-    from .lab_campaigns import hold_for_campaign, run_places
+    from .running.places import hold_for_campaign, run_places
 
     check_jobs(args)
-    # labgrid places are held for the whole campaign, or all campaigns (fuzz/lab_campaigns.py)
+    # labgrid places are held for the whole campaign, or all campaigns (fuzz/running/places.py)
     give_back = hold_for_campaign(args)
     try:
         if args.places:
-            from ..harness.cli_options import check_writable
+            from ..plumbing.cli_options import check_writable
 
             check_writable(args.out, "-o", folder=True)
             return run_places(args)
@@ -114,8 +115,8 @@ def main(args: argparse.Namespace) -> int:
 
 def check_jobs(args: argparse.Namespace) -> None:
     """``--jobs N`` needs targets that start a new HAT at every open (one per worker); ``auto``
-    becomes a number here (fuzz/job_count.py)."""
-    from ..harness.cli_options import UsageError
+    becomes a number here (fuzz/running/worker_count.py)."""
+    from ..plumbing.cli_options import UsageError
 
     jobs = resolve_jobs(args, DEFAULT_TARGET)
     if jobs < 1:
@@ -132,8 +133,8 @@ def check_jobs(args: argparse.Namespace) -> None:
 
 
 def _main(args: argparse.Namespace) -> int:
-    from ..harness.cli_options import check_writable
     from ..harness.preflight import check_release, checked_target
+    from ..plumbing.cli_options import check_writable
 
     # The checks every sub-command makes before it starts (2 a bad URL, release or output
     # folder; 3 unreachable), so a campaign is never lost at its end.

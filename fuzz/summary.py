@@ -9,9 +9,9 @@ import time
 from collections import Counter
 from typing import Dict, Hashable, Iterable, List, Optional, Tuple, TypeVar
 
-from .campaign import Budget, CampaignResult
-from .link import WIRE_BYTES_PER_S
-from .runner import Stats
+from .running.campaign import Budget, CampaignResult
+from .running.checked_run import Stats
+from .running.target_exchange import WIRE_BYTES_PER_S
 
 __all__ = ["Progress", "print_summary", "collapsed", "KEPT_OPEN"]
 

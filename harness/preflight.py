@@ -14,8 +14,8 @@ import shutil
 import stat
 from typing import Optional
 
+from ..plumbing.cli_options import UsageError
 from ..protocol.profiles import Profile, get_profile
-from .cli_options import UsageError
 from .errors import BrokenClause
 from .targets import make_target
 from .targets.base import NeedsCapability, Target, TargetError

@@ -418,7 +418,7 @@ class Session(Identification, Conversation):
     def bytes_since(self, offset: int, timeout: float) -> bytes:
         """Received bytes from absolute ``offset`` on, waiting at most ``timeout`` seconds (wall
         clock; HAT seconds / time_scale for virtual-time targets) for one to come. For a byte
-        protocol that is not a line per command, the bootloader's (harness/firmware/)."""
+        protocol that is not a line per command, the bootloader's (harness/bootloader/)."""
         if self.virtual:
             if len(self.received) <= offset and timeout > 0:
                 self._read_once(timeout)

@@ -1,8 +1,8 @@
 """``Rp2040Hat``: a release's ``firmware.bin`` on the emulated chip, driven as sil drives a HAT.
 
 The runner (``runner.mjs``, Node.js with rp2040js) speaks the frames of the firmware in the loop
-(``sil/protocol.py``), so :class:`~..sil.hat.SilHat` drives it unchanged and the world around it is
-sil's (``sil/world.py``: the emulator's device models, fault latches, Vin). What the runner does
+(``sil/frames.py``), so :class:`~..sil.hat.SilHat` drives it unchanged and the world around it is
+sil's (``sil/port_world.py``: the emulator's device models, fault latches, Vin). What the runner does
 not have: copies of a running chip (Node cannot fork; every open boots a new chip), and the ports'
 UARTs at the pins (its PIO is not yet run on the simulation clock), so only passive devices and
 empty ports are wired.
@@ -12,7 +12,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any, Dict, Mapping, Optional
 
-from ..emulator.world import WorldError
+from ..emulator.world_actions import WorldError
 from ..protocol.devices import parse_device_spec
 from ..sil.hat import SilHat
 from .install import runner_command

@@ -9,8 +9,8 @@ from __future__ import annotations
 import argparse
 import sys
 
-from ..harness.cli_options import EXIT_TARGET
 from ..harness.targets.base import TargetError
+from ..plumbing.cli_options import EXIT_TARGET
 from .install import BOOTROM_ENV, RP2040JS_VERSION, default_bootrom, install_rp2040js, node_program
 
 __all__ = ["add_arguments", "main"]
@@ -26,7 +26,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def main(args: argparse.Namespace) -> int:
-    from ..harness.cli_options import UsageError
+    from ..plumbing.cli_options import UsageError
     if args.rp2040_command is None:
         raise UsageError("rp2040 needs an action: rp2040 setup, or rp2040 check URL")
     if args.rp2040_command == "check":

@@ -110,6 +110,6 @@ def install_rp2040js(folder: Optional[Path] = None) -> Path:
 
 
 def runner_command(image: Path, bootrom: Path, extra: Sequence[str] = ()) -> List[str]:
-    """The command that runs ``image`` on the emulated chip, speaking sil's frames (sil/protocol.py)."""
+    """The command that runs ``image`` on the emulated chip, speaking sil's frames (sil/frames.py)."""
     return [node_program(), str(runner_path()), "--rp2040js", str(check_rp2040js()),
             "--bootrom", str(bootrom), "--image", str(image), *extra]

@@ -1,5 +1,5 @@
 // A Build HAT firmware image (firmware.bin) on rp2040js's emulated RP2040, speaking the frames of
-// the firmware in the loop (sil/protocol.py) on stdin/stdout, so the world around it is sil's.
+// the firmware in the loop (sil/frames.py) on stdin/stdout, so the world around it is sil's.
 //
 //   node runner.mjs --rp2040js DIR --bootrom FILE --image FILE [--stock-uart]
 //

@@ -14,8 +14,9 @@ from __future__ import annotations
 from typing import Any, Dict, Optional
 from urllib.parse import parse_qs, unquote
 
-from ..emulator.inprocess_target import HatModel, _parse_devices
 from ..harness.targets.base import NeedsCapability, TargetError
+from ..serving.device_options import url_devices
+from ..serving.hat_model import HatModel
 from ..sil.target import SilControl, SilTarget
 from .chip import Rp2040Hat, unwired_plug, unwired_ports
 from .images import Image, find_image
@@ -92,7 +93,7 @@ def from_url(url: str, **options) -> Any:
         raise TargetError("rp2040: ?speed (wall-clock pace on a pty) is not available yet; the target runs "
                           "in virtual time")
     booted = q.get("booted", q.get("boot", ["1"]))[-1] not in ("0", "false", "no")
-    devices = options.pop("devices", None) or _parse_devices(q.get("device", []))
+    devices = options.pop("devices", None) or url_devices(q.get("device", []), "rp2040")
     unwired = unwired_ports(devices)
     if unwired:
         raise TargetError(f"rp2040: port {min(unwired)}: active devices are not yet wired to the chip's pins "

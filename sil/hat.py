@@ -4,7 +4,7 @@
 and the real-time runners use (``now``, ``write``, ``read``, ``advance``,
 ``advance_until_output``, ``step``, ``boot``, ``world``, ``on_event``, ``reset``), but the HAT
 behind it is a firmware tree built for the host (``sil/build.py``) running in a child process
-(``sil/process.py``), with the emulator's device models around it (``sil/world.py``,
+(``sil/process.py``), with the emulator's device models around it (``sil/port_world.py``,
 :attr:`SilHat.outside`).
 
 Time: the firmware's clock is virtual nanoseconds; the harness sees milliseconds. Nothing
@@ -18,13 +18,13 @@ import copy
 import re
 from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence
 
-from ..emulator.uart import WIRE_AHEAD, WIRE_AHEAD_MS
-from ..emulator.world import WorldError, perform_line
+from ..emulator.command_uart import WIRE_AHEAD, WIRE_AHEAD_MS
+from ..emulator.world_actions import WorldError, perform_line
 from ..protocol.devices import DEFAULT_LAYOUT, parse_device_spec
+from .frames import NS_PER_MS, encode
+from .port_world import SilWorld
 from .process import FirmwareDied, FirmwareProcess
-from .protocol import NS_PER_MS, encode
 from .sanitizer_reports import FirmwareReport
-from .world import SilWorld
 
 __all__ = ["SilHat", "FirmwareDied", "BOOT_LIMIT_MS"]
 
@@ -33,7 +33,7 @@ BOOT_LIMIT_MS = 20000
 # stand-in reckons it (whole ns): host bytes reach the firmware no faster than this.
 HOST_BYTE_NS = 10 * 1_000_000_000 // 115200
 # Host bytes taken ahead of the wire: as many as it carries in WIRE_AHEAD_MS, the emulator's figure
-# (emulator/uart.py), so a real-time runner that wakes a little late still keeps the wire busy.
+# (emulator/command_uart.py), so a real-time runner that wakes a little late still keeps the wire busy.
 HOST_AHEAD = max(WIRE_AHEAD, WIRE_AHEAD_MS * 1_000_000 // HOST_BYTE_NS)
 SEEN_LIMIT = 256 * 1024     # output since power-on kept for settled(): the start-up is a few KB
 _VERSION_LINE = re.compile(rb"Firmware version: ([^\r\n]*)\r\n")

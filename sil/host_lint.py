@@ -1,6 +1,6 @@
 """The host lint on a served firmware (``sil serve``): the same findings as ``buildhat-emulator`` gives.
 
-The lint (``emulator/hostlint.py``) judges each host line from a record of what the HAT did with it:
+The lint (``serving/host_lint/lint.py``) judges each host line from a record of what the HAT did with it:
 which words were commands, which were none, whether the line failed, whether the start-up was done,
 and what the transmit ring had to drop. A firmware built for the host keeps all that inside its own
 code, where the stand-in cannot see it. So the lint reads each line through a *shadow*: the emulator
@@ -21,8 +21,8 @@ from dataclasses import dataclass
 from typing import Any, Dict, Optional
 
 from ..emulator.api import Emulator
-from ..emulator.hostlint import HostLint
 from ..protocol.devices import format_device_spec
+from ..serving.host_lint.lint import HostLint
 
 __all__ = ["FirmwareLint", "LINT_BAUD"]
 

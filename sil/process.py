@@ -20,7 +20,7 @@ import subprocess
 import tempfile
 from typing import List, Optional, Sequence, Tuple
 
-from .protocol import HEADER, HELLO, Frame, encode
+from .frames import HEADER, HELLO, Frame, encode
 from .sanitizer_reports import FirmwareReport, crash_report, split_reports
 
 __all__ = ["FirmwareProcess", "FirmwareDied", "HANG_S"]

@@ -1,7 +1,7 @@
 """The real firmware in the loop at wall-clock pace, on a pty, TCP or stdio (``sil serve``).
 
 The counterpart of ``buildhat-emulator --pty`` for a firmware built with the stand-in: the same
-real-time loop, links and control channel (``emulator/runners``, ``emulator/control.py``), with
+real-time loop, links and control channel (``emulator/runners``, ``serving/control_channel.py``), with
 a :class:`~.hat.SilHat` where the emulator's model would be. Host libraries drive it as they
 drive a HAT; the ``sil:...?speed=N`` target starts it. Options are the emulator's, so the
 emulator target's process handling serves both: ``--pty | --tcp [HOST:]PORT | --stdio``,
@@ -21,8 +21,8 @@ import signal
 import sys
 from typing import TYPE_CHECKING, Optional, Sequence
 
-from ..emulator.cli import device_options
-from ..harness.cli_options import OneLineParser
+from ..plumbing.cli_options import OneLineParser
+from ..serving.device_options import device_options
 from .process import FirmwareDied
 
 if TYPE_CHECKING:
@@ -77,10 +77,10 @@ def _lint(hat: SilHat, booted: bool) -> FirmwareLint:
 
 
 def main(argv: Optional[Sequence[str]] = None) -> int:
-    from ..emulator.control import ENV_TOKEN, ControlHandler, ControlServer
-    from ..emulator.runners.clock import RealTimeClock
-    from ..emulator.runners.links import PtyLink, StdioLink, TcpLink
-    from ..emulator.runners.realtime import run_realtime
+    from ..serving.control_channel import ENV_TOKEN, ControlHandler, ControlServer
+    from ..serving.realtime.clock import RealTimeClock
+    from ..serving.realtime.host_links import PtyLink, StdioLink, TcpLink
+    from ..serving.realtime.loop import run_realtime
 
     parser = build_parser()
     args = parser.parse_args(argv)

@@ -21,8 +21,10 @@ import os
 from typing import TYPE_CHECKING, Any, Dict, List, Optional, Tuple
 from urllib.parse import parse_qs, unquote
 
-from ..emulator.inprocess_target import HatModel, InProcessControl, InProcessTarget, _parse_devices
-from ..harness.targets.base import TargetCrashed, TargetError
+from ..harness.targets.base import TargetCrashed, TargetError, keeps_process_resources
+from ..serving.device_options import url_devices
+from ..serving.hat_model import HatModel
+from ..serving.virtual_time_target import VirtualTimeControl, VirtualTimeTarget
 from .process import FirmwareDied
 from .sanitizer_reports import FirmwareReport, Suppressions, SuppressionsError
 
@@ -38,13 +40,14 @@ _BOOTED_FIRMWARES: Dict[tuple, Any] = {}
 
 
 @atexit.register
+@keeps_process_resources
 def close_templates() -> None:
     """Quit the booted firmwares this process started (a forked child's are its parent's)."""
     for key in [k for k in _BOOTED_FIRMWARES if k[0] == os.getpid()]:
         _BOOTED_FIRMWARES.pop(key).close()
 
 
-class SilControl(InProcessControl):
+class SilControl(VirtualTimeControl):
     # No bootloader: a firmware tree's bootloader is not built.
     capabilities = frozenset({"plug", "unplug", "data", "motorfault", "portfault", "button", "adc", "rate",
                               "hold", "pos", "reset", "layout", "virtual_time", "faultpulse"})
@@ -89,7 +92,7 @@ def program_for(where: str, sanitize: List[str], coverage: bool) -> Tuple[str, A
     return str(build.program), build
 
 
-class SilTarget(InProcessTarget):
+class SilTarget(VirtualTimeTarget):
     """The firmware in a child process, the world in this one; one new HAT per open."""
 
     def __init__(self, program: str, url: str, devices: Optional[Dict[int, Any]] = None, seed: int = 0,
@@ -103,7 +106,7 @@ class SilTarget(InProcessTarget):
         self.disposable = True      # every open starts a new firmware process
         self.control = SilControl(self)
         # wire_input: host bytes cross a 115200-baud wire in HAT time (one per 87 us), so the HAT
-        # may print between two bytes of one line (fuzz/link.py's ``timed``).
+        # may print between two bytes of one line (fuzz/running/target_exchange.py's ``timed``).
         # firmware_reports: a crash or a sanitizer report can only be the firmware's doing (there
         # is no power to fail): a finding, and the HAT is started again (take_firmware_reports).
         self.capabilities = frozenset({"control", "virtual_time", "drive_events", "device_frames",
@@ -232,7 +235,7 @@ def from_url(url: str, **options) -> Any:
     sanitize = [s for v in q.get("sanitize", []) for s in v.split(",") if s]
     coverage = q.get("coverage", ["0"])[-1] not in ("0", "false", "no", "")
     booted = q.get("booted", q.get("boot", ["1"]))[-1] not in ("0", "false", "no")
-    devices = options.pop("devices", None) or _parse_devices(q.get("device", []))
+    devices = options.pop("devices", None) or url_devices(q.get("device", []), "sil")
     try:
         seed = int(q["seed"][-1]) if "seed" in q else 0
     except ValueError:
@@ -255,7 +258,7 @@ def from_url(url: str, **options) -> Any:
         # reached like the emulator target (same process handling and control channel).
         import sys
 
-        from ..emulator.process_target import EmulatorTarget
+        from ..emulator.targets.pty_process import EmulatorTarget
         try:
             speed = float(q["speed"][-1])
         except ValueError:

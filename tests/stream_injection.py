@@ -6,7 +6,7 @@ from __future__ import annotations
 from contextlib import contextmanager
 from typing import Any, Iterator, Tuple
 
-from buildhat_conformance.conformance.link import Hat
+from buildhat_conformance.conformance.hat_under_test import HatUnderTest
 from buildhat_conformance.conformance.tee import VirtualTeeTarget
 from buildhat_conformance.harness.session import Session
 from buildhat_conformance.harness.targets import make_target
@@ -35,13 +35,13 @@ class StreamLineAfter(VirtualTeeTarget):
 
 
 @contextmanager
-def echoing_hat(marker: bytes) -> Iterator[Tuple[Hat, StreamLineAfter]]:
+def echoing_hat(marker: bytes) -> Iterator[Tuple[HatUnderTest, StreamLineAfter]]:
     """The in-process R7 HAT behind :class:`StreamLineAfter`, in step and with echo on."""
     target = StreamLineAfter(make_target("inprocess:R7"), marker)
     session = Session(target)
     session.open()
     try:
-        hat = Hat(session, target, "inprocess:R7")
+        hat = HatUnderTest(session, target, "inprocess:R7")
         hat.resync()
         hat.exchange("echo 1")
         yield hat, target

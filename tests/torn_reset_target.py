@@ -15,8 +15,8 @@ import functools
 from typing import Any, Callable
 
 from buildhat_conformance.emulator import Emulator
-from buildhat_conformance.emulator.inprocess_target import InProcessTarget
-from buildhat_conformance.emulator.inprocess_target import from_url as inprocess_from_url
+from buildhat_conformance.emulator.targets.in_process import InProcessTarget
+from buildhat_conformance.emulator.targets.in_process import from_url as inprocess_from_url
 from buildhat_conformance.harness.targets import TargetError, register
 
 HOW = ("torn", "no-empty-line")

@@ -5,7 +5,7 @@ import argparse
 import signal
 import threading
 
-from ..harness.cli_options import SPEED_HELP, UsageError
+from ..plumbing.cli_options import SPEED_HELP, UsageError
 from .mock_serve import serve_pty, serve_tcp
 
 __all__ = ["add_arguments", "main"]

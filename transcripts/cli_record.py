@@ -5,8 +5,8 @@ import argparse
 import sys
 from typing import List
 
-from ..harness.cli_options import BOOT_TIMEOUT_S, EXIT_TARGET, UsageError, add_target_option, check_writable
 from ..harness.targets.base import NeedsCapability
+from ..plumbing.cli_options import BOOT_TIMEOUT_S, EXIT_TARGET, UsageError, add_target_option, check_writable
 from .record import ready_lines, record_proxy, record_script
 from .script import ScriptError, load_script
 

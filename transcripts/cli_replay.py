@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from ..harness.cli_options import BOOT_TIMEOUT_S, UsageError, add_target_option, check_writable
+from ..plumbing.cli_options import BOOT_TIMEOUT_S, UsageError, add_target_option, check_writable
 from .compare import RuleSet
 from .replay import compare_transcripts, missing_capabilities, plan_replay, replay
 from .script import load_script

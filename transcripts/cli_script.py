@@ -1,7 +1,7 @@
 """``buildhat-conformance script FILE --target URL [-o TRANSCRIPT]``: run one scenario script
 against a target and write its transcript.
 
-Exit status (harness/cli_options.py): 0 the script ran to the end; 2 the script or the command
+Exit status (plumbing/cli_options.py): 0 the script ran to the end; 2 the script or the command
 line is wrong; 3 the target is unreachable, went away mid-run, or cannot do what the script
 needs (a world action or the start-up layout: then nothing was sent).
 """
@@ -12,9 +12,9 @@ import os
 import re
 import sys
 
-from ..harness.cli_options import EXIT_OK, EXIT_TARGET, EXIT_USAGE, add_target_option, check_writable
 from ..harness.errors import NeedsCapability, TargetError
 from ..harness.preflight import checked_target, one_line
+from ..plumbing.cli_options import EXIT_OK, EXIT_TARGET, EXIT_USAGE, add_target_option, check_writable
 from .script import ScriptError, load_script
 from .script_runner import run_script
 

@@ -8,9 +8,9 @@ import socket
 import threading
 from typing import Callable, Optional
 
-from ..harness.cli_options import UsageError
-from ..harness.pty import open_raw_pty
 from ..harness.transcript import Transcript
+from ..plumbing.cli_options import UsageError
+from ..plumbing.raw_pty import open_raw_pty
 from .mock import MockHat
 
 __all__ = ["serve_pty", "serve_tcp"]

@@ -25,10 +25,10 @@ import threading
 import time
 from typing import List, Optional, Sequence, Tuple
 
-from ..harness.cli_options import BOOT_TIMEOUT_S
-from ..harness.pty import open_raw_pty
 from ..harness.targets.base import TargetError
 from ..harness.transcript import Transcript, TranscriptWriter, read_transcript
+from ..plumbing.cli_options import BOOT_TIMEOUT_S
+from ..plumbing.raw_pty import open_raw_pty
 from .replay import write_transcript
 from .script import Script
 from .script_runner import run_script
@@ -41,7 +41,7 @@ def _now_iso() -> str:
 
 
 def _tool_version() -> str:
-    from ..harness.version import __version__
+    from ..plumbing.package_version import __version__
 
     return __version__
 

@@ -22,9 +22,9 @@ import os
 from dataclasses import dataclass, field
 from typing import Dict, List, Optional, Tuple
 
-from ..harness.cli_options import BOOT_TIMEOUT_S
 from ..harness.errors import TargetError
 from ..harness.transcript import Transcript, field_bytes, read_transcript
+from ..plumbing.cli_options import BOOT_TIMEOUT_S
 from .compare import Comparison, RuleSet, Unit, compare_units, output_units
 from .script import Action, Script, escape_raw, load_script, parse_script, parse_world_action
 from .script_runner import run_script
@@ -185,7 +185,7 @@ def replay(transcript: Transcript, target, plan: Optional[Plan] = None,  # type:
 
 
 def _tool_version() -> str:
-    from ..harness.version import __version__
+    from ..plumbing.package_version import __version__
 
     return __version__
 

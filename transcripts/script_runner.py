@@ -27,7 +27,7 @@ from ..harness.events import Event
 from ..harness.session import Session
 from ..harness.targets.base import Target
 from ..harness.transcript import TranscriptWriter
-from ..harness.version import __version__
+from ..plumbing.package_version import __version__
 from ..protocol.devices import DEFAULT_LAYOUT, format_device_spec
 from .script import Action, Script
 
@@ -215,7 +215,7 @@ def _open_and_wait_for_layout(session: Session, script: Script, result: ScriptRe
 
 class ActionDriver(Protocol):
     """What :func:`walk_actions` needs of whatever runs the script: a session on a target here, the
-    emulator's script mode (emulator/runners/script_mode.py) where only an in-process emulator can
+    emulator's script mode (emulator/script_mode.py) where only an in-process emulator can
     record its own events. Times are HAT ms since t = 0."""
 
     def now(self) -> float: ...

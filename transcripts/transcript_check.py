@@ -11,8 +11,8 @@ import json
 import os
 from typing import Union
 
-from ..harness.cli_options import UsageError
 from ..harness.transcript import Transcript, read_transcript
+from ..plumbing.cli_options import UsageError
 
 __all__ = ["load_transcript", "check_event"]
 

@@ -6,9 +6,9 @@ from typing import Any, Dict
 
 import pytest
 
-from ..link import Hat
-from ..needs import World
-from ..plugin.run import Run, _verdict_key
+from ..hat_under_test import HatUnderTest
+from ..needs import PortNeeds
+from ..plugin.run import SuiteRun, _verdict_key
 from ..probes import MOTOR
 from ..verdict import Verdict
 
@@ -20,7 +20,7 @@ def verdict(request: Any) -> Verdict:
 
 
 @pytest.fixture(scope="session")
-def _world_changes(_run: Run, pytestconfig: Any) -> Any:
+def _world_changes(_run: SuiteRun, pytestconfig: Any) -> Any:
     """The ports the run changed and what they had before; put back when the run ends
     (unless the HAT ends with the run: an emulator the target started itself, or the run
     stopped talking to it)."""
@@ -28,14 +28,14 @@ def _world_changes(_run: Run, pytestconfig: Any) -> Any:
     yield original
     if original and _run.hat is not None and _run.tee is not None and not _run.tee.dead \
             and not _run.tee.disposable:
-        World(_run.hat, pytestconfig, original).restore()
+        PortNeeds(_run.hat, pytestconfig, original).restore()
 
 
 @pytest.fixture
-def world(hat: Hat, pytestconfig: Any, _world_changes: Dict[int, Any]) -> Any:
+def world(hat: HatUnderTest, pytestconfig: Any, _world_changes: Dict[int, Any]) -> Any:
     """Devices and world actions a test needs. Devices stay for the next test (which states
     its own needs); the run puts everything back at its end."""
-    return World(hat, pytestconfig, _world_changes)
+    return PortNeeds(hat, pytestconfig, _world_changes)
 
 
 @pytest.fixture

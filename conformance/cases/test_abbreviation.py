@@ -15,7 +15,7 @@ import pytest
 
 from ...protocol.profiles import get_profile, load_profiles
 from ..command_probes import probe
-from ..link import Hat
+from ..hat_under_test import HatUnderTest
 from ..oracles.commands import ambiguous_prefixes, resolve, shortest_resolving_prefix, unique_prefix
 from ..verdict import Verdict
 
@@ -25,21 +25,21 @@ ALL_AMBIGUOUS: List[str] = sorted({prefix for p in load_profiles().values()
                                    for prefix, _first, _names in ambiguous_prefixes(p.commands)})
 
 
-def _expect_runs(hat: Hat, port: int, token: str, command: str) -> None:
+def _expect_runs(hat: HatUnderTest, port: int, token: str, command: str) -> None:
     out = probe(hat, port, command, token)
     if out.error:
         raise AssertionError(f"sent `{token}`: expected it to run {command}; came `Error` ({out.seen})")
     assert out.ran, f"sent `{token}`: expected it to run {command}; it answered, but {out.seen}"
 
 
-def _expect_error(hat: Hat, token: str) -> None:
+def _expect_error(hat: HatUnderTest, token: str) -> None:
     reply = hat.exchange(token)
     assert reply.raw == b"\r\nError\r\n", f"`{token}` names no command here; got {reply.raw!r}"
 
 
 @pytest.mark.req("SYN-ABBREV")
 @pytest.mark.parametrize("command", ALL_COMMANDS)
-def test_shortest_resolving_prefix_runs_the_command(hat: Hat, motor_port: int, verdict: Verdict,
+def test_shortest_resolving_prefix_runs_the_command(hat: HatUnderTest, motor_port: int, verdict: Verdict,
                                                     command: str) -> None:
     table = hat.commands
     if command not in table:
@@ -71,7 +71,7 @@ def test_shortest_resolving_prefix_runs_the_command(hat: Hat, motor_port: int, v
 
 @pytest.mark.req("SYN-ABBREV", "FW-ABBREV-ORDER")
 @pytest.mark.parametrize("prefix", ALL_AMBIGUOUS)
-def test_ambiguous_prefix_resolves_by_table_order(hat: Hat, motor_port: int, verdict: Verdict,
+def test_ambiguous_prefix_resolves_by_table_order(hat: HatUnderTest, motor_port: int, verdict: Verdict,
                                                   prefix: str) -> None:
     table = hat.commands
     names = [c for c in table if c.startswith(prefix)]
@@ -94,7 +94,7 @@ def test_ambiguous_prefix_resolves_by_table_order(hat: Hat, motor_port: int, ver
 
 @pytest.mark.req("SYN-ABBREV")
 @pytest.mark.parametrize("command", [c for c in DOCUMENT_COMMANDS])
-def test_document_unique_prefix_runs_the_command(hat: Hat, motor_port: int, verdict: Verdict,
+def test_document_unique_prefix_runs_the_command(hat: HatUnderTest, motor_port: int, verdict: Verdict,
                                                  command: str) -> None:
     token = unique_prefix(command, DOCUMENT_COMMANDS) or command
     table = hat.commands
@@ -108,7 +108,7 @@ def test_document_unique_prefix_runs_the_command(hat: Hat, motor_port: int, verd
 
 @pytest.mark.req("SYN-ABBREV", "FW-MATCH-LONGER")
 @pytest.mark.parametrize("command", ALL_COMMANDS)
-def test_token_longer_than_a_name_is_an_error(hat: Hat, command: str) -> None:
+def test_token_longer_than_a_name_is_an_error(hat: HatUnderTest, command: str) -> None:
     table = hat.commands
     token = next(command + x for x in "xz9_" if resolve(command + x, table) is None)
     _expect_error(hat, token)
@@ -116,12 +116,12 @@ def test_token_longer_than_a_name_is_an_error(hat: Hat, command: str) -> None:
 
 @pytest.mark.req("SYN-ABBREV", "FW-MATCH-CASE")
 @pytest.mark.parametrize("token", ["HELP", "Vin", "LIST", "VERSION", "Port 1", "V", "L", "SIG"])
-def test_matching_is_case_sensitive(hat: Hat, token: str) -> None:
+def test_matching_is_case_sensitive(hat: HatUnderTest, token: str) -> None:
     _expect_error(hat, token)
 
 
 @pytest.mark.req("SYN-ABBREV", "FW-MATCH-WRITE2")
-def test_write2_must_be_typed_in_full(hat: Hat, motor_port: int) -> None:
+def test_write2_must_be_typed_in_full(hat: HatUnderTest, motor_port: int) -> None:
     # Every shorter prefix of write2 is write1's (FACTS §2): `write 44 11 22` is write1.
     for n in range(1, len("write2")):
         assert resolve("write2"[:n], hat.commands) == "write1", \

@@ -6,16 +6,16 @@ import re
 
 import pytest
 
-from ..link import Hat
+from ..hat_under_test import HatUnderTest
 from ..mismatch import rejected, same
-from ..needs import World
+from ..needs import PortNeeds
 from ..oracles.vin import adc_to_mv, vin_text
 from ..verdict import Verdict
 
 
 @pytest.mark.req("CMD-HELP")
 @pytest.mark.parametrize("command", ["help", "?"])
-def test_help_prints_the_synopsis_of_this_release(hat: Hat, command: str) -> None:
+def test_help_prints_the_synopsis_of_this_release(hat: HatUnderTest, command: str) -> None:
     raw = hat.exchange_quiet(command).raw
     text = raw.decode("utf-8")
     # Document: a synopsis of the available commands: every command of the table is named.
@@ -28,7 +28,7 @@ def test_help_prints_the_synopsis_of_this_release(hat: Hat, command: str) -> Non
 
 
 @pytest.mark.req("CMD-VERSION")
-def test_version_prints_the_firmware_version(hat: Hat, verdict: Verdict) -> None:
+def test_version_prints_the_firmware_version(hat: HatUnderTest, verdict: Verdict) -> None:
     raw = hat.exchange_quiet("version").raw
     m = re.fullmatch(rb"\r\nFirmware version: ([0-9]+) (\S+)\r\n", raw)
     assert m, f"version answered {raw!r}"
@@ -40,7 +40,7 @@ def test_version_prints_the_firmware_version(hat: Hat, verdict: Verdict) -> None
 
 
 @pytest.mark.req("CMD-VIN")
-def test_vin_prints_volts_with_two_decimals(hat: Hat) -> None:
+def test_vin_prints_volts_with_two_decimals(hat: HatUnderTest) -> None:
     raw = hat.exchange_quiet("vin").raw
     m = re.fullmatch(rb"\r\n([0-9]+)\.([0-9]{2}) V\r\n", raw)
     assert m, f"vin answered {raw!r}"
@@ -55,7 +55,7 @@ def _adc_for(last_digit: int) -> int:
 
 @pytest.mark.req("CMD-VIN", "FW-VIN-ROUNDING")
 @pytest.mark.parametrize("adc", [0, 1742, _adc_for(4), _adc_for(5), _adc_for(6), _adc_for(9), 4095])
-def test_vin_follows_the_supply_and_rounds_a_5_down(hat: Hat, world: World, adc: int) -> None:
+def test_vin_follows_the_supply_and_rounds_a_5_down(hat: HatUnderTest, world: PortNeeds, adc: int) -> None:
     world.require("adc", "control of the input voltage")
     try:
         world.action(f"@adc {adc}")
@@ -67,7 +67,7 @@ def test_vin_follows_the_supply_and_rounds_a_5_down(hat: Hat, world: World, adc:
     assert raw == f"\r\n{vin_text(mv)}\r\n".encode(), f"ADC {adc} = {mv} mV"
 
 
-def _port_line(hat: Hat, text: str) -> bytes:
+def _port_line(hat: HatUnderTest, text: str) -> bytes:
     """What ``text`` printed with echo on, starting from port 2 (the prompt shows the port)."""
     hat.exchange("port 2")
     hat.exchange("echo 1")
@@ -82,7 +82,7 @@ def _port_line(hat: Hat, text: str) -> bytes:
                                              ("port 3", 3, False),
                                              ("port -1", 2, True), ("port 1x", 1, True),
                                              ("port 1.5", 1, True), ("port", 2, True)])
-def test_port_sets_the_current_port(hat: Hat, text: str, port: int, error: bool) -> None:
+def test_port_sets_the_current_port(hat: HatUnderTest, text: str, port: int, error: bool) -> None:
     # A negative port is an Error and leaves the port (FACTS §3, §12.16).
     raw = _port_line(hat, text)
     expected = text.encode() + b"\r\n" + (b"Error\r\n" if error else b"") + f"P{port}>".encode()
@@ -91,7 +91,7 @@ def test_port_sets_the_current_port(hat: Hat, text: str, port: int, error: bool)
 
 @pytest.mark.req("CMD-PORT", "FW-PORT-CLAMP")
 @pytest.mark.parametrize("text", ["port 9", "port 4"])
-def test_port_above_3_is_clamped_to_3(hat: Hat, text: str) -> None:
+def test_port_above_3_is_clamped_to_3(hat: HatUnderTest, text: str) -> None:
     # FACTS §3 (parameter clamping): `port <p>` clamps silently to 0..3, never an error.
     raw = _port_line(hat, text)
     assert raw == text.encode() + b"\r\nP3>", \
@@ -100,7 +100,7 @@ def test_port_above_3_is_clamped_to_3(hat: Hat, text: str) -> None:
 
 
 @pytest.mark.req("DEV-PORTS", "CMD-LIST")
-def test_four_ports_numbered_0_to_3(hat: Hat) -> None:
+def test_four_ports_numbered_0_to_3(hat: HatUnderTest) -> None:
     lines = hat.exchange_quiet("list").list_lines()
     heads = [ln[:3] for ln in lines if re.match(r"P[0-9a-f]: ", ln)]
     assert heads == ["P0:", "P1:", "P2:", "P3:"], f"sent `list`: expected ports P0: to P3:, came {heads}"
@@ -108,7 +108,7 @@ def test_four_ports_numbered_0_to_3(hat: Hat) -> None:
 
 @pytest.mark.req("CMD-LEDMODE")
 @pytest.mark.parametrize("mode", ["-1", "0", "1", "2", "3", "7", "-5"])
-def test_ledmode_accepts_its_values_silently(hat: Hat, verdict: Verdict, mode: str) -> None:
+def test_ledmode_accepts_its_values_silently(hat: HatUnderTest, verdict: Verdict, mode: str) -> None:
     raw = hat.exchange(f"ledmode {mode}").raw
     hat.exchange("ledmode -1")
     assert raw == b"\r\n", \
@@ -118,13 +118,13 @@ def test_ledmode_accepts_its_values_silently(hat: Hat, verdict: Verdict, mode: s
 
 @pytest.mark.req("CMD-LEDMODE", "FW-ERROR")
 @pytest.mark.parametrize("line", ["ledmode", "ledmode x", "ledmode +-1"])
-def test_ledmode_without_a_number_is_an_error(hat: Hat, line: str) -> None:
+def test_ledmode_without_a_number_is_an_error(hat: HatUnderTest, line: str) -> None:
     rejected(hat.exchange(line))
     hat.exchange("ledmode -1")
 
 
 @pytest.mark.req("CMD-SIGNATURE")
-def test_signature_prints_64_bytes(hat: Hat) -> None:
+def test_signature_prints_64_bytes(hat: HatUnderTest) -> None:
     raw = hat.exchange_quiet("signature").raw
     m = re.fullmatch(rb"\r\nFirmware signature:((?: [0-9A-F]{2}){64})\r\n", raw)
     assert m, f"signature answered {raw!r}"
@@ -136,25 +136,25 @@ def test_signature_prints_64_bytes(hat: Hat) -> None:
 
 @pytest.mark.req("CMD-DEBUG")
 @pytest.mark.parametrize("code", ["0", "2", "-0", "+2"])
-def test_debug_accepts_a_code(hat: Hat, code: str) -> None:
+def test_debug_accepts_a_code(hat: HatUnderTest, code: str) -> None:
     raw = hat.exchange(f"debug {code}").raw
     hat.exchange("debug 0")
     same(raw, b"\r\n", sent=f"debug {code}")
 
 
 @pytest.mark.req("CMD-DEBUG", "FW-ERROR")
-def test_debug_needs_its_code(hat: Hat) -> None:
+def test_debug_needs_its_code(hat: HatUnderTest) -> None:
     rejected(hat.exchange("debug"))
 
 
 @pytest.mark.req("FW-ERROR")
 @pytest.mark.parametrize("line", ["bogus", "vinx", "ports", "x", "-", "1", "versions", "helpme"])
-def test_unknown_command_prints_exactly_error(hat: Hat, line: str) -> None:
+def test_unknown_command_prints_exactly_error(hat: HatUnderTest, line: str) -> None:
     rejected(hat.exchange(line))
 
 
 @pytest.mark.req("FW-ERROR", "LINK-PROMPT")
-def test_error_with_echo_is_followed_by_the_prompt(hat: Hat) -> None:
+def test_error_with_echo_is_followed_by_the_prompt(hat: HatUnderTest) -> None:
     hat.exchange("echo 1")
     raw = hat.exchange("bogus").raw
     hat.exchange("echo 0")
@@ -164,7 +164,7 @@ def test_error_with_echo_is_followed_by_the_prompt(hat: Hat) -> None:
 @pytest.mark.req("FW-ERROR")
 @pytest.mark.parametrize("command", ["help", "list", "vin", "version", "signature", "coast", "pwm", "on",
                                      "off", "clear_faults"])
-def test_junk_after_a_command_that_cannot_fail(hat: Hat, command: str) -> None:
+def test_junk_after_a_command_that_cannot_fail(hat: HatUnderTest, command: str) -> None:
     # FACTS §3: these never fail, but a following token is a new command, so junk is an Error.
     lines = hat.exchange_quiet(f"{command} junk").lines
     assert lines[-1] == "Error" and lines.count("Error") == 1, \

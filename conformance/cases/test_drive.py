@@ -11,14 +11,14 @@ from typing import Optional
 
 import pytest
 
-from ..link import Hat
+from ..hat_under_test import HatUnderTest
 from ..mismatch import rejected
-from ..needs import World
+from ..needs import PortNeeds
 from ..probes import data_lines, pid_lines, reports_after, start_quiet_pid
 from ..verdict import Verdict
 
 
-def speed(hat: Hat, port: int, settle_ms: float = 700) -> float:
+def speed(hat: HatUnderTest, port: int, settle_ms: float = 700) -> float:
     """The motor's mean SPEED over a few reports, after ``settle_ms`` of HAT time."""
     hat.exchange(f"port {port} ; select 1")
     hat.wait_ms(settle_ms)
@@ -30,13 +30,13 @@ def speed(hat: Hat, port: int, settle_ms: float = 700) -> float:
     return sum(values[-4:]) / len(values[-4:])
 
 
-def drive(hat: Hat, port: int, line: str) -> None:
+def drive(hat: HatUnderTest, port: int, line: str) -> None:
     reply = hat.exchange(f"port {port} ; {line}")
     assert reply.errors == 0, f"`{line}`: {reply.raw!r}"
 
 
 @pytest.mark.req("CMD-SET-CONST", "CMD-SET-PWM-RANGE", "CMD-PWM")
-def test_setpoint_sign_and_size_drive_the_motor(hat: Hat, motor_port: int) -> None:
+def test_setpoint_sign_and_size_drive_the_motor(hat: HatUnderTest, motor_port: int) -> None:
     p = motor_port
     drive(hat, p, "pwm ; plimit 1 ; set 0.6")
     forward = speed(hat, p)
@@ -50,7 +50,8 @@ def test_setpoint_sign_and_size_drive_the_motor(hat: Hat, motor_port: int) -> No
 
 
 @pytest.mark.req("CMD-PLIMIT", "SYN-PLIMIT-FIRST")
-def test_plimit_default_after_a_reset_is_a_tenth(hat: Hat, world: World, motor_port: int) -> None:
+def test_plimit_default_after_a_reset_is_a_tenth(hat: HatUnderTest, world: PortNeeds,
+                                                 motor_port: int) -> None:
     world.require("reset", "resetting the HAT (its reset line)")
     mark = hat.mark()
     world.action("@reset")
@@ -69,7 +70,7 @@ def test_plimit_default_after_a_reset_is_a_tenth(hat: Hat, world: World, motor_p
 
 
 @pytest.mark.req("CMD-PLIMIT", "SYN-PLIMIT-FIRST")
-def test_plimit_limits_the_drive(hat: Hat, motor_port: int) -> None:
+def test_plimit_limits_the_drive(hat: HatUnderTest, motor_port: int) -> None:
     p = motor_port
     drive(hat, p, "pwm ; plimit 0.1 ; set 1")
     limited = speed(hat, p)
@@ -80,7 +81,8 @@ def test_plimit_limits_the_drive(hat: Hat, motor_port: int) -> None:
 
 
 @pytest.mark.req("CMD-PLIMIT")
-def test_plimit_before_plugging_the_motor(hat: Hat, world: World, verdict: Verdict, empty_port: int) -> None:
+def test_plimit_before_plugging_the_motor(hat: HatUnderTest, world: PortNeeds, verdict: Verdict,
+                                          empty_port: int) -> None:
     world.require("plug", "plugging a motor in after plimit")
     p = empty_port
     hat.exchange("plimit 1")
@@ -96,7 +98,7 @@ def test_plimit_before_plugging_the_motor(hat: Hat, world: World, verdict: Verdi
 
 
 @pytest.mark.req("CMD-BIAS")
-def test_bias_adds_to_the_drive(hat: Hat, verdict: Verdict, motor_port: int) -> None:
+def test_bias_adds_to_the_drive(hat: HatUnderTest, verdict: Verdict, motor_port: int) -> None:
     p = motor_port
     drive(hat, p, "pwm ; plimit 1 ; set 0.05")
     plain = speed(hat, p)
@@ -111,7 +113,7 @@ def test_bias_adds_to_the_drive(hat: Hat, verdict: Verdict, motor_port: int) -> 
 
 
 @pytest.mark.req("CMD-COAST")
-def test_coast_lets_the_motor_run_down(hat: Hat, motor_port: int) -> None:
+def test_coast_lets_the_motor_run_down(hat: HatUnderTest, motor_port: int) -> None:
     p = motor_port
     drive(hat, p, "pwm ; plimit 1 ; set 0.8")
     running = speed(hat, p)
@@ -122,7 +124,7 @@ def test_coast_lets_the_motor_run_down(hat: Hat, motor_port: int) -> None:
 
 
 @pytest.mark.req("CTL-PER-PORT")
-def test_each_port_has_its_own_controller(hat: Hat, motor_port: int, second_motor_port: int) -> None:
+def test_each_port_has_its_own_controller(hat: HatUnderTest, motor_port: int, second_motor_port: int) -> None:
     a, b = motor_port, second_motor_port
     drive(hat, a, "pwm ; plimit 1 ; set 0.6")
     drive(hat, b, "pwm ; set -0.6")
@@ -139,7 +141,7 @@ def test_each_port_has_its_own_controller(hat: Hat, motor_port: int, second_moto
 
 
 @pytest.mark.req("CMD-PWM", "FW-PWM-KEEPS-GENERATOR")
-def test_pwm_keeps_the_configured_setpoint(hat: Hat, motor_port: int) -> None:
+def test_pwm_keeps_the_configured_setpoint(hat: HatUnderTest, motor_port: int) -> None:
     # FACTS §4.1: `pwm` zeroes the set-point for one tick only; the generator keeps driving.
     p = motor_port
     start_quiet_pid(hat, p, sp="0.6")
@@ -172,7 +174,8 @@ PWM_PARAMS = [
 @pytest.mark.req("FW-PWMPARAMS", "CMD-SET-CONST", "CMD-PWM")
 @pytest.mark.parametrize("params,setpoint,duties,mean", PWM_PARAMS,
                          ids=[f"{p.replace(' ', '_')}-set{s}" for p, s, _d, _m in PWM_PARAMS])
-def test_pwmparams_shape_the_drive(hat: Hat, world: World, motor_port: int, params: str, setpoint: str,
+def test_pwmparams_shape_the_drive(hat: HatUnderTest, world: PortNeeds, motor_port: int, params: str,
+                                   setpoint: str,
                                    duties: set, mean: float) -> None:
     p = motor_port
     if not hat.has("pwmparams"):
@@ -196,7 +199,8 @@ def test_pwmparams_shape_the_drive(hat: Hat, world: World, motor_port: int, para
 
 @pytest.mark.req("CMD-PID", "FW-PID-LAW")
 @pytest.mark.parametrize("sp,duty", [("2", 255), ("-2", -255)])
-def test_pid_output_drives_the_motor(hat: Hat, world: World, motor_port: int, sp: str, duty: int) -> None:
+def test_pid_output_drives_the_motor(hat: HatUnderTest, world: PortNeeds, motor_port: int, sp: str,
+                                     duty: int) -> None:
     # FIRMWARE-BEHAVIOUR#fb-pid: a set-point far from the process variable saturates the output at
     # ±1 (positive when the set-point is above it); #fb-pwm-path: with plimit 1, +1 drives 255 and
     # -1 drives -255. The shaft is held, so the error stays. APOS / 360: the PV is in turns, |PV| < 1.
@@ -219,7 +223,8 @@ def test_pid_output_drives_the_motor(hat: Hat, world: World, motor_port: int, sp
 
 @pytest.mark.req("CMD-CLEAR-FAULTS", "CMD-SET-CONST")
 @pytest.mark.parametrize("setpoint,duty", [("0.4", 102), ("-0.4", -102)])
-def test_clear_faults_leaves_the_drive_on_and_forwards(hat: Hat, world: World, motor_port: int, setpoint: str,
+def test_clear_faults_leaves_the_drive_on_and_forwards(hat: HatUnderTest, world: PortNeeds, motor_port: int,
+                                                       setpoint: str,
                                                       duty: int) -> None:
     # FIRMWARE-BEHAVIOUR#fb-commands: clear_faults writes 0x70 and then 0x7F to register 0x4C, the
     # driver's direction and enable flags; 0x7F is what a forward drive writes, and the driver is

@@ -6,8 +6,8 @@ import re
 import pytest
 
 from ...protocol.devices import catalogue
-from ..link import Hat
-from ..needs import World
+from ..hat_under_test import HatUnderTest
+from ..needs import PortNeeds
 from ..oracles.listing import render_active
 from ..probes import MOTOR, TickClock
 from ..verdict import Verdict
@@ -22,7 +22,7 @@ def _texts(events: list) -> list:
 
 
 @pytest.mark.req("EVT-CONNECT", "CMD-LIST-ACTIVE")
-def test_active_device_connect_messages(hat: Hat, world: World, empty_port: int) -> None:
+def test_active_device_connect_messages(hat: HatUnderTest, world: PortNeeds, empty_port: int) -> None:
     world.require("plug", "plugging a device in")
     p = empty_port
     mark = hat.mark()
@@ -40,7 +40,8 @@ def test_active_device_connect_messages(hat: Hat, world: World, empty_port: int)
 
 
 @pytest.mark.req("EVT-CONNECT")
-def test_passive_device_connect_message(hat: Hat, world: World, verdict: Verdict, empty_port: int) -> None:
+def test_passive_device_connect_message(hat: HatUnderTest, world: PortNeeds, verdict: Verdict,
+                                        empty_port: int) -> None:
     world.require("plug", "plugging a device in")
     p = empty_port
     mark = hat.mark()
@@ -55,7 +56,7 @@ def test_passive_device_connect_message(hat: Hat, world: World, verdict: Verdict
 
 
 @pytest.mark.req("EVT-CONNECT", "EVT-DISCONNECT")
-def test_passive_device_swapped_for_another_connects_after_six_scans(hat: Hat, world: World,
+def test_passive_device_swapped_for_another_connects_after_six_scans(hat: HatUnderTest, world: PortNeeds,
                                                                      motor_port: int) -> None:
     # FIRMWARE-BEHAVIOUR#fb-passive: another ID on a connected port is `disconnected`, and the new
     # device is `connected` once six scans in a row read its ID, as at a first plug-in: not at
@@ -83,7 +84,7 @@ def test_passive_device_swapped_for_another_connects_after_six_scans(hat: Hat, w
 
 @pytest.mark.req("EVT-DISCONNECT")
 @pytest.mark.parametrize("spec", [("active", SENSOR), ("passive", 1)], ids=["active", "passive"])
-def test_unplug_says_disconnected(hat: Hat, world: World, verdict: Verdict, empty_port: int,
+def test_unplug_says_disconnected(hat: HatUnderTest, world: PortNeeds, verdict: Verdict, empty_port: int,
                                   spec: tuple) -> None:
     world.require("unplug", "unplugging a device")
     p = empty_port
@@ -111,7 +112,7 @@ def test_unplug_says_disconnected(hat: Hat, world: World, verdict: Verdict, empt
 
 
 @pytest.mark.req("EVT-DISCONNECT", "FW-SETUP-TIMEOUT")
-def test_device_gone_during_setup_times_out(hat: Hat, world: World, empty_port: int) -> None:
+def test_device_gone_during_setup_times_out(hat: HatUnderTest, world: PortNeeds, empty_port: int) -> None:
     # FIRMWARE-BEHAVIOUR#fb-active: a device that stops talking during its set-up is dropped with
     # `P<p>: timeout during setup phase: disconnecting` once 2000 ms passed with no message.
     world.require("unplug", "unplugging a device")
@@ -130,7 +131,7 @@ def test_device_gone_during_setup_times_out(hat: Hat, world: World, empty_port: 
 
 @pytest.mark.req("DEV-PORTS", "EVT-CONNECT")
 @pytest.mark.parametrize("port", [0, 1, 2, 3])
-def test_every_port_hosts_an_active_device(hat: Hat, world: World, port: int) -> None:
+def test_every_port_hosts_an_active_device(hat: HatUnderTest, world: PortNeeds, port: int) -> None:
     # Document: ports 0..3, each may hold an active device. Its data must reach the host on each.
     # A port that has an active device already keeps it (the other cases' devices stay put).
     if world.layout()[port].kind != "active":
@@ -142,7 +143,7 @@ def test_every_port_hosts_an_active_device(hat: Hat, world: World, port: int) ->
 
 
 @pytest.mark.req("FW-STALL-LINE", "CMD-LIST")
-def test_stall_line_only_past_2_ms(hat: Hat, world: World) -> None:
+def test_stall_line_only_past_2_ms(hat: HatUnderTest, world: PortNeeds) -> None:
     # FIRMWARE-BEHAVIOUR#fb-stall: `deltat=XXXXXXXX` (8 upper-case hex digits) when one main-loop pass
     # took more than 2 ms, e.g. a long `list`. It may not come at all; when it comes, it says > 2.
     for port in range(4):

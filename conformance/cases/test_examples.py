@@ -10,9 +10,9 @@ from typing import List
 
 import pytest
 
-from ..link import Hat
+from ..hat_under_test import HatUnderTest
 from ..mismatch import accepted
-from ..needs import World
+from ..needs import PortNeeds
 from ..probes import data_lines, pid_lines
 from ..verdict import Verdict
 
@@ -28,12 +28,12 @@ def values(lines: List[str], head: str) -> List[List[int]]:
     return out
 
 
-def run_lines(hat: Hat, lines: List[str]) -> List:
+def run_lines(hat: HatUnderTest, lines: List[str]) -> List:
     return [hat.exchange(line) for line in lines]
 
 
 @pytest.mark.req("EX-MOTOR-TRIANGLE", "CMD-SET-TRIANGLE")
-def test_motor_triangle(hat: Hat, motor_port: int) -> None:
+def test_motor_triangle(hat: HatUnderTest, motor_port: int) -> None:
     p = motor_port
     hat.exchange(f"port {p} ; select 1")
     mark = hat.mark()
@@ -56,7 +56,7 @@ def test_motor_triangle(hat: Hat, motor_port: int) -> None:
 
 
 @pytest.mark.req("EX-MOTOR-PID", "CMD-COMBI")
-def test_motor_position_pid(hat: Hat, verdict: Verdict, motor_port: int) -> None:
+def test_motor_position_pid(hat: HatUnderTest, verdict: Verdict, motor_port: int) -> None:
     p = motor_port
     replies = run_lines(hat, [f"port {p} combi 0 1 0 2 0 3 0", "select 0", "plimit 1; bias .4",
                               f"pid {p} 0 5 s2 0.0027777778 1 5 0 .1 3", "debug 16", "set square 0 1 3 0"])
@@ -82,7 +82,7 @@ def test_motor_position_pid(hat: Hat, verdict: Verdict, motor_port: int) -> None
 
 
 @pytest.mark.req("EX-COLOUR", "ID-ACTIVE")
-def test_colour_sensor(hat: Hat, world: World) -> None:
+def test_colour_sensor(hat: HatUnderTest, world: PortNeeds) -> None:
     p = world.active(0x3D)
     replies = run_lines(hat, [f"port {p} ; plimit 1 ; set -1 ; select 0"])
     got = values(data_lines(hat.wait_for(lambda e: e.text.startswith(f"P{p}M0:"), 3, 1500), p), f"P{p}M0")
@@ -92,7 +92,7 @@ def test_colour_sensor(hat: Hat, world: World) -> None:
 
 
 @pytest.mark.req("EX-DISTANCE", "ID-ACTIVE")
-def test_distance_sensor(hat: Hat, world: World) -> None:
+def test_distance_sensor(hat: HatUnderTest, world: PortNeeds) -> None:
     p = world.active(0x3E)
     replies = run_lines(hat, [f"port {p} ; plimit 1 ; set -1 ; select 1"])
     got = values(data_lines(hat.wait_for(lambda e: e.text.startswith(f"P{p}M1:"), 3, 1500), p), f"P{p}M1")
@@ -102,7 +102,7 @@ def test_distance_sensor(hat: Hat, world: World) -> None:
 
 
 @pytest.mark.req("EX-DISTANCE-LEDS")
-def test_distance_sensor_leds(hat: Hat, world: World) -> None:
+def test_distance_sensor_leds(hat: HatUnderTest, world: PortNeeds) -> None:
     p = world.active(0x3E)
     replies = run_lines(hat, [f"port {p} ; plimit 1 ; set -1", "select 5 ; write1 c5 64 00 32 0a"])
     hat.exchange("select ; set 0")
@@ -111,7 +111,7 @@ def test_distance_sensor_leds(hat: Hat, world: World) -> None:
 
 
 @pytest.mark.req("EX-FORCE", "ID-ACTIVE")
-def test_force_sensor(hat: Hat, world: World) -> None:
+def test_force_sensor(hat: HatUnderTest, world: PortNeeds) -> None:
     p = world.active(0x3F)
     replies = run_lines(hat, [f"port {p} ; select 0"])
     got = values(data_lines(hat.wait_for(lambda e: e.text.startswith(f"P{p}M0:"), 3, 1500), p), f"P{p}M0")
@@ -120,7 +120,7 @@ def test_force_sensor(hat: Hat, world: World) -> None:
 
 
 @pytest.mark.req("EX-MATRIX-POWER", "EX-MATRIX-MODES", "ID-ACTIVE")
-def test_light_matrix(hat: Hat, world: World) -> None:
+def test_light_matrix(hat: HatUnderTest, world: PortNeeds) -> None:
     p = world.active(0x40)
     mark = hat.mark()
     lines = [f"port {p} ; plimit 1 ; set -1", "select 0 ; write1 c0 5", "select 1 ; write1 c1 0a",
@@ -138,7 +138,8 @@ def test_light_matrix(hat: Hat, world: World) -> None:
 
 
 @pytest.mark.req("EX-MATRIX-POWER", "FW-MATRIX-AUTOPOWER")
-def test_light_matrix_without_host_power(hat: Hat, world: World, verdict: Verdict, empty_port: int) -> None:
+def test_light_matrix_without_host_power(hat: HatUnderTest, world: PortNeeds, verdict: Verdict,
+                                         empty_port: int) -> None:
     world.require("plug", "plugging the light matrix in")
     p = empty_port
     mark = hat.mark()

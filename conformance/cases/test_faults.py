@@ -13,9 +13,9 @@ from typing import List
 
 import pytest
 
-from ..link import Hat
+from ..hat_under_test import HatUnderTest
 from ..mismatch import accepted
-from ..needs import World
+from ..needs import PortNeeds
 from ..probes import TickClock
 
 DUMP_HEADER = " Port 4D 4E 4F"
@@ -33,7 +33,7 @@ def about_a_second(ticks: List[int]) -> bool:
 
 
 @pytest.fixture
-def no_faults(hat: Hat, world: World):
+def no_faults(hat: HatUnderTest, world: PortNeeds):
     yield
     if world.can("portfault"):
         world.action("@portfault 0")
@@ -43,7 +43,8 @@ def no_faults(hat: Hat, world: World):
 
 
 @pytest.mark.req("PWR-PORT-FAULT")
-def test_port_power_fault_repeats_while_present_and_stops_after(hat: Hat, world: World, motor_port: int,
+def test_port_power_fault_repeats_while_present_and_stops_after(hat: HatUnderTest, world: PortNeeds,
+                                                                motor_port: int,
                                                                 no_faults: None) -> None:
     world.require("portfault", "a way to overload the 3.3 V port supply")
     clock = TickClock(hat, motor_port)
@@ -75,7 +76,7 @@ def test_port_power_fault_repeats_while_present_and_stops_after(hat: Hat, world:
 
 
 @pytest.mark.req("PWR-MOTOR-FAULT", "PWR-MOTOR-LATCH", "CMD-CLEAR-FAULTS")
-def test_motor_fault_is_latched_until_cleared(hat: Hat, world: World, motor_port: int,
+def test_motor_fault_is_latched_until_cleared(hat: HatUnderTest, world: PortNeeds, motor_port: int,
                                               no_faults: None) -> None:
     world.require("motorfault", "a way to trip a motor driver's fault")
     p = motor_port
@@ -109,7 +110,7 @@ def test_motor_fault_is_latched_until_cleared(hat: Hat, world: World, motor_port
 
 
 @pytest.mark.req("PWR-MOTOR-LATCH", "CMD-CLEAR-FAULTS")
-def test_clear_faults_with_the_cause_still_present(hat: Hat, world: World, motor_port: int,
+def test_clear_faults_with_the_cause_still_present(hat: HatUnderTest, world: PortNeeds, motor_port: int,
                                                    no_faults: None) -> None:
     world.require("motorfault", "a way to trip a motor driver's fault")
     p = motor_port
@@ -132,7 +133,8 @@ DEGLITCH_MS = 10      # a port fault is reported once it has lasted more than th
 @pytest.mark.req("PWR-PORT-FAULT", "FW-FAULT-DEGLITCH")
 @pytest.mark.parametrize("fault_ms", [DEGLITCH_MS - 1, DEGLITCH_MS, DEGLITCH_MS + 1],
                          ids=["9ms", "10ms", "11ms"])
-def test_port_power_fault_deglitch_boundary(hat: Hat, world: World, no_faults: None, fault_ms: int) -> None:
+def test_port_power_fault_deglitch_boundary(hat: HatUnderTest, world: PortNeeds, no_faults: None,
+                                            fault_ms: int) -> None:
     # FIRMWARE-BEHAVIOUR#fb-fault-deglitch: the firmware counts whole ms since it last saw the signal
     # high, so a fault of 9 or 10 ms is never reported and one of 11 ms once, at once (the next would
     # come 1000 ms later, had the fault lasted). The world starts the fault half-way through a ms.

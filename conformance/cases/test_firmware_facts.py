@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import pytest
 
-from ..link import Hat
+from ..hat_under_test import HatUnderTest
 from ..mismatch import rejected
-from ..needs import World
+from ..needs import PortNeeds
 from ..oracles.startup import START_UP, start_up_after_reset
 from ..probes import TickClock, data_lines, pid_lines, reports_after, start_quiet_pid
 from ..verdict import Verdict
@@ -14,7 +14,7 @@ from .test_drive import drive, speed
 
 
 @pytest.mark.req("FW-SELECT-CLAMP", "CMD-SELECT-MODE")
-def test_select_minus_one_selects_mode_0(hat: Hat, motor_port: int) -> None:
+def test_select_minus_one_selects_mode_0(hat: HatUnderTest, motor_port: int) -> None:
     # FACTS §3 / Appendix A: the mode is clamped to 0..15, so -1 is mode 0.
     p = motor_port
     reply = hat.exchange(f"port {p} ; select -1")
@@ -23,7 +23,7 @@ def test_select_minus_one_selects_mode_0(hat: Hat, motor_port: int) -> None:
 
 
 @pytest.mark.req("FW-SELECT-BAD-FORMAT", "CMD-SELECT-OFF")
-def test_select_with_offset_but_no_format_turns_reporting_off(hat: Hat, motor_port: int) -> None:
+def test_select_with_offset_but_no_format_turns_reporting_off(hat: HatUnderTest, motor_port: int) -> None:
     p = motor_port
     hat.exchange(f"port {p} ; select 1")
     assert data_lines(hat.wait_for(lambda e: e.text.startswith(f"P{p}M1:"), 2, 1500), p), \
@@ -34,7 +34,7 @@ def test_select_with_offset_but_no_format_turns_reporting_off(hat: Hat, motor_po
 
 
 @pytest.mark.req("FW-SELONCE-TIMING", "CMD-SELONCE")
-def test_selonce_first_report_timing(hat: Hat, motor_port: int) -> None:
+def test_selonce_first_report_timing(hat: HatUnderTest, motor_port: int) -> None:
     # R1-R4: about one 100 ms period after the data; R5+: with the first data (FACTS §6.2).
     p = motor_port
     clock = TickClock(hat, p)              # PID on mode 3; selonce 1 below switches the mode
@@ -50,7 +50,7 @@ def test_selonce_first_report_timing(hat: Hat, motor_port: int) -> None:
 
 
 @pytest.mark.req("FW-BUTTON-EVENTS", "ID-PASSIVE")
-def test_button_events(hat: Hat, world: World) -> None:
+def test_button_events(hat: HatUnderTest, world: PortNeeds) -> None:
     world.require("button", "pressing a touch sensor")
     p = world.passive(5)
     mark = hat.mark()
@@ -69,7 +69,7 @@ def test_button_events(hat: Hat, world: World) -> None:
 
 
 @pytest.mark.req("FW-PORT-PLIMIT", "CMD-PLIMIT")
-def test_port_plimit_limits_one_port(hat: Hat, motor_port: int, second_motor_port: int) -> None:
+def test_port_plimit_limits_one_port(hat: HatUnderTest, motor_port: int, second_motor_port: int) -> None:
     a, b = motor_port, second_motor_port
     if not hat.has("port_plimit"):
         rejected(hat.exchange(f"port {a} ; port_plimit 0.1"))
@@ -83,7 +83,8 @@ def test_port_plimit_limits_one_port(hat: Hat, motor_port: int, second_motor_por
 
 
 @pytest.mark.req("FW-SET-VAR", "CMD-PID-PV")
-def test_set_var_takes_the_setpoint_from_a_sensor(hat: Hat, world: World, motor_port: int) -> None:
+def test_set_var_takes_the_setpoint_from_a_sensor(hat: HatUnderTest, world: PortNeeds,
+                                                  motor_port: int) -> None:
     p = motor_port
     if "var" not in hat.set_keywords:
         rejected(hat.exchange(f"port {p} ; set var 0 1 1 0 {p} 3 0 s2 1 0"))
@@ -101,7 +102,7 @@ def test_set_var_takes_the_setpoint_from_a_sensor(hat: Hat, world: World, motor_
 
 
 @pytest.mark.req("FW-STARTUP", "LINK-TEXT")
-def test_start_up_lines(hat: Hat, world: World, verdict: Verdict) -> None:
+def test_start_up_lines(hat: HatUnderTest, world: PortNeeds, verdict: Verdict) -> None:
     world.require("reset", "resetting the HAT (its reset line)")
     active = [e.port for e in world.layout() if e.kind == "active"]
     mark = hat.mark()

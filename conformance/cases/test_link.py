@@ -9,12 +9,12 @@ import re
 
 import pytest
 
-from ..link import Hat
+from ..hat_under_test import HatUnderTest
 from ..mismatch import rejected, same
 from ..verdict import Verdict
 
 
-def vin_line(hat: Hat) -> bytes:
+def vin_line(hat: HatUnderTest) -> bytes:
     """The current ``vin`` answer line, CRLF included (the value depends on the supply)."""
     raw = hat.exchange_quiet("vin").raw
     assert re.fullmatch(rb"\r\n[0-9]+\.[0-9]{2} V\r\n", raw), f"vin answered {raw!r}"
@@ -22,7 +22,7 @@ def vin_line(hat: Hat) -> bytes:
 
 
 @pytest.mark.req("LINK-SERIAL")
-def test_link_carries_clean_text_both_ways(hat: Hat, verdict: Verdict) -> None:
+def test_link_carries_clean_text_both_ways(hat: HatUnderTest, verdict: Verdict) -> None:
     # A wrong baud rate, parity or stop bit setting garbles every byte; the version answer
     # arriving byte-exact through this link is what a host can observe of 115200 8N1.
     raw = hat.exchange_quiet("version").raw
@@ -34,7 +34,7 @@ def test_link_carries_clean_text_both_ways(hat: Hat, verdict: Verdict) -> None:
 
 @pytest.mark.req("LINK-TEXT")
 @pytest.mark.parametrize("command", ["help", "list", "vin", "version", "signature"])
-def test_output_is_plain_text_lines(hat: Hat, command: str) -> None:
+def test_output_is_plain_text_lines(hat: HatUnderTest, command: str) -> None:
     raw = hat.exchange_quiet(command).raw
     text = raw.decode("utf-8")          # raises on anything that is not text
     bad = [c for c in text if ord(c) < 0x20 and c not in "\r\n"]
@@ -45,7 +45,7 @@ def test_output_is_plain_text_lines(hat: Hat, command: str) -> None:
 
 
 @pytest.mark.req("LINK-PROMPT", "CMD-ECHO", "CMD-PORT")
-def test_echo_and_prompt_as_in_appendix_a(hat: Hat) -> None:
+def test_echo_and_prompt_as_in_appendix_a(hat: HatUnderTest) -> None:
     # FIRMWARE-FACTS Appendix A: echo 1 -> CRLF then the prompt; typed text echoed; the prompt
     # shows the port selected at the end of the line; `c` runs clear_faults, which prints nothing.
     same(hat.exchange("echo 1"), b"\r\nP0>")
@@ -56,7 +56,7 @@ def test_echo_and_prompt_as_in_appendix_a(hat: Hat) -> None:
 
 
 @pytest.mark.req("CMD-ECHO")
-def test_echo_defaults_off_and_any_nonzero_enables(hat: Hat) -> None:
+def test_echo_defaults_off_and_any_nonzero_enables(hat: HatUnderTest) -> None:
     assert hat.exchange("").raw == b"\r\n", "echo is off by default (only the CRLF every CR gives)"
     assert hat.exchange("echo 5").raw == b"\r\nP0>", \
         "any non-zero value enables echo (docs/FIRMWARE-BEHAVIOUR.md#fb-echo)"
@@ -65,7 +65,7 @@ def test_echo_defaults_off_and_any_nonzero_enables(hat: Hat) -> None:
 
 
 @pytest.mark.req("FW-LINE-CR-CRLF")
-def test_cr_always_answers_crlf(hat: Hat) -> None:
+def test_cr_always_answers_crlf(hat: HatUnderTest) -> None:
     line = vin_line(hat)
     same(hat.exchange_quiet("vin"), b"\r\n" + line)
     same(hat.exchange(""), b"\r\n")
@@ -73,7 +73,7 @@ def test_cr_always_answers_crlf(hat: Hat) -> None:
 
 
 @pytest.mark.req("FW-LINE-LF-ORDINARY", "SYN-SEMICOLON")
-def test_crlf_from_the_host_breaks_the_next_line(hat: Hat) -> None:
+def test_crlf_from_the_host_breaks_the_next_line(hat: HatUnderTest) -> None:
     # The CRLF pitfall (FACTS §1, Appendix A): LF is stored, so the next line starts with it.
     line = vin_line(hat)
     same(hat.exchange_quiet(b"vin\r\nvin\r"), b"\r\n" + line + b"\r\nError\r\n")
@@ -81,7 +81,7 @@ def test_crlf_from_the_host_breaks_the_next_line(hat: Hat) -> None:
 
 
 @pytest.mark.req("FW-LINE-LF-ORDINARY", "LINK-PROMPT")
-def test_crlf_pitfall_with_echo_appendix_a(hat: Hat) -> None:
+def test_crlf_pitfall_with_echo_appendix_a(hat: HatUnderTest) -> None:
     hat.exchange("echo 1")
     raw = hat.exchange(b"port 1\r\nlist\r").raw
     hat.exchange("echo 0 ; port 0")
@@ -90,13 +90,13 @@ def test_crlf_pitfall_with_echo_appendix_a(hat: Hat) -> None:
 
 @pytest.mark.req("FW-LINE-SEPARATORS")
 @pytest.mark.parametrize("line", [b"\tvin\r", b"VIN\r", b"Vin\r", b"vin\t\r"])
-def test_tab_and_upper_case_are_not_commands(hat: Hat, line: bytes) -> None:
+def test_tab_and_upper_case_are_not_commands(hat: HatUnderTest, line: bytes) -> None:
     rejected(hat.exchange(line))
 
 
 @pytest.mark.req("FW-LINE-EDITING", "LINK-PROMPT")
 @pytest.mark.parametrize("erase", [b"\x08", b"\x7f"])
-def test_backspace_and_delete_edit_the_line(hat: Hat, erase: bytes) -> None:
+def test_backspace_and_delete_edit_the_line(hat: HatUnderTest, erase: bytes) -> None:
     line = vin_line(hat)
     hat.exchange("echo 1 ; port 1")
     raw = hat.exchange(b"vinx" + erase + erase + b"\r").raw
@@ -108,7 +108,7 @@ def test_backspace_and_delete_edit_the_line(hat: Hat, erase: bytes) -> None:
 
 
 @pytest.mark.req("FW-LINE-BUFFER")
-def test_line_buffer_keeps_the_first_256_bytes(hat: Hat) -> None:
+def test_line_buffer_keeps_the_first_256_bytes(hat: HatUnderTest) -> None:
     line = vin_line(hat)
     body = b"vin" + b" " * 253          # exactly 256 bytes
     assert hat.exchange_quiet(body + b"junk\r").raw == b"\r\n" + line, \
@@ -120,13 +120,13 @@ def test_line_buffer_keeps_the_first_256_bytes(hat: Hat) -> None:
 
 
 @pytest.mark.req("FW-LINE-NUL")
-def test_nul_ends_the_line(hat: Hat) -> None:
+def test_nul_ends_the_line(hat: HatUnderTest) -> None:
     line = vin_line(hat)
     same(hat.exchange_quiet(b"vin\x00junk\r"), b"\r\n" + line)
 
 
 @pytest.mark.req("FW-HASH-COMMENT")
-def test_hash_comment_lines(hat: Hat) -> None:
+def test_hash_comment_lines(hat: HatUnderTest) -> None:
     hat.exchange("echo 1")
     comment = hat.exchange("# comment").raw
     spaced = hat.exchange(" # x").raw

@@ -1,4 +1,4 @@
-"""The clauses the harness itself relies on (conformance/link_clauses.py), checked first.
+"""The clauses the harness itself relies on (conformance/trusted_clauses.py), checked first.
 
 The plugin runs these cases before every other one, and tells the link what they found: until a
 clause has passed here, the harness's set-up and fences do without it (one command per line, the
@@ -11,7 +11,7 @@ import re
 
 import pytest
 
-from ..link import Hat
+from ..hat_under_test import HatUnderTest
 from ..target_fault import TargetFault
 
 VIN = re.compile(rb"\r\n[0-9]+\.[0-9]{2} V\r\n")
@@ -20,7 +20,7 @@ VIN = re.compile(rb"\r\n[0-9]+\.[0-9]{2} V\r\n")
 ECHO_ON_ANSWERED = re.compile(rb"\r\n(P[^\r\n>]*>)version\r\nFirmware version: [^\r\n]+\r\n(P[^\r\n>]*>)")
 
 
-def echo_on_reply(hat: Hat) -> bytes:
+def echo_on_reply(hat: HatUnderTest) -> bytes:
     """What `echo 1` printed. A prompt the link does not know as one hides the fence's echo, so
     the link cannot find its place; when the HAT answered that fence whole, the link is sound
     and the prompt is the finding (a garbled link stays a target fault)."""
@@ -36,7 +36,7 @@ def echo_on_reply(hat: Hat) -> bytes:
 
 @pytest.mark.link_clause("crlf")
 @pytest.mark.req("FW-LINE-CR-CRLF", "LINK-TEXT")
-def test_clause_cr_ends_a_line_with_crlf(hat: Hat) -> None:
+def test_clause_cr_ends_a_line_with_crlf(hat: HatUnderTest) -> None:
     # docs/FIRMWARE-BEHAVIOUR.md#fb-cr: CR is the only terminator and always gives CRLF, even for an
     # empty line.
     assert hat.exchange("").raw == b"\r\n", \
@@ -47,7 +47,7 @@ def test_clause_cr_ends_a_line_with_crlf(hat: Hat) -> None:
 
 @pytest.mark.link_clause("version")
 @pytest.mark.req("CMD-VERSION")
-def test_clause_version_answers_one_line(hat: Hat) -> None:
+def test_clause_version_answers_one_line(hat: HatUnderTest) -> None:
     raw = hat.exchange("version").raw
     assert re.fullmatch(rb"\r\nFirmware version: [0-9]+ \S+\r\n", raw), \
         f"version clause: `version` must print one `Firmware version: ` line; got {raw!r}"
@@ -55,7 +55,7 @@ def test_clause_version_answers_one_line(hat: Hat) -> None:
 
 @pytest.mark.link_clause("echo")
 @pytest.mark.req("CMD-ECHO", "LINK-PROMPT")
-def test_clause_echo_on_echoes_and_prompts_echo_off_stops(hat: Hat) -> None:
+def test_clause_echo_on_echoes_and_prompts_echo_off_stops(hat: HatUnderTest) -> None:
     # FACTS §1: `echo 1` typed with echo off gives CRLF and the prompt; then every stored byte
     # is echoed; `echo 0` is echoed (echo was on while it arrived) and prints no prompt.
     on = echo_on_reply(hat)
@@ -71,7 +71,7 @@ def test_clause_echo_on_echoes_and_prompts_echo_off_stops(hat: Hat) -> None:
 
 @pytest.mark.link_clause("separator")
 @pytest.mark.req("SYN-SEMICOLON")
-def test_clause_semicolon_separates_commands(hat: Hat) -> None:
+def test_clause_semicolon_separates_commands(hat: HatUnderTest) -> None:
     one = hat.exchange_quiet("vin").raw
     two = hat.exchange_quiet("vin ; vin").raw
     assert VIN.fullmatch(one), f"`vin` answered {one!r}"

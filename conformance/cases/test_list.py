@@ -5,21 +5,21 @@ from __future__ import annotations
 import pytest
 
 from ...protocol.devices import active_type_ids, catalogue
-from ..link import Hat
+from ..hat_under_test import HatUnderTest
 from ..mismatch import same
-from ..needs import World
+from ..needs import PortNeeds
 from ..oracles.listing import parse_list, render_active, render_port
 from ..verdict import UnknownBuild
 
 APPENDIX_C = [0x25, 0x26, 0x2E, 0x2F, 0x30, 0x31, 0x3D, 0x3E, 0x3F, 0x40, 0x41]
 
 
-def dump(hat: Hat) -> list:
+def dump(hat: HatUnderTest) -> list:
     return hat.exchange_quiet("list", attempts=3).list_lines()
 
 
 @pytest.mark.req("CMD-LIST", "DEV-PORTS")
-def test_list_dump_follows_the_grammar_and_the_catalogue(hat: Hat) -> None:
+def test_list_dump_follows_the_grammar_and_the_catalogue(hat: HatUnderTest) -> None:
     lines = dump(hat)
     entries = parse_list(lines)          # raises ListError naming the line that breaks the grammar
     for entry in entries:
@@ -33,14 +33,14 @@ def test_list_dump_follows_the_grammar_and_the_catalogue(hat: Hat) -> None:
 
 
 @pytest.mark.req("CMD-LIST-EMPTY")
-def test_empty_port_says_no_device_detected(hat: Hat, empty_port: int) -> None:
+def test_empty_port_says_no_device_detected(hat: HatUnderTest, empty_port: int) -> None:
     entries = parse_list(dump(hat))
     assert entries[empty_port].lines == [f"P{empty_port}: no device detected"], \
         f"sent `list`: expected `P{empty_port}: no device detected`, came {entries[empty_port].lines}"
 
 
 @pytest.mark.req("CMD-LIST", "CMD-LIST-EMPTY", "FW-LIST-EMPTY-HAT")
-def test_list_of_an_empty_hat_appendix_a(hat: Hat, world: World) -> None:
+def test_list_of_an_empty_hat_appendix_a(hat: HatUnderTest, world: PortNeeds) -> None:
     world.require("unplug", "unplugging every device")
     for port in range(4):
         world.unplug(port)
@@ -51,7 +51,7 @@ def test_list_of_an_empty_hat_appendix_a(hat: Hat, world: World) -> None:
 
 @pytest.mark.req("CMD-LIST-PASSIVE", "ID-PASSIVE")
 @pytest.mark.parametrize("ident", range(1, 12))
-def test_passive_device_is_listed_by_its_id(hat: Hat, world: World, ident: int) -> None:
+def test_passive_device_is_listed_by_its_id(hat: HatUnderTest, world: PortNeeds, ident: int) -> None:
     port = world.passive(ident)
     key = "passive_port_reset_each_scan"
     unknown = hat.undecided(key)         # an unknown build between R1 and R2: either behaviour
@@ -71,7 +71,7 @@ def test_passive_device_is_listed_by_its_id(hat: Hat, world: World, ident: int) 
 
 @pytest.mark.req("CMD-LIST-ACTIVE", "CMD-LIST-MODE", "ID-ACTIVE", "DEV-MODES")
 @pytest.mark.parametrize("type_id", active_type_ids(), ids=lambda t: f"0x{t:02X}")
-def test_active_device_block_matches_the_catalogue(hat: Hat, world: World, type_id: int) -> None:
+def test_active_device_block_matches_the_catalogue(hat: HatUnderTest, world: PortNeeds, type_id: int) -> None:
     port = world.active(type_id)
     entry = parse_list(dump(hat))[port]
     device = catalogue()[f"0x{type_id:02X}"]
@@ -92,7 +92,7 @@ def test_active_device_block_matches_the_catalogue(hat: Hat, world: World, type_
 
 
 @pytest.mark.req("CMD-LIST", "FW-LIST-PORT-LINES")
-def test_every_port_entry_matches_what_is_there(hat: Hat) -> None:
+def test_every_port_entry_matches_what_is_there(hat: HatUnderTest) -> None:
     entries = parse_list(dump(hat))
     for entry in entries:
         spec = None if entry.kind == "empty" else (entry.kind, entry.id)

@@ -12,9 +12,9 @@ from typing import Dict, List, Optional, TypedDict
 
 import pytest
 
-from ..link import Hat
+from ..hat_under_test import HatUnderTest
 from ..mismatch import accepted, rejected, same
-from ..needs import World
+from ..needs import PortNeeds
 from ..oracles.float32 import f32
 from ..oracles.floatfmt import fw_float
 from ..oracles.numbers import parse_float
@@ -46,7 +46,7 @@ class _Gains(TypedDict):
     deadzone: str
 
 
-def _run_pid(hat: Hat, port: int, *, scale: str, unwrap: str, kp: str, ki: str, kd: str, windup: str,
+def _run_pid(hat: HatUnderTest, port: int, *, scale: str, unwrap: str, kp: str, ki: str, kd: str, windup: str,
              deadzone: str, sp: str, mode: int = 3, fmt: str = "s2", offset: int = 0,
              differentiate: bool = False) -> None:
     pid = hat.pid_command(port, mode, offset, fmt, scale, unwrap, kp, ki, kd, windup, deadzone, differentiate)
@@ -54,7 +54,7 @@ def _run_pid(hat: Hat, port: int, *, scale: str, unwrap: str, kp: str, ki: str, 
     assert reply.errors == 0, f"`{pid}` was refused: {reply.raw!r}"
 
 
-def _deadzone(hat: Hat, text: str):
+def _deadzone(hat: HatUnderTest, text: str):
     # R1-R5 have a fixed band (-0.01, 0.01); R6+ take it as the 11th parameter (FACTS §7.2).
     return _num(text) if hat.feature("pid_deadzone") == "parameter" else None
 
@@ -73,7 +73,8 @@ def recompute(lines: List[PidLine], pv_of: Dict[str, float], sp: float, model: P
 
 
 @pytest.mark.req("CMD-PID", "CMD-PID-PV", "CMD-PID-TIME", "CMD-PID-WINDUP", "FW-PID-LAW", "FW-PID-DEADZONE")
-def test_pid_lines_match_a_float32_recomputation(hat: Hat, world: World, motor_port: int) -> None:
+def test_pid_lines_match_a_float32_recomputation(hat: HatUnderTest, world: PortNeeds,
+                                                 motor_port: int) -> None:
     world.require("data", "control of the motor's reported position (world @data)")
     p = motor_port
     gains = _Gains(scale="0.01", unwrap="0", kp="2.5", ki="1.5", kd="0.05", windup="0.1", deadzone="0.05")
@@ -109,7 +110,7 @@ def test_pid_lines_match_a_float32_recomputation(hat: Hat, world: World, motor_p
 
 
 @pytest.mark.req("CMD-PID", "CMD-PID-TIME", "CMD-PID-WINDUP", "FW-PID-LAW")
-def test_pid_lines_are_self_consistent_on_live_data(hat: Hat, motor_port: int) -> None:
+def test_pid_lines_are_self_consistent_on_live_data(hat: HatUnderTest, motor_port: int) -> None:
     # Any target (a real motor included): each line's e, ie, de, cv must follow from its pv,
     # sp and the previous line, to the 6 digits printed.
     p = motor_port
@@ -133,7 +134,8 @@ def test_pid_lines_are_self_consistent_on_live_data(hat: Hat, motor_port: int) -
 
 
 @pytest.mark.req("CMD-PID-UNWRAP", "FW-PID-UNWRAP-INIT")
-def test_unwrap_across_plus_minus_180(hat: Hat, world: World, verdict: Verdict, motor_port: int) -> None:
+def test_unwrap_across_plus_minus_180(hat: HatUnderTest, world: PortNeeds, verdict: Verdict,
+                                      motor_port: int) -> None:
     world.require("data", "control of the motor's reported position (world @data)")
     p = motor_port
     # R1-R5 keep the unwrapped PV until a port reset (#fb-unwrap-r1): one an earlier case left (a u4
@@ -179,7 +181,8 @@ def test_unwrap_across_plus_minus_180(hat: Hat, world: World, verdict: Verdict, 
 
 
 @pytest.mark.req("FW-PID-DIFF", "CMD-PID-UNWRAP")
-def test_pid_diff_differentiates_the_process_variable(hat: Hat, world: World, motor_port: int) -> None:
+def test_pid_diff_differentiates_the_process_variable(hat: HatUnderTest, world: PortNeeds,
+                                                      motor_port: int) -> None:
     p = motor_port
     if not hat.has("pid_diff"):
         rejected(hat.exchange("pid_diff 0 3 0 s2 1 0 0 0 0 0 0"))
@@ -207,7 +210,8 @@ def test_pid_diff_differentiates_the_process_variable(hat: Hat, world: World, mo
 @pytest.mark.parametrize("fmt,offset,scale", [
     ("u1", 0, "1"), ("s1", 0, "1"), ("u2", 1, "1"), ("s2", 2, "0.5"),
     ("u4", 3, "1"), ("s4", 4, "1"), ("f4", 8, "2")])
-def test_process_variable_format_offset_and_scale(hat: Hat, world: World, motor_port: int, fmt: str,
+def test_process_variable_format_offset_and_scale(hat: HatUnderTest, world: PortNeeds, motor_port: int,
+                                                  fmt: str,
                                                   offset: int, scale: str) -> None:
     world.require("data", "control of the motor's mode data (world @data)")
     p = motor_port
@@ -226,7 +230,7 @@ def test_process_variable_format_offset_and_scale(hat: Hat, world: World, motor_
 
 
 @pytest.mark.req("CMD-PID-SELECT")
-def test_pid_needs_the_mode_selected(hat: Hat, world: World, motor_port: int) -> None:
+def test_pid_needs_the_mode_selected(hat: HatUnderTest, world: PortNeeds, motor_port: int) -> None:
     p = motor_port
     if world.can("plug"):
         world.unplug(p)          # a fresh connection: no mode has data yet
@@ -241,7 +245,7 @@ def test_pid_needs_the_mode_selected(hat: Hat, world: World, motor_port: int) ->
 
 
 @pytest.mark.req("CMD-PID")
-def test_document_ten_parameter_pid(hat: Hat, verdict: Verdict, motor_port: int) -> None:
+def test_document_ten_parameter_pid(hat: HatUnderTest, verdict: Verdict, motor_port: int) -> None:
     p = motor_port
     reply = hat.exchange(f"port {p} ; select 0 ; combi 0 1 0 2 0 3 0 ; select 0 ; plimit 0.1 ; debug 16")
     accepted(reply)
@@ -253,7 +257,7 @@ def test_document_ten_parameter_pid(hat: Hat, verdict: Verdict, motor_port: int)
 
 
 @pytest.mark.req("CMD-PID", "FW-PID-ELEVEN")
-def test_eleven_parameter_pid(hat: Hat, motor_port: int) -> None:
+def test_eleven_parameter_pid(hat: HatUnderTest, motor_port: int) -> None:
     # FACTS Appendix A: R6+ accept it; R1-R5 apply the first ten, then `0.01` is an Error.
     p = motor_port
     hat.exchange(f"port {p} ; select 3 ; debug 16")
@@ -266,7 +270,8 @@ def test_eleven_parameter_pid(hat: Hat, motor_port: int) -> None:
 @pytest.mark.req("CMD-OFF", "CMD-ON")
 @pytest.mark.parametrize("command,value,key", [("off", "0.00000", "OFF-KEEPS-PID"),
                                                ("on", "1.00000", "ON-KEEPS-PID")])
-def test_off_and_on_in_pid_mode(hat: Hat, verdict: Verdict, motor_port: int, command: str, value: str,
+def test_off_and_on_in_pid_mode(hat: HatUnderTest, verdict: Verdict, motor_port: int, command: str,
+                                value: str,
                                 key: str) -> None:
     start_quiet_pid(hat, motor_port, sp="0.5")
     reply = hat.exchange(command)
@@ -280,7 +285,7 @@ def test_off_and_on_in_pid_mode(hat: Hat, verdict: Verdict, motor_port: int, com
 
 @pytest.mark.req("CMD-PWM", "CMD-COAST", "FW-COAST-STOPS-CONTROLLER")
 @pytest.mark.parametrize("command", ["pwm", "coast"])
-def test_pwm_and_coast_leave_pid_mode(hat: Hat, motor_port: int, command: str) -> None:
+def test_pwm_and_coast_leave_pid_mode(hat: HatUnderTest, motor_port: int, command: str) -> None:
     start_quiet_pid(hat, motor_port)
     reply = hat.exchange(command)
     lines = pid_lines(reports_after(hat, motor_port), motor_port)
@@ -288,7 +293,7 @@ def test_pwm_and_coast_leave_pid_mode(hat: Hat, motor_port: int, command: str) -
 
 
 @pytest.mark.req("CMD-DEBUG", "FW-DEBUG-16", "CMD-PID-TIME")
-def test_debug_16_prints_one_pid_line_per_tick(hat: Hat, motor_port: int) -> None:
+def test_debug_16_prints_one_pid_line_per_tick(hat: HatUnderTest, motor_port: int) -> None:
     # Two clocks inside the HAT: PID lines (one per 10 ms tick) against the selected mode's
     # reports (one per 100 ms, FACTS §6.2): ten lines per report, whatever the wall clock does.
     p = motor_port
@@ -311,7 +316,7 @@ SVAR_CASES = [(field, top, beyond, kind) for field, top, beyond in SVAR_LIMITS f
               if not (field == "mode" and kind == "set var")]
 
 
-def _last_pid_line(hat: Hat, port: int, data_port: int, line: str) -> Optional[PidLine]:
+def _last_pid_line(hat: HatUnderTest, port: int, data_port: int, line: str) -> Optional[PidLine]:
     """The last `debug 16` line of ``port`` while ``line`` runs there (None: it printed none), over
     three data reports of ``data_port`` (about 30 controller ticks, however slow the target)."""
     sent = f"port {port} ; {line} ; debug 16"
@@ -326,7 +331,8 @@ def _last_pid_line(hat: Hat, port: int, data_port: int, line: str) -> Optional[P
 @pytest.mark.parametrize("field,top,beyond,kind", SVAR_CASES,
                          ids=[f"{kind.replace(' ', '_')}-{field}{beyond}"
                               for field, _t, beyond, kind in SVAR_CASES])
-def test_a_variable_the_hat_does_not_have_reads_its_last(hat: Hat, world: World, motor_port: int, field: str,
+def test_a_variable_the_hat_does_not_have_reads_its_last(hat: HatUnderTest, world: PortNeeds,
+                                                         motor_port: int, field: str,
                                                          top: int, beyond: int, kind: str) -> None:
     # FIRMWARE-BEHAVIOUR#fb-svar-clamp: a sensor variable's port, mode and offset are clamped to 0..3,
     # 0..15 and 0..127, so naming one past the last does exactly what naming the last does.

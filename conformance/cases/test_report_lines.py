@@ -11,15 +11,16 @@ from typing import List
 
 import pytest
 
-from ..link import Hat
-from ..needs import World
+from ..hat_under_test import HatUnderTest
+from ..needs import PortNeeds
 
 
 def _hex(payload: bytes) -> str:
     return " ".join(f"{b:02X}" for b in payload)
 
 
-def lines_with(hat: Hat, world: World, port: int, mode: int, payload: bytes, line: str, head: str,
+def lines_with(hat: HatUnderTest, world: PortNeeds, port: int, mode: int, payload: bytes, line: str,
+               head: str,
                count: int = 2) -> List[str]:
     """The port's lines starting with ``head`` once ``payload`` is mode ``mode``'s data and
     ``line`` ran (at least ``count`` of them, or all there were after 2 s of HAT time)."""
@@ -52,7 +53,7 @@ MODE_CASES = [
 @pytest.mark.req("CMD-SELECT-MODE", "DEV-MODES")
 @pytest.mark.parametrize("mode,payload,value", MODE_CASES,
                          ids=[f"M{m}-{p.hex()}" for m, p, _v in MODE_CASES])
-def test_mode_line_bytes(hat: Hat, world: World, motor_port: int, mode: int, payload: bytes,
+def test_mode_line_bytes(hat: HatUnderTest, world: PortNeeds, motor_port: int, mode: int, payload: bytes,
                          value: str) -> None:
     p = motor_port
     head = f"P{p}M{mode}:"
@@ -62,7 +63,7 @@ def test_mode_line_bytes(hat: Hat, world: World, motor_port: int, mode: int, pay
 
 
 @pytest.mark.req("CMD-COMBI", "EX-MOTOR-COMBI")
-def test_combi_line_bytes(hat: Hat, world: World, motor_port: int) -> None:
+def test_combi_line_bytes(hat: HatUnderTest, world: PortNeeds, motor_port: int) -> None:
     # FIRMWARE-BEHAVIOUR#fb-data-lines: the values are read back to back in each entry's mode type
     # (M1 int8, M2 int32, M3 int16); the document's own example line is `P3C0: +5 +360 -180`.
     # The device packs each entry's dataset from that mode's data, so each mode gets its payload.
@@ -95,7 +96,8 @@ FLOAT_CASES = [
 
 @pytest.mark.req("CMD-SELECT-VAR", "FW-FLOAT-PRINTER")
 @pytest.mark.parametrize("payload,text", FLOAT_CASES, ids=[t for _p, t in FLOAT_CASES])
-def test_variable_line_prints_special_floats(hat: Hat, world: World, motor_port: int, payload: bytes,
+def test_variable_line_prints_special_floats(hat: HatUnderTest, world: PortNeeds, motor_port: int,
+                                             payload: bytes,
                                             text: str) -> None:
     p = motor_port
     head = f"P{p}V:"
@@ -109,7 +111,7 @@ def test_variable_line_prints_special_floats(hat: Hat, world: World, motor_port:
 @pytest.mark.req("CMD-DEBUG", "FW-DEBUG-8")
 @pytest.mark.parametrize("mode,payload", [(1, b"\x05"), (3, b"\x4c\xff"), (2, b"\x68\x01\x00\x00")],
                          ids=["M1", "M3", "M2"])
-def test_debug_8_prints_each_data_payload(hat: Hat, world: World, motor_port: int, mode: int,
+def test_debug_8_prints_each_data_payload(hat: HatUnderTest, world: PortNeeds, motor_port: int, mode: int,
                                           payload: bytes) -> None:
     # FIRMWARE-BEHAVIOUR#fb-debug, bit 8: `P<p>: DATA mode=<hex digit> payload=xx xx ...`, single
     # spaces, none at the end. The document does not fix the letters' case: either is taken.

@@ -13,16 +13,16 @@ from typing import Tuple
 
 import pytest
 
-from ..link import Hat
+from ..hat_under_test import HatUnderTest
 from ..mismatch import accepted
-from ..needs import World
+from ..needs import PortNeeds
 from ..probes import DATA_LINE, MOTOR, TickClock
 from ..verdict import Verdict
 
 WINDOW_MS = 1000
 
 
-def count_lines(hat: Hat, clock: TickClock, head: str) -> int:
+def count_lines(hat: HatUnderTest, clock: TickClock, head: str) -> int:
     """Lines starting ``head`` in WINDOW_MS of controller time, after 300 ms to settle (the
     first line of a timed report comes a period after the first data)."""
     clock.run(300)
@@ -41,7 +41,7 @@ def periodic(lo_ms: float, hi_ms: float) -> Tuple[int, int]:
 @pytest.mark.parametrize("line,head", [("select 1", "M1:"), ("select 4 0 s2", "V:"),
                                        ("combi 0 1 0 3 0 ; select 0", "C0:")],
                          ids=["mode", "variable", "combi"])
-def test_select_reports_every_100_ms(hat: Hat, motor_port: int, line: str, head: str) -> None:
+def test_select_reports_every_100_ms(hat: HatUnderTest, motor_port: int, line: str, head: str) -> None:
     # R1-R4: a fixed 100 ms; R5+: `select` sets the rate to 100 ms, an interval may stretch by a pass.
     p = motor_port
     clock = TickClock(hat, p)
@@ -57,7 +57,7 @@ def test_select_reports_every_100_ms(hat: Hat, motor_port: int, line: str, head:
 
 @pytest.mark.req("FW-SELRATE", "CMD-SELECT-MODE")
 @pytest.mark.parametrize("rate", [3, 25, 40, 250])
-def test_selrate_period(hat: Hat, motor_port: int, rate: int) -> None:
+def test_selrate_period(hat: HatUnderTest, motor_port: int, rate: int) -> None:
     p = motor_port
     if not hat.has("selrate"):
         reply = hat.exchange(f"port {p} ; select 1 ; selrate {rate}")
@@ -79,7 +79,8 @@ def test_selrate_period(hat: Hat, motor_port: int, rate: int) -> None:
 
 @pytest.mark.req("FW-SELRATE", "CMD-SELECT-MODE")
 @pytest.mark.parametrize("every", [20, 50])
-def test_selrate_0_reports_each_message(hat: Hat, world: World, empty_port: int, every: int) -> None:
+def test_selrate_0_reports_each_message(hat: HatUnderTest, world: PortNeeds, empty_port: int,
+                                        every: int) -> None:
     # FIRMWARE-BEHAVIOUR#fb-reporting-r5: `selrate 0` prints at most one line per pass in which a new
     # message arrived, and nothing again until the next one: as many lines as the device sends.
     # A motor of its own: `@rate` cannot be taken back, so the motor goes when the case ends.
@@ -131,7 +132,7 @@ def cut_report(text: str, other_output: bool) -> bool:
 
 
 @pytest.mark.req("FW-REPORTS-WHOLE", "CMD-SELECT-MODE", "LINK-SERIAL")
-def test_reports_beyond_the_wire_are_held_back_not_cut(hat: Hat, world: World, verdict: Verdict,
+def test_reports_beyond_the_wire_are_held_back_not_cut(hat: HatUnderTest, world: PortNeeds, verdict: Verdict,
                                                        empty_port: int) -> None:
     # FIRMWARE-BEHAVIOUR#fb-reports-whole: from R5 a report is begun only while half the 8192-byte
     # transmit ring is free, so two motors each sending every millisecond with `selrate 0` (more

@@ -7,9 +7,9 @@ import struct
 
 import pytest
 
-from ..link import Hat
+from ..hat_under_test import HatUnderTest
 from ..mismatch import accepted, rejected, same
-from ..needs import World
+from ..needs import PortNeeds
 from ..oracles.floatfmt import fw_float
 from ..probes import TickClock, data_lines
 from ..verdict import Verdict
@@ -21,13 +21,14 @@ HEX_LINE = re.compile(r"P[0-3]M[0-9]+:(?: [0-9A-Fa-f]{2})+")
 COLOUR = 0x3D            # SPIKE colour sensor: modes 0..9, so it has modes above 7
 
 
-def reports(hat: Hat, port: int, hat_ms: float, reply=None) -> list:
+def reports(hat: HatUnderTest, port: int, hat_ms: float, reply=None) -> list:
     """Data lines of ``port`` during ``hat_ms`` (for checks that expect few or none)."""
     events = (reply.events if reply is not None else []) + hat.collect_ms(hat_ms)
     return data_lines(events, port)
 
 
-def at_least(hat: Hat, port: int, count: int, head: str = "", reply=None, max_hat_ms: float = 2000) -> list:
+def at_least(hat: HatUnderTest, port: int, count: int, head: str = "", reply=None,
+             max_hat_ms: float = 2000) -> list:
     """Data lines of ``port`` (starting with ``head``) once ``count`` have come, or at the deadline."""
     prefix = head or f"P{port}"
     events = (reply.events if reply is not None else [])
@@ -36,7 +37,7 @@ def at_least(hat: Hat, port: int, count: int, head: str = "", reply=None, max_ha
 
 
 @pytest.mark.req("CMD-SELECT-MODE")
-def test_select_mode_reports_repeatedly(hat: Hat, verdict: Verdict, motor_port: int) -> None:
+def test_select_mode_reports_repeatedly(hat: HatUnderTest, verdict: Verdict, motor_port: int) -> None:
     p = motor_port
     reply = hat.exchange(f"port {p} ; select 1")
     lines = at_least(hat, p, 3, f"P{p}M1:", reply)
@@ -51,7 +52,7 @@ def test_select_mode_reports_repeatedly(hat: Hat, verdict: Verdict, motor_port: 
 
 
 @pytest.mark.req("CMD-SELECT-OFF")
-def test_select_without_argument_stops_reports(hat: Hat, motor_port: int) -> None:
+def test_select_without_argument_stops_reports(hat: HatUnderTest, motor_port: int) -> None:
     p = motor_port
     hat.exchange(f"port {p} ; select 1")
     assert at_least(hat, p, 2), "no reports to stop"
@@ -62,7 +63,7 @@ def test_select_without_argument_stops_reports(hat: Hat, motor_port: int) -> Non
 
 @pytest.mark.req("CMD-SELECT-VAR")
 @pytest.mark.parametrize("fmt,offset", [("s2", 0), ("u1", 0), ("s1", 1), ("u2", 0), ("f4", 0)])
-def test_select_variable_prints_one_float(hat: Hat, world: World, motor_port: int, fmt: str,
+def test_select_variable_prints_one_float(hat: HatUnderTest, world: PortNeeds, motor_port: int, fmt: str,
                                           offset: int) -> None:
     p = motor_port
     payload = struct.pack("<hh", -180, 5) if fmt != "f4" else struct.pack("<f", 2.5)
@@ -87,7 +88,7 @@ def test_select_variable_prints_one_float(hat: Hat, world: World, motor_port: in
 
 
 @pytest.mark.req("CMD-SELONCE")
-def test_selonce_mode_reports_once(hat: Hat, motor_port: int) -> None:
+def test_selonce_mode_reports_once(hat: HatUnderTest, motor_port: int) -> None:
     p = motor_port
     reply = hat.exchange(f"port {p} ; selonce 1")
     lines = at_least(hat, p, 1, reply=reply) + reports(hat, p, 600)
@@ -95,7 +96,7 @@ def test_selonce_mode_reports_once(hat: Hat, motor_port: int) -> None:
 
 
 @pytest.mark.req("CMD-SELONCE")
-def test_selonce_variable_reports_once(hat: Hat, verdict: Verdict, motor_port: int) -> None:
+def test_selonce_variable_reports_once(hat: HatUnderTest, verdict: Verdict, motor_port: int) -> None:
     p = motor_port
     reply = hat.exchange(f"port {p} ; selonce 3 0 s2")
     lines = at_least(hat, p, 1, reply=reply) + reports(hat, p, 600)
@@ -104,7 +105,7 @@ def test_selonce_variable_reports_once(hat: Hat, verdict: Verdict, motor_port: i
 
 
 @pytest.mark.req("FW-SELRATE")
-def test_selrate_sets_the_report_interval(hat: Hat, motor_port: int) -> None:
+def test_selrate_sets_the_report_interval(hat: HatUnderTest, motor_port: int) -> None:
     p = motor_port
     reply = hat.exchange(f"port {p} ; select 1 ; selrate 25")
     if not hat.has("selrate"):
@@ -120,7 +121,7 @@ def test_selrate_sets_the_report_interval(hat: Hat, motor_port: int) -> None:
 
 
 @pytest.mark.req("CMD-COMBI", "EX-MOTOR-COMBI")
-def test_combi_reports_the_chosen_values(hat: Hat, motor_port: int) -> None:
+def test_combi_reports_the_chosen_values(hat: HatUnderTest, motor_port: int) -> None:
     p = motor_port
     reply = hat.exchange(f"port {p} combi 0 1 0 2 0 3 0")     # Appendix A, without `;`
     accepted(reply, "Appendix A's line")
@@ -135,7 +136,7 @@ def test_combi_reports_the_chosen_values(hat: Hat, motor_port: int) -> None:
 
 
 @pytest.mark.req("CMD-COMBI-OFF")
-def test_combi_index_alone_deconfigures(hat: Hat, motor_port: int) -> None:
+def test_combi_index_alone_deconfigures(hat: HatUnderTest, motor_port: int) -> None:
     p = motor_port
     hat.exchange(f"port {p} ; combi 0 1 0 3 0 ; combi 0 ; select 0")
     lines = at_least(hat, p, 2)
@@ -144,7 +145,7 @@ def test_combi_index_alone_deconfigures(hat: Hat, motor_port: int) -> None:
 
 
 @pytest.mark.req("FW-COMBI-CLEARS-SELECTION")
-def test_combi_and_the_selection(hat: Hat, motor_port: int) -> None:
+def test_combi_and_the_selection(hat: HatUnderTest, motor_port: int) -> None:
     p = motor_port
     hat.exchange(f"port {p} ; select 1")
     assert at_least(hat, p, 2), f"sent `select 1` on port {p}: expected its data lines, fewer than 2 came"
@@ -160,7 +161,8 @@ def test_combi_and_the_selection(hat: Hat, motor_port: int) -> None:
 
 @pytest.mark.req("DEV-MODES", "CMD-SELECT-MODE")
 @pytest.mark.parametrize("mode", [0, 5, 8, 9])
-def test_modes_of_a_device_with_more_than_eight(hat: Hat, world: World, verdict: Verdict, mode: int) -> None:
+def test_modes_of_a_device_with_more_than_eight(hat: HatUnderTest, world: PortNeeds, verdict: Verdict,
+                                                mode: int) -> None:
     p = world.active(COLOUR)
     reply = hat.exchange(f"port {p} ; plimit 1 ; set -1 ; select {mode}")
     if mode < 8:
@@ -178,7 +180,7 @@ def test_modes_of_a_device_with_more_than_eight(hat: Hat, world: World, verdict:
 @pytest.mark.req("CMD-WRITE1", "CMD-WRITE2", "EX-DISTANCE-LEDS")
 @pytest.mark.parametrize("line", ["write1 c5 10 20 30 40", "write1 c0 5", "write1 40", "write2 44 11 22",
                                   "write1 c2 12 23 34 45 12 23 34 45 12", "write1 C5 0A 0b 123 fff"])
-def test_write_accepts_hex_bytes(hat: Hat, world: World, motor_port: int, line: str,
+def test_write_accepts_hex_bytes(hat: HatUnderTest, world: PortNeeds, motor_port: int, line: str,
                                  verdict: Verdict) -> None:
     try:
         reply = hat.exchange(f"port {motor_port} ; {line}")
@@ -201,7 +203,8 @@ FRAMES = {"write1 c5 10 20 30 40": "D5 10 20 30 40 6A", "write1 c0 5": "C0 05 3A
 
 @pytest.mark.req("CMD-WRITE1", "CMD-WRITE2")
 @pytest.mark.parametrize("line", list(FRAMES))
-def test_write_delivers_the_framed_message(hat: Hat, world: World, motor_port: int, line: str) -> None:
+def test_write_delivers_the_framed_message(hat: HatUnderTest, world: PortNeeds, motor_port: int,
+                                           line: str) -> None:
     # Only the device side shows it: skipped (with the reason) on a target without that view.
     try:
         reply, frames = world.frames_to_device(motor_port, f"port {motor_port} ; {line}")
@@ -215,13 +218,13 @@ def test_write_delivers_the_framed_message(hat: Hat, world: World, motor_port: i
 
 @pytest.mark.req("CMD-WRITE1", "FW-ERROR")
 @pytest.mark.parametrize("line", ["write1 0x12", "write1", "write2", "write1 c5 zz"])
-def test_write_rejects_what_is_not_hex(hat: Hat, motor_port: int, line: str) -> None:
+def test_write_rejects_what_is_not_hex(hat: HatUnderTest, motor_port: int, line: str) -> None:
     rejected(hat.exchange(f"port {motor_port} ; {line}"))
 
 
 @pytest.mark.req("CMD-COMBI", "FW-ERROR")
 @pytest.mark.parametrize("line", ["combi 0 1 0 2", "combi 0 1", "combi"])
-def test_combi_with_a_mode_but_no_dataset_is_an_error(hat: Hat, motor_port: int, line: str) -> None:
+def test_combi_with_a_mode_but_no_dataset_is_an_error(hat: HatUnderTest, motor_port: int, line: str) -> None:
     # FIRMWARE-BEHAVIOUR#fb-errors: `combi` with an odd number of integers (or none) prints `Error`.
     reply = hat.exchange(f"port {motor_port} ; {line}")
     hat.exchange(f"port {motor_port} ; combi 0")

@@ -13,7 +13,7 @@ from typing import List, Optional, Tuple
 
 import pytest
 
-from ..link import Hat, Reply
+from ..hat_under_test import HatUnderTest, Reply
 from ..mismatch import accepted, rejected
 from ..oracles.numbers import parse_float
 from ..oracles.pid import close_to_printed
@@ -30,7 +30,7 @@ def _n(text: str) -> float:
     return value
 
 
-def capture(hat: Hat, port: int, command: str, ticks: int) -> Tuple[List[str], List, float, Reply]:
+def capture(hat: HatUnderTest, port: int, command: str, ticks: int) -> Tuple[List[str], List, float, Reply]:
     """Send ``command`` with the port in quiet PID mode; return the set-points of the first
     ``ticks`` ticks after it, all events, the send time and the reply."""
     start_quiet_pid(hat, port, sp=OLD_SP)
@@ -46,8 +46,8 @@ def capture(hat: Hat, port: int, command: str, ticks: int) -> Tuple[List[str], L
     return sps[:ticks], events, sent_at, reply
 
 
-def events_t0(hat: Hat, monotonic: float) -> float:
-    """A :meth:`Hat.clock` instant on the clock of ``Event.t`` (ms since the session opened)."""
+def events_t0(hat: HatUnderTest, monotonic: float) -> float:
+    """A :meth:`HatUnderTest.clock` instant on the clock of ``Event.t`` (ms since the session opened)."""
     return hat.session.now_ms() - (hat.clock() - monotonic) * 1000.0
 
 
@@ -68,7 +68,8 @@ WAVES = [
 
 @pytest.mark.req("CMD-SET-SQUARE", "CMD-SET-SINE", "CMD-SET-TRIANGLE", "CMD-SET-PHASE", "FW-WAVE-TICKS")
 @pytest.mark.parametrize("shape,args,ticks", WAVES, ids=[f"{s} {a}" for s, a, _ in WAVES])
-def test_periodic_waveform_tick_by_tick(hat: Hat, motor_port: int, shape: str, args: str, ticks: int) -> None:
+def test_periodic_waveform_tick_by_tick(hat: HatUnderTest, motor_port: int, shape: str, args: str,
+                                        ticks: int) -> None:
     seen, _events, _t, reply = capture(hat, motor_port, f"set {shape} {args}", ticks)
     accepted(reply)
     a, b, period, phase = (_n(x) for x in args.split())
@@ -82,7 +83,8 @@ def test_periodic_waveform_tick_by_tick(hat: Hat, motor_port: int, shape: str, a
         f"came {min(values)}..{max(values)}"
 
 
-def _done_check(hat: Hat, port: int, shape: str, args: str) -> Tuple[List[str], List[float], Optional[str]]:
+def _done_check(hat: HatUnderTest, port: int, shape: str, args: str) -> Tuple[List[str], List[float],
+                                                                              Optional[str]]:
     a, b, period, phase = (_n(x) for x in args.split())
     n = ticks_until_done(period)
     seen, events, sent_at, reply = capture(hat, port, f"set {shape} {args}", n + 10)
@@ -110,7 +112,7 @@ def _done_check(hat: Hat, port: int, shape: str, args: str) -> Tuple[List[str], 
 
 @pytest.mark.req("CMD-SET-PULSE", "CMD-SET-DONE", "FW-WAVE-TICKS")
 @pytest.mark.parametrize("args", ["0.8 0.2 0.15 0", "1 0 0.1 0", "-0.3 0.6 0.5 0.5"])
-def test_pulse_holds_then_settles_and_reports_done(hat: Hat, motor_port: int, args: str) -> None:
+def test_pulse_holds_then_settles_and_reports_done(hat: HatUnderTest, motor_port: int, args: str) -> None:
     seen, model, problem = _done_check(hat, motor_port, "pulse", args)
     assert problem is None, problem
     problems = mismatches(seen, model)
@@ -119,7 +121,7 @@ def test_pulse_holds_then_settles_and_reports_done(hat: Hat, motor_port: int, ar
 
 @pytest.mark.req("CMD-SET-RAMP", "CMD-SET-DONE", "FW-WAVE-TICKS")
 @pytest.mark.parametrize("args", ["0 1 0.2 0", "1 -1 0.3 0"])
-def test_ramp_runs_linearly_and_reports_done(hat: Hat, motor_port: int, args: str) -> None:
+def test_ramp_runs_linearly_and_reports_done(hat: HatUnderTest, motor_port: int, args: str) -> None:
     seen, model, problem = _done_check(hat, motor_port, "ramp", args)
     assert problem is None, problem
     problems = mismatches(seen, model)
@@ -135,7 +137,7 @@ NOT_EARLY_LENGTHS = ["0.1", "0.5", "1"]
 
 @pytest.mark.req("CMD-SET-PULSE", "CMD-SET-DONE", "FW-WAVE-TICKS")
 @pytest.mark.parametrize("length", NOT_EARLY_LENGTHS)
-def test_pulse_done_never_comes_before_its_length(hat: Hat, motor_port: int, length: str) -> None:
+def test_pulse_done_never_comes_before_its_length(hat: HatUnderTest, motor_port: int, length: str) -> None:
     """Issue 27: a host that times `set pulse` from its own clock never sees `done` early. HAT time
     is measured from just before the line is sent, so the link's delays only lengthen it."""
     n = ticks_until_done(_n(length))
@@ -158,7 +160,7 @@ def test_pulse_done_never_comes_before_its_length(hat: Hat, motor_port: int, len
 
 
 @pytest.mark.req("CMD-SET-RAMP", "CMD-SET-PHASE")
-def test_ramp_fourth_parameter(hat: Hat, verdict: Verdict, motor_port: int) -> None:
+def test_ramp_fourth_parameter(hat: HatUnderTest, verdict: Verdict, motor_port: int) -> None:
     a, b, period = 0.0, 1.0, _n("0.2")
     ticks = ticks_until_done(period) + 3
     seen, _e, _t, reply = capture(hat, motor_port, "set ramp 0 1 0.2 0.5", ticks)
@@ -172,7 +174,7 @@ def test_ramp_fourth_parameter(hat: Hat, verdict: Verdict, motor_port: int) -> N
 @pytest.mark.req("CMD-SET-CONST", "FW-NUMBER-PARSER")
 @pytest.mark.parametrize("token", ["0.25", "-1", ".5", "5.", "-.75", "+0.5", "0.0027777778", "123456789012",
                                    "1.23456789", "-0", "0.1", "30"])
-def test_constant_setpoint_is_the_parsed_number(hat: Hat, motor_port: int, token: str) -> None:
+def test_constant_setpoint_is_the_parsed_number(hat: HatUnderTest, motor_port: int, token: str) -> None:
     seen, _e, _t, reply = capture(hat, motor_port, f"set {token}", 3)
     accepted(reply)
     assert seen and all(close_to_printed(s, _n(token)) for s in seen), f"set {token}: set-points {seen}"
@@ -182,7 +184,7 @@ def test_constant_setpoint_is_the_parsed_number(hat: Hat, motor_port: int, token
 @pytest.mark.parametrize("line,sp,error", [("set 1e3", "1.00000", True), ("set .", OLD_SP, True),
                                            ("set -", OLD_SP, True), ("set", OLD_SP, True),
                                            ("set 0.5 0.3", "0.500000", True), ("set x", OLD_SP, True)])
-def test_bad_numbers(hat: Hat, motor_port: int, line: str, sp: str, error: bool) -> None:
+def test_bad_numbers(hat: HatUnderTest, motor_port: int, line: str, sp: str, error: bool) -> None:
     start_quiet_pid(hat, motor_port, sp=OLD_SP)
     reply = hat.exchange(line)
     lines = pid_lines(hat.wait_for(lambda e: e.text.startswith(f"P{motor_port}: pv="), 3, 1000), motor_port)
@@ -196,7 +198,7 @@ def test_bad_numbers(hat: Hat, motor_port: int, line: str, sp: str, error: bool)
 
 @pytest.mark.req("CMD-SET-SQUARE", "FW-SET-KEYWORDS")
 @pytest.mark.parametrize("word", ["s", "sq", "si", "t", "tri", "p", "r", "v"])
-def test_waveform_keywords_abbreviate_in_table_order(hat: Hat, motor_port: int, word: str) -> None:
+def test_waveform_keywords_abbreviate_in_table_order(hat: HatUnderTest, motor_port: int, word: str) -> None:
     keywords = hat.set_keywords
     shape = next((k for k in keywords if k.startswith(word)), None)
     if shape == "var" or shape is None:
@@ -212,7 +214,7 @@ def test_waveform_keywords_abbreviate_in_table_order(hat: Hat, motor_port: int, 
 
 
 @pytest.mark.req("CMD-SET-SINE", "FW-SET-CLAMPS")
-def test_period_and_phase_are_clamped(hat: Hat, motor_port: int) -> None:
+def test_period_and_phase_are_clamped(hat: HatUnderTest, motor_port: int) -> None:
     # FACTS Appendix A: `set si -1 1 0.001 7` is a sine with T = 0.02 s and phase 1.
     seen, _e, _t, reply = capture(hat, motor_port, "set si -1 1 0.001 7", 8)
     model = [v for v, _d in Generator("sine", -1, 1, 0.02, 1).run(8)]
@@ -222,7 +224,7 @@ def test_period_and_phase_are_clamped(hat: Hat, motor_port: int) -> None:
 
 
 @pytest.mark.req("CMD-SET-TRIANGLE", "FW-ERROR")
-def test_bad_waveform_changes_nothing(hat: Hat, motor_port: int) -> None:
+def test_bad_waveform_changes_nothing(hat: HatUnderTest, motor_port: int) -> None:
     seen, _e, _t, reply = capture(hat, motor_port, "set t 0 1 1e3 0", 3)
     assert reply.raw == b"\r\nError\r\n" and not seen, \
         "the generator must be unchanged (docs/FIRMWARE-BEHAVIOUR.md#fb-errors)"

@@ -8,14 +8,14 @@ from typing import Any
 
 import pytest
 
-from ..link import Hat
-from ..link_clauses import MARKER as CLAUSE_MARKER
+from ..hat_under_test import HatUnderTest
 from ..setup_check import SetupRefused
 from ..target_fault import first_line
+from ..trusted_clauses import MARKER as CLAUSE_MARKER
 from ..verdict import Verdict
 from .run import (
     CannotJudge,
-    Run,
+    SuiteRun,
     _call_failed_key,
     _not_run_key,
     _run_key,
@@ -30,12 +30,12 @@ __all__ = ["hat"]
 
 # -- fixtures ------------------------------------------------------------------------------
 @pytest.fixture(scope="session")
-def _run(pytestconfig: Any) -> Run:
+def _run(pytestconfig: Any) -> SuiteRun:
     return pytestconfig.stash[_run_key]
 
 
 @pytest.fixture
-def hat(_run: Run) -> Hat:
+def hat(_run: SuiteRun) -> HatUnderTest:
     """The HAT under test, shared by every case (opened once, closed at the end). Function-scoped
     as a fixture (the session is cached by the run) so that a target that could not be opened is
     a target fault once, not an error cached for every later case."""
@@ -43,7 +43,7 @@ def hat(_run: Run) -> Hat:
 
 
 @pytest.fixture(autouse=True)
-def _conformance_case(request: Any, _run: Run) -> Any:
+def _conformance_case(request: Any, _run: SuiteRun) -> Any:
     """Per case: its own transcript, the resynchronising fence, and its JUnit properties."""
     from ...harness.transcript import TranscriptWriter
 

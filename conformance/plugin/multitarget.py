@@ -109,7 +109,7 @@ def pytest_cmdline_main(config: Any) -> None:
     if len(targets) < 2 or hasattr(config, "workerinput"):
         return
     if not config.pluginmanager.hasplugin("xdist"):
-        from ...harness.extras import install_hint
+        from ...plumbing.optional_extras import install_hint
 
         raise pytest.UsageError(f"several targets need pytest-xdist: {install_hint('parallel')}")
     if config.option.numprocesses in (None, 0):
@@ -127,7 +127,7 @@ def pytest_configure(config: Any) -> None:
         if isinstance(n, int) and n != len(targets):
             raise pytest.UsageError(f"{len(targets)} targets need -n {len(targets)} (one worker each), "
                                     f"got -n {n}")
-        # The controller runs no test: its single-target Run would see every worker's reports
+        # The controller runs no test: its single-target SuiteRun would see every worker's reports
         # under the same node IDs. The merged report is written here instead.
         config.pluginmanager.unregister(name="buildhat-conformance-run")
         config.pluginmanager.register(_Merge(config, targets), "buildhat-conformance-merge")
@@ -136,14 +136,14 @@ def pytest_configure(config: Any) -> None:
     if index is None or index >= len(targets):
         raise pytest.UsageError(f"worker {config.workerinput.get('workerid')!r} has no target "
                                 f"({len(targets)} targets)")
-    from .run import Run, _run_key
+    from .run import SuiteRun, _run_key
 
     name, url = targets[index]
     junit = config.getoption("conformance_junit")
     config.option.target = url
     config.option.conformance_junit = _part_path(junit, name)
     config.option.transcripts = os.path.join(config.getoption("transcripts"), name)
-    run = Run(config)
+    run = SuiteRun(config)
     run.junit.set_property("target_name", name)
     config.stash[_run_key] = run
     config.pluginmanager.register(run, "buildhat-conformance-run")
@@ -162,7 +162,7 @@ class _Merge:
         merge_junit(parts, self.junit)
         if int(exitstatus) in (0, 1):
             # xdist counts a worker's target fault as an error (1); the agreed statuses are the
-            # single run's (plugin.Run.exit_status): 1 a failure, else 3 a target fault, else 0.
+            # single run's (plugin.SuiteRun.exit_status): 1 a failure, else 3 a target fault, else 0.
             session.exitstatus = merged_exit_status(parts)
 
     def pytest_terminal_summary(self, terminalreporter: Any) -> None:

@@ -41,7 +41,7 @@ class ResetRecovery:
 
     def why_not(self, target: Any) -> Optional[str]:
         """Why the run cannot (or no longer may) reset ``target``; None when it can."""
-        from ...harness.firmware.load import can_reset
+        from ...harness.bootloader.load import can_reset
 
         if self.outcome is not None:
             return "the run's one reset was used already"
@@ -79,10 +79,10 @@ class ResetRecovery:
             raise RecoveryFailed(f"the HAT runs {session.version_string!r} now, not {before!r}")
 
     def _load(self, session: Any) -> None:
-        from ...harness.firmware.errors import LoadError
-        from ...harness.firmware.image import read_firmware
-        from ...harness.firmware.load import load_firmware
-        from ...harness.firmware.session_stream import SessionStream
+        from ...harness.bootloader.errors import LoadError
+        from ...harness.bootloader.image import read_firmware
+        from ...harness.bootloader.load import load_firmware
+        from ...harness.bootloader.session_stream import SessionStream
 
         assert self.image is not None and self.signature is not None
         try:

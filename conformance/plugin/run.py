@@ -27,10 +27,10 @@ from ...harness.errors import BrokenClause
 from ...harness.targets.base import TargetError
 from ..case_order import MARKER as TOGETHER_MARKER
 from ..case_order import keep_together, seed_in_use
-from ..link import Hat
-from ..link_clauses import MARKER as CLAUSE_MARKER
+from ..hat_under_test import HatUnderTest
 from ..target_fault import TargetFault, fault_line, first_line, is_target_fault
 from ..tee import TeeTarget, tee
+from ..trusted_clauses import MARKER as CLAUSE_MARKER
 from ..verdict import FAIL, INFO, KNOWN, NOT_RUN, PASS, SKIP, TARGET_FAULT, UnknownBuild, Verdict
 from .firmware_findings import PROPERTY as DEFECTS_PROPERTY
 from .firmware_findings import FirmwareFindings
@@ -56,17 +56,17 @@ def pytest_configure(config: Any) -> None:
     config.addinivalue_line("markers", "req(*ids): requirement IDs (REQUIREMENTS.md or FW-...) a test checks")
     config.addinivalue_line("markers", "slow: takes more than a few seconds")
     config.addinivalue_line("markers", f"{CLAUSE_MARKER}(name): a clause the harness relies on, checked "
-                                       "first (conformance/link_clauses.py)")
+                                       "first (conformance/trusted_clauses.py)")
     config.addinivalue_line("markers", f"{TOGETHER_MARKER}(name): cases that share state, kept next to each "
                                        "other in a shuffled order (conformance/case_order.py)")
     if not hasattr(config, "workerinput"):
-        run = Run(config)
+        run = SuiteRun(config)
         config.stash[_run_key] = run
         config.pluginmanager.register(run, "buildhat-conformance-run")
 
 
 def target_url(config: Any) -> str:
-    from ...harness.cli_options import expand_target
+    from ...plumbing.cli_options import expand_target
 
     speed = config.getoption("speed")
     return expand_target(config.getoption("target"), float(speed) if speed else None)
@@ -90,14 +90,14 @@ def transcript_name(nodeid: str) -> str:
     return f"{safe[:170]}-{digest}"
 
 
-class Run:
+class SuiteRun:
     """State of one conformance run (a plugin object, so its hooks see everything)."""
 
     def __init__(self, config: Any):
         self.config = config
         self.url = target_url(config)
         self.transcripts = config.getoption("transcripts")
-        self.hat: Optional[Hat] = None
+        self.hat: Optional[HatUnderTest] = None
         self.tee: Optional[TeeTarget] = None
         self.open_error: Optional[str] = None
         self.broken: Optional[BrokenClause] = None   # a Build HAT breaking a clause at open
@@ -120,7 +120,7 @@ class Run:
         self.firmware = FirmwareFindings()      # a firmware in the loop's own defects (sanitizers)
 
     # -- the shared session --------------------------------------------------------------
-    def open(self) -> Hat:
+    def open(self) -> HatUnderTest:
         if self.hat is not None:
             return self.hat
         if self.broken is not None:
@@ -152,7 +152,7 @@ class Run:
             self.open_error = why if self.url in why else f"cannot open target {self.url}: {why}"
             self.stopped = self.open_error
             raise TargetFault("unreachable", self.open_error) from exc
-        self.hat = Hat(session, self.tee, self.url)
+        self.hat = HatUnderTest(session, self.tee, self.url)
         self.has_control = bool(self.hat.can("plug"))
         p = self.hat.profile
         # --firmware judges as a release; the firmware property stays what the target runs.
@@ -499,4 +499,4 @@ class CannotJudge(Exception):
     """The run cannot judge this target (one line: why); every case is not-run."""
 
 
-_run_key = pytest.StashKey[Run]()
+_run_key = pytest.StashKey[SuiteRun]()

@@ -7,8 +7,8 @@ import os
 from typing import TYPE_CHECKING, Dict, List, Optional, Sequence, Tuple
 
 if TYPE_CHECKING:     # the report's modules load on first use: a run imports this package early
-    from .html import Triage
-    from .junit import Case, Run
+    from .junit import Case, JunitRun
+    from .page import Triage
     from .plots import Plot
     from .triage import Change
 
@@ -48,13 +48,13 @@ def _plots(runs, max_plots: int) -> list:  # type: ignore[no-untyped-def]
     return out
 
 
-def _triage(all_runs: List[Run], failures: List[Tuple[Run, Case]]) -> Triage:
+def _triage(all_runs: List[JunitRun], failures: List[Tuple[JunitRun, Case]]) -> Triage:
     """The first screen's data: failure groups, changes since each run's previous run of the
     same target (when it lives in a run folder), deviation explanations, requirement statements."""
     from ...protocol.requirements import requirements
     from ..deviations import deviations
-    from .html import Triage
     from .junit import read_junit
+    from .page import Triage
     from .runs import previous_junit
     from .triage import changes_since, group_failures
 
@@ -74,7 +74,7 @@ def _triage(all_runs: List[Run], failures: List[Tuple[Run, Case]]) -> Triage:
     return Triage(group_failures(failures), changes, explained, statements)
 
 
-def _timing_plots(runs: List[Run]) -> List[Plot]:
+def _timing_plots(runs: List[JunitRun]) -> List[Plot]:
     from .plots import timing_plots
     from .timing import collect_timing
 
@@ -85,11 +85,11 @@ def _timing_plots(runs: List[Run]) -> List[Plot]:
 
 def build_report(junit_paths: Sequence[str], out_path: str, max_plots: int = MAX_PLOTS) -> str:
     """Write the HTML report for one or more JUnit files; returns ``out_path``."""
-    from ...harness.version import __version__
+    from ...plumbing.package_version import __version__
     from .coverage import coverage
     from .excerpt import excerpt_lines
-    from .html import render_html
     from .junit import read_junit
+    from .page import render_html
 
     if not junit_paths:
         raise ValueError("build_report needs at least one JUnit file")

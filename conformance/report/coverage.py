@@ -8,7 +8,7 @@ from dataclasses import dataclass, field
 from typing import Dict, List, Sequence, Tuple
 
 from ...protocol.requirements import Requirement, requirements
-from .junit import VERDICTS, Case, Run
+from .junit import VERDICTS, Case, JunitRun
 
 __all__ = ["Row", "Coverage", "coverage"]
 
@@ -51,7 +51,7 @@ class Coverage:
         return dict(Counter(r.status for r in self.rows))
 
 
-def coverage(runs: Sequence[Run]) -> Coverage:
+def coverage(runs: Sequence[JunitRun]) -> Coverage:
     rows = {r.id: Row(r) for r in requirements()}
     other: Dict[str, List[Tuple[str, Case]]] = {}
     for run in runs:

@@ -5,13 +5,13 @@ from __future__ import annotations
 
 from typing import Sequence
 
-from .junit import Run
+from .junit import JunitRun
 from .markup import esc
 
 __all__ = ["baseline_section"]
 
 
-def baseline_section(runs: Sequence[Run]) -> str:
+def baseline_section(runs: Sequence[JunitRun]) -> str:
     parts = []
     for run in runs:
         baseline = (run.properties.get("baseline") or [""])[0]

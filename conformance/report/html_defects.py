@@ -7,7 +7,7 @@ from __future__ import annotations
 import json
 from typing import Any, List, Sequence
 
-from .junit import Run
+from .junit import JunitRun
 from .markup import esc
 
 __all__ = ["defects_section", "PROPERTY"]
@@ -16,7 +16,7 @@ PROPERTY = "firmware_defects"
 CASES_SHOWN = 5
 
 
-def _defects(run: Run) -> List[dict]:
+def _defects(run: JunitRun) -> List[dict]:
     values = run.properties.get(PROPERTY) or []
     try:
         rows: Any = json.loads(values[-1]) if values else []
@@ -25,7 +25,7 @@ def _defects(run: Run) -> List[dict]:
     return [r for r in rows if isinstance(r, dict)] if isinstance(rows, list) else []
 
 
-def defects_section(runs: Sequence[Run]) -> str:
+def defects_section(runs: Sequence[JunitRun]) -> str:
     """Nothing when no run lists a firmware defect."""
     items = []
     for run in runs:

@@ -7,7 +7,7 @@ import difflib
 import re
 from typing import Dict, List, Optional, Sequence, Tuple
 
-from .junit import VERDICTS, Case, Run
+from .junit import VERDICTS, Case, JunitRun
 from .markup import LABEL, LETTER, MEANING, esc, names, tag, tests_cell
 from .triage import MODULE_PATH, NOTHING, Change, Exchange, FailureGroup, headline, scrub, skip_reasons
 
@@ -17,7 +17,7 @@ __all__ = ["summary_section", "failure_groups_section", "by_requirement_section"
 MAX_REPLY = 12     # lines of a reply shown in an exchange; the transcript has the rest
 
 
-def _verdict_word(runs: Sequence[Run]) -> Tuple[str, str]:
+def _verdict_word(runs: Sequence[JunitRun]) -> Tuple[str, str]:
     counts = {v: sum(r.counts()[v] for r in runs) for v in VERDICTS}
     if counts["fail"]:
         return "fail", f"FAILS: {counts['fail']} finding(s) against the protocol"
@@ -28,7 +28,7 @@ def _verdict_word(runs: Sequence[Run]) -> Tuple[str, str]:
     return "pass", "CONFORMS (known deviations and informational results aside)"
 
 
-def summary_section(runs: Sequence[Run], changes: Dict[str, Optional[Tuple[str, List[Change]]]],
+def summary_section(runs: Sequence[JunitRun], changes: Dict[str, Optional[Tuple[str, List[Change]]]],
                     built: str) -> str:
     cls, word = _verdict_word(runs)
     targets = "; ".join(f"{r.target or '?'} · firmware {r.firmware or '?'} · profile {r.profile or '?'}"
@@ -48,7 +48,7 @@ def summary_section(runs: Sequence[Run], changes: Dict[str, Optional[Tuple[str, 
     return "<header>" + "".join(parts) + "</header>"
 
 
-def _judged_line(run: Run) -> str:
+def _judged_line(run: JunitRun) -> str:
     """A clause the harness relies on that broke (the `version` line first of all: it chooses the
     profile) and how the profile was chosen when the version did not name it: what every other
     verdict of the run rests on, so on the first screen."""
@@ -66,7 +66,7 @@ def _anchor(verdict: str) -> str:
             "known_deviation": "deviations"}.get(verdict, "cases")
 
 
-def _changes_line(run: Run, found: Optional[Tuple[str, List[Change]]]) -> str:
+def _changes_line(run: JunitRun, found: Optional[Tuple[str, List[Change]]]) -> str:
     if found is None:
         return ("<p class='changes muted'>No earlier run of this target in the same reports folder to "
                 "compare with.</p>")
@@ -185,7 +185,7 @@ def by_requirement_section(groups: List[FailureGroup], statements: Dict[str, str
                            excerpts: Dict[int, List[str]]) -> str:
     """Every failing case under the first requirement it cites, with its exchange; the transcript
     excerpt one click away."""
-    per_req: Dict[str, List[Tuple[Run, Case, Exchange]]] = {}
+    per_req: Dict[str, List[Tuple[JunitRun, Case, Exchange]]] = {}
     for g in groups:
         for member in g.members:
             req = member[1].requirements[0] if member[1].requirements else "(no requirement ID)"
@@ -216,7 +216,7 @@ def _fault_detail(case: Case) -> str:
     return scrub(MODULE_PATH.sub("", text))[:3000]
 
 
-def faults_section(items: List[Tuple[Run, Case]]) -> str:
+def faults_section(items: List[Tuple[JunitRun, Case]]) -> str:
     """Each target fault with what happened (and the error in full, one click away); the cases
     not run after it grouped by their reason."""
     if not items:
@@ -251,7 +251,7 @@ def faults_section(items: List[Tuple[Run, Case]]) -> str:
             f"{''.join(rows)}</table>")
 
 
-def skips_section(items: List[Tuple[Run, Case]]) -> str:
+def skips_section(items: List[Tuple[JunitRun, Case]]) -> str:
     if not items:
         return ""
     rows = "".join(f"<tr><td class=n>{len(cases)}</td><td>{esc(reason)}</td>"

@@ -15,7 +15,7 @@ from collections import Counter
 from dataclasses import dataclass, field
 from typing import Dict, List, Optional, Tuple
 
-__all__ = ["Case", "Run", "read_junit", "check_junit", "VERDICTS", "normalise_verdict"]
+__all__ = ["Case", "JunitRun", "read_junit", "check_junit", "VERDICTS", "normalise_verdict"]
 
 #: The verdict classes, in the order reports show them.
 VERDICTS = ("pass", "fail", "target_fault", "not_run", "skip", "known_deviation", "informational")
@@ -65,7 +65,7 @@ class Case:
 
 
 @dataclass
-class Run:
+class JunitRun:
     """One JUnit file: one run of the suite against one target."""
 
     path: str
@@ -157,7 +157,7 @@ def _case(elem: ET.Element, base_dir: str) -> Case:
                 requirements=tuple(dict.fromkeys(reqs)), properties=props, transcript=transcript)
 
 
-def read_junit(path: str) -> Run:
+def read_junit(path: str) -> JunitRun:
     """Every test case of a JUnit file (all its testsuite elements), plus any problems
     :func:`check_junit` finds."""
     tree = ET.parse(path)
@@ -168,7 +168,7 @@ def read_junit(path: str) -> Run:
     for suite in suites:
         cases.extend(_case(tc, base_dir) for tc in suite.iter("testcase"))
     first = suites[0] if suites else root
-    return Run(path=path, suite_name=first.get("name") or "", cases=cases, attributes=dict(first.attrib),
+    return JunitRun(path=path, suite_name=first.get("name") or "", cases=cases, attributes=dict(first.attrib),
                properties=_properties(first.find("properties")), problems=check_junit_tree(root))
 
 

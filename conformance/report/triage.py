@@ -17,7 +17,7 @@ from typing import Dict, List, Optional, Sequence, Tuple
 
 from ...harness.transcript import field_bytes, iter_events
 from ..mismatch import EXPECTED_REPLY, RECEIVED_REPLY
-from .junit import Case, Run
+from .junit import Case, JunitRun
 
 __all__ = ["MODULE_PATH", "NOTHING", "scrub", "Exchange", "headline", "exchange_of", "FailureGroup",
            "group_failures", "skip_reasons", "Change", "changes_since"]
@@ -294,18 +294,18 @@ def _wrong_line(ex: Exchange) -> int:
 @dataclass
 class FailureGroup:
     key: str
-    members: List[Tuple[Run, Case, Exchange]]
+    members: List[Tuple[JunitRun, Case, Exchange]]
 
     @property
     def requirements(self) -> List[str]:
         return sorted({r for _run, c, _ex in self.members for r in c.requirements})
 
     @property
-    def example(self) -> Tuple[Run, Case, Exchange]:
+    def example(self) -> Tuple[JunitRun, Case, Exchange]:
         return self.members[0]
 
 
-def group_failures(items: Sequence[Tuple[Run, Case]]) -> List[FailureGroup]:
+def group_failures(items: Sequence[Tuple[JunitRun, Case]]) -> List[FailureGroup]:
     """Failures grouped by their first differing line (or normalised reason), largest first."""
     groups: Dict[str, FailureGroup] = {}
     for run, case in items:
@@ -314,7 +314,7 @@ def group_failures(items: Sequence[Tuple[Run, Case]]) -> List[FailureGroup]:
     return sorted(groups.values(), key=lambda g: -len(g.members))
 
 
-def skip_reasons(items: Sequence[Tuple[Run, Case]]) -> List[Tuple[str, List[Case]]]:
+def skip_reasons(items: Sequence[Tuple[JunitRun, Case]]) -> List[Tuple[str, List[Case]]]:
     """Skip messages (what the case needs connected or controllable), most frequent first."""
     out: Dict[str, List[Case]] = {}
     for _run, case in items:
@@ -331,7 +331,7 @@ class Change:
     after: str
 
 
-def changes_since(previous: Run, current: Run) -> List[Change]:
+def changes_since(previous: JunitRun, current: JunitRun) -> List[Change]:
     """Cases whose verdict differs from the previous run of the same target (new cases count
     as changed from ``new``; cases that are gone as changed to ``gone``)."""
     before = {c.test_id: c.verdict for c in previous.cases}

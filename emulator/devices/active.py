@@ -24,7 +24,7 @@ only say what values each mode holds. Behaviour modelled here (DEVICES.md "Mode 
 - ``@data P M HH..`` (``world_data``): one DATA message for mode M right away, and mode M keeps
   those bytes until ``@data P M auto``.
 
-Idle milliseconds (see ``emulator/ports.py``): :meth:`ActiveDevice.next_due` tells the port when
+Idle milliseconds (see ``emulator/ports/port.py``): :meth:`ActiveDevice.next_due` tells the port when
 the device next has something to do. A sample that cannot find a new payload is not run at all:
 the payload depends only on the device's own world (changed in :meth:`ActiveDevice.step`, which
 then marks it stale) and on what reaches it through the port (which calls
@@ -37,7 +37,7 @@ import random
 import struct
 from typing import Dict, List, Optional, Sequence
 
-from .. import lpf2
+from ..ports import lpf2
 from ..services import DevicePort
 from .setup_stream import setup_messages
 
@@ -294,7 +294,7 @@ class ActiveDevice:
 
     def next_send(self, now: int) -> float:
         """The first millisecond after ``now`` at which :meth:`tick` may *send*: a world that
-        lets the device's own physics catch up in one step (sil/world.py; the drive is constant
+        lets the device's own physics catch up in one step (sil/port_world.py; the drive is constant
         between two of its looks at the firmware) need not tick it before."""
         if self.dead or self.state != "data":
             return self.next_due(now)

@@ -1,7 +1,7 @@
 """What the HAT learns about an active device from its setup messages (FIRMWARE-FACTS §8).
 
 :class:`DeviceInfo` is the HAT's record of one device; :meth:`DeviceInfo.apply` takes one
-received setup message. ``list`` (emulator/listing.py) prints from this record only, so what it
+received setup message. ``list`` (emulator/commands/listing.py) prints from this record only, so what it
 shows is what the HAT parsed, never the catalogue. Setup messages the HAT does not parse are
 reported back as "unknown" so the port can print the debug-32 lines.
 """
@@ -11,7 +11,7 @@ import struct
 from dataclasses import dataclass, field
 from typing import Dict, List, Optional
 
-from .. import lpf2
+from ..ports import lpf2
 
 __all__ = ["ModeInfo", "DeviceInfo", "FORMAT_SIZES"]
 

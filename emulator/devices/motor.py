@@ -1,4 +1,5 @@
-"""Motors (26, 2E, 2F, 30, 31, 41, 4B, 4C): mode values from the shaft physics (emulator/physics.py).
+"""Motors (26, 2E, 2F, 30, 31, 41, 4B, 4C): mode values from the shaft physics
+(emulator/motor/shaft_physics.py).
 
 SPEED = % of rated speed, POS = whole degrees since connect (never wraps, 0 at every connect),
 APOS = absolute angle wrapped to -180..179, CALIB = [0, APOS in 0.1 deg as 0..3599] (DEVICES.md,
@@ -13,7 +14,7 @@ import math
 import random
 from typing import List, Optional
 
-from ..physics import MotorPhysics, wrap180
+from ..motor.shaft_physics import MotorPhysics, wrap180
 from .active import ActiveDevice
 
 __all__ = ["MotorDevice", "JITTER_MIN_MS", "JITTER_MAX_MS"]

@@ -1,6 +1,6 @@
 """The world actions that reach a port's device (``@data``, ``@rate``, ``@button``, ``@hold``,
-``@pos``; routed by emulator/world.py), for anything that holds a device model on a port: the
-emulator's own port (emulator/ports.py) and the firmware-in-the-loop's (sil/world.py).
+``@pos``; routed by emulator/world_actions.py), for anything that holds a device model on a port: the
+emulator's own port (emulator/ports/port.py) and the firmware-in-the-loop's (sil/port_world.py).
 
 The holder provides ``device``, ``index`` and ``wake()`` (the device has news: look at it
 again); a pressed button changes what the port reads, which ``button_changed()`` reports.

@@ -13,7 +13,7 @@ from __future__ import annotations
 import struct
 from typing import List
 
-from .. import lpf2
+from ..ports import lpf2
 
 __all__ = ["setup_messages", "name_payload", "modes_payload"]
 

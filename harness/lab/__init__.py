@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import os
 
-from ..extras import install_hint
+from ...plumbing.optional_extras import install_hint
 from ..targets.base import TargetError
 
 __all__ = ["need_labgrid", "coordinator_address", "DEFAULT_COORDINATOR"]

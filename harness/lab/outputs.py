@@ -12,8 +12,8 @@ from __future__ import annotations
 import time
 from typing import Any, Callable, Dict, FrozenSet, List, Optional
 
-from ..firmware.gpio_reset import HOLD_S, PULSE_S, SETTLE_S
 from ..targets.base import Control, NeedsCapability, TargetError
+from ..targets.gpio_reset import HOLD_S, PULSE_S, SETTLE_S
 
 __all__ = ["LabOutputs", "DRIVER_FOR", "DEFAULT_RESET", "DEFAULT_BOOT0"]
 

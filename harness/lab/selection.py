@@ -14,7 +14,7 @@ import time
 from typing import Callable, List, Optional
 from urllib.parse import quote
 
-from ..cli_options import UsageError
+from ...plumbing.cli_options import UsageError
 from ..targets.base import TargetError
 from .client import LabClient, PlaceHeld, PlaceState, client_for
 from .lease import HOLDER_ENV, PlaceLease
@@ -52,7 +52,7 @@ def hold_places(spec: Optional[str], urls: List[str], wait: float, coordinator: 
                 say: Callable[[str], None] = print) -> Optional[LabHold]:
     """Hold the places of ``--places SPEC`` or of the ``labgrid:`` URLs among ``urls``; None when
     the run uses no labgrid place. Raises UsageError (nothing matches) or TargetError/PlaceHeld."""
-    from ..targets.labgrid import from_url
+    from ..targets.labgrid_place import from_url
     from . import need_labgrid
 
     try:        # a bad URL, or labgrid not installed: a usage error, as preflight makes it

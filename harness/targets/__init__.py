@@ -2,12 +2,12 @@
 
 | URL | module |
 |---|---|
-| ``/dev/...`` or any existing path, ``serial:///dev/...?baud=115200`` | ``serial`` |
+| ``/dev/...`` or any existing path, ``serial:///dev/...?baud=115200`` | ``serial_device`` |
 | ``socket://``, ``rfc2217://``, ``loop://`` and other pyserial URLs | ``pyserial_url`` |
 | ``cmd:<command line>`` | ``cmd`` |
-| ``labgrid:PLACE[?coordinator=HOST:PORT...]`` | ``labgrid`` (the ``lab`` extra) |
-| ``emulator``, ``emulator:<release|latest>[?speed=N&device=P=SPEC...]`` | emulator/process_target.py |
-| ``inprocess[:...]`` | emulator/inprocess_target.py |
+| ``labgrid:PLACE[?coordinator=HOST:PORT...]`` | ``labgrid_place`` (the ``lab`` extra) |
+| ``emulator``, ``emulator:<release|latest>[?speed=N&device=P=SPEC...]`` | emulator/targets/pty_process.py |
+| ``inprocess[:...]`` | emulator/targets/in_process.py |
 | ``sil:<tree or program>[?...]`` | sil/target.py (the real firmware in the loop) |
 
 Each module provides ``from_url(url, **options) -> Target``; it is imported only when its
@@ -33,7 +33,7 @@ _PKG = __name__
 # scheme -> module (in this package) providing from_url; "" marks a path.
 _SCHEMES: Dict[str, str] = {
     "cmd": "cmd",
-    "serial": "serial",
+    "serial": "serial_device",
     "socket": "pyserial_url",
     "rfc2217": "pyserial_url",
     "loop": "pyserial_url",
@@ -41,7 +41,7 @@ _SCHEMES: Dict[str, str] = {
     "hwgrep": "pyserial_url",
     "alt": "pyserial_url",
     "cp2110": "pyserial_url",
-    "labgrid": "labgrid",
+    "labgrid": "labgrid_place",
 }
 _FACTORIES: Dict[str, Callable[..., Target]] = {}
 # scheme -> entry point of a target module above harness/ (emulator/, sil/); read once.

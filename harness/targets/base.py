@@ -7,14 +7,33 @@ Targets that can change the world around the HAT (the emulator) also offer a
 from __future__ import annotations
 
 import abc
-from typing import FrozenSet, Optional
+from typing import Callable, FrozenSet, List, Optional
 
-__all__ = ["Target", "Control", "TargetError", "NeedsCapability", "NotReading", "WRITE_DEADLINE_S"]
+__all__ = ["Target", "Control", "TargetError", "NeedsCapability", "NotReading", "WRITE_DEADLINE_S",
+           "keeps_process_resources", "release_process_resources"]
 
 #: How long a write may wait for the target to take the bytes. A HAT reads its UART all the time
 #: (115200 baud moves a command line in milliseconds); one that has not taken a line in this
 #: long has stopped reading, and waiting longer would only hang the host (issue 13).
 WRITE_DEADLINE_S = 5.0
+
+
+# What a kind of target keeps beyond its objects, for the whole process (sil: a booted firmware
+# per layout, copied at every open): each kind registers how to release it, and a process that
+# ends its work early (a fuzz worker) releases everything through this interface, knowing no kind.
+_RELEASERS: List[Callable[[], None]] = []
+
+
+def keeps_process_resources(release: Callable[[], None]) -> Callable[[], None]:
+    """Register ``release`` (a decorator): it frees what a kind of target keeps for the process."""
+    _RELEASERS.append(release)
+    return release
+
+
+def release_process_resources() -> None:
+    """Free what every kind of target imported in this process keeps (its releasers, in order)."""
+    for release in list(_RELEASERS):
+        release()
 
 
 class TargetError(RuntimeError):

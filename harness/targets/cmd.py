@@ -16,7 +16,7 @@ import threading
 import time
 from typing import Deque, List, Optional
 
-from ..parent_death import die_with_parent
+from ...plumbing.parent_death import die_with_parent
 from .base import NotReading, Target, TargetError
 
 __all__ = ["CommandTarget", "from_url", "stop_process_group"]

@@ -3,7 +3,7 @@
  * Every frame is a 16-byte header (type, port, payload length, 4 spare bytes, time in ns;
  * little-endian) and its payload. The firmware runs only between a run frame ('R') and the
  * yield frame ('y') it answers with; in between it owns the clock. The frame types and their
- * payloads are listed once, in sil/protocol.py, which the Python side reads.
+ * payloads are listed once, in sil/frames.py, which the Python side reads.
  */
 #include "sil.h"
 

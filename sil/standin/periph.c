@@ -11,7 +11,7 @@
  * - ADC: the input voltage the world sets.
  *
  * Register writes the firmware makes directly (inte0, clkdiv, imsc, ...) are plain memory;
- * they are read here when they matter. Frames to the world: sil/protocol.py.
+ * they are read here when they matter. Frames to the world: sil/frames.py.
  */
 #include "sil.h"
 

@@ -41,7 +41,7 @@ int board_port_of_driver(int bus, uint8_t addr);  /* -1: no motor driver at that
 extern const uint board_pin_portfault, board_pin_motorfault, board_pin_poweron;
 extern const uint board_pin_led0, board_pin_led1;
 
-/* link.c: frames to and from the world (format: sil/protocol.py) */
+/* link.c: frames to and from the world (format: sil/frames.py) */
 extern uint64_t link_limit;            /* run no further than this without asking the world */
 extern int link_yield_on_host_idle;    /* the world waits for an answer to finish */
 void link_emit(uint8_t type, uint8_t port, uint64_t t, const void *data, uint16_t len);

@@ -312,7 +312,7 @@ def test_every_help_works_and_lists_the_exit_statuses(tmp_path, monkeypatch, cap
 
 
 def test_version_on_both_programs(tmp_path, monkeypatch, capsys):
-    from buildhat_conformance.harness.version import __version__
+    from buildhat_conformance.plumbing.package_version import __version__
 
     rc, out, _err = _main(["--version"], tmp_path, monkeypatch, capsys)
     assert rc == 0 and out.strip() == f"buildhat-conformance {__version__}"

@@ -7,7 +7,7 @@ from __future__ import annotations
 import pytest
 
 from buildhat_conformance.conformance.command_probes import pid_or_diff, probe
-from buildhat_conformance.conformance.link import Hat
+from buildhat_conformance.conformance.hat_under_test import HatUnderTest
 from buildhat_conformance.harness.session import Session
 from buildhat_conformance.harness.targets import make_target
 
@@ -29,14 +29,14 @@ def test_pid_or_diff_from_the_values_alone(pvs, positions, told):
     assert pid_or_diff([float(v) for v in pvs], [float(p) for p in positions]) == told
 
 
-def _read(hat: Hat, port: int, mode: int) -> int:
+def _read(hat: HatUnderTest, port: int, mode: int) -> int:
     head = f"P{port}M{mode}:"
     hat.exchange(f"port {port} ; selonce {mode}")
     seen = hat.wait_for(lambda e: getattr(e, "text", "").startswith(head), 1, 1500)
     return int([e.text for e in seen if e.text.startswith(head)][-1].split(":")[1].split()[0])
 
 
-def _put_apos(hat: Hat, port: int, angle: int) -> None:
+def _put_apos(hat: HatUnderTest, port: int, angle: int) -> None:
     """Turn the shaft so that APOS (mode 3, what the probe reads) shows ``angle``: ``@pos`` sets POS,
     and APOS moves with it by the same amount."""
     pos, apos = _read(hat, port, 2), _read(hat, port, 3)
@@ -48,7 +48,7 @@ def _put_apos(hat: Hat, port: int, angle: int) -> None:
 def _hat(url: str):
     target = make_target(url)
     session = Session(target).open()
-    return Hat(session, target, url), session
+    return HatUnderTest(session, target, url), session
 
 
 @pytest.mark.parametrize("angle", [None, 0, 100, -37])

@@ -7,14 +7,14 @@ import xml.etree.ElementTree as ET
 import pytest
 
 from buildhat_conformance.conformance.baseline_runs import control_names
+from buildhat_conformance.conformance.case_output import first_difference
 from buildhat_conformance.conformance.comparison import (
     annotate_junit,
     compare_runs,
     judge_case,
     read_expect_changes,
 )
-from buildhat_conformance.harness.cli_options import UsageError
-from buildhat_conformance.sil.case_output import first_difference
+from buildhat_conformance.plumbing.cli_options import UsageError
 
 HELP = ["Commands available:", "  vin                   : report main power input voltage"]
 

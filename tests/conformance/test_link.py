@@ -6,7 +6,7 @@ from __future__ import annotations
 import re
 from typing import Any
 
-from buildhat_conformance.conformance.link import Hat
+from buildhat_conformance.conformance.hat_under_test import HatUnderTest
 from buildhat_conformance.conformance.target_fault import foreign
 from buildhat_conformance.conformance.tee import VirtualTeeTarget
 from buildhat_conformance.harness.events import classify
@@ -64,7 +64,7 @@ def test_set_up_after_streams_that_overflow_the_wire_finds_its_place() -> None:
     # streams, wait them out and find its place: no target fault, and the link in step after.
     url = f"inprocess:R7?baud=115200&{FOUR_MOTORS}"
     s = _session(url)
-    hat = Hat(s, s.target, url)
+    hat = HatUnderTest(s, s.target, url)
     try:
         hat.resync()
         hat.clauses.held("echo")
@@ -92,7 +92,7 @@ def test_a_world_action_the_target_cannot_perform_for_this_device_skips_the_case
         def world(self, line: str) -> str:
             raise NeedsCapability("an active device", "test:", "passive devices only")
 
-    hat = Hat.__new__(Hat)
+    hat = HatUnderTest.__new__(HatUnderTest)
     hat.session, hat.url = PassiveOnly(), "test:"
     with pytest.raises(pytest.skip.Exception, match="needs an active device"):
         hat.world("@plug 0 0x30")

@@ -1,4 +1,5 @@
-"""``--operator`` (conformance/operator.py): the person at the bench is shown the instruction, Enter means
+"""``--operator`` (conformance/operator_prompt.py): the person at the bench is shown the instruction, Enter
+means
 done, `s` means skip, and pytest's output capture is set aside while asking (else the prompt is unseen)."""
 from __future__ import annotations
 
@@ -7,7 +8,7 @@ from types import SimpleNamespace
 
 import pytest
 
-from buildhat_conformance.conformance.operator import ask
+from buildhat_conformance.conformance.operator_prompt import ask
 
 
 class _Capture:

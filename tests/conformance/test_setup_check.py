@@ -7,7 +7,7 @@ from typing import List
 
 import pytest
 
-from buildhat_conformance.conformance.link import Hat
+from buildhat_conformance.conformance.hat_under_test import HatUnderTest
 from buildhat_conformance.conformance.setup_check import SetupCheck, SetupRefused
 from buildhat_conformance.harness.session import Session
 from buildhat_conformance.harness.targets import make_target
@@ -16,13 +16,13 @@ from buildhat_conformance.protocol.profiles import get_profile
 FOUR_MOTORS = "&".join(f"device={p}=0x30" for p in range(4))
 
 
-def _hat(url: str, judged_as: str) -> Hat:
+def _hat(url: str, judged_as: str) -> HatUnderTest:
     """A HAT whose command set differs from the profile it is judged by (R7 has no `bias`; R5,
     like the 2023-01-26 development build judged as R5, is expected to)."""
     target = make_target(url)
     session = Session(target, profile=get_profile(judged_as))
     session.open()
-    return Hat(session, target, url)
+    return HatUnderTest(session, target, url)
 
 
 def test_a_refused_set_up_command_is_said_once_and_the_rest_of_the_set_up_still_runs() -> None:

@@ -4,7 +4,7 @@ from __future__ import annotations
 import pytest
 
 from buildhat_conformance.emulator import Emulator
-from buildhat_conformance.emulator.world import WORLD_HANDLERS, WorldError
+from buildhat_conformance.emulator.world_actions import WORLD_HANDLERS, WorldError
 from buildhat_conformance.transcripts.script import WORLD_ACTIONS
 
 EMPTY = {0: None, 1: None, 2: None, 3: None}

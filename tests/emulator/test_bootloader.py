@@ -11,7 +11,7 @@ from cryptography.hazmat.primitives.asymmetric.utils import decode_dss_signature
 
 from buildhat_conformance.emulator.api import Emulator
 from buildhat_conformance.emulator.bootloader import Bootloader, bootloader_checksum
-from buildhat_conformance.emulator.uart import Uart
+from buildhat_conformance.emulator.command_uart import Uart
 from buildhat_conformance.protocol.profiles import get_profile
 
 PROMPT = b"BHBL> "

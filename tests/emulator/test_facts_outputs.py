@@ -444,7 +444,7 @@ def test_bootloader_has_no_hash_comments():
 
 
 # §7.4 example sequence ("The line is the same in R1–R7"); R2 and R7 run in
-# tests/emulator/test_commands_drive.py::test_debug16_example_through_device_data.
+# tests/emulator/commands/test_drive_commands.py::test_debug16_example_through_device_data.
 DEBUG16_EXAMPLE = [
     b"P0: pv=0.00000 sp=1.00000: e=-1.00000 ie=-0.0100000 de=-100.000 cv=15.0050",
     b"P0: pv=0.100000 sp=1.00000: e=-0.900000 ie=-0.0190000 de=10.0000 cv=3.50950",
@@ -474,7 +474,7 @@ def test_debug16_example_other_profiles(profile):
 
 
 # §3 "Errors": partial effects, stated for every version. R7 (and R1 for select) run in
-# tests/emulator/test_commands_drive.py / tests/emulator/test_reporting.py.
+# tests/emulator/commands/test_drive_commands.py / tests/emulator/ports/test_data_reports.py.
 @pytest.mark.parametrize("profile", ["R1", "R2", "R3", "R4", "R5", "R6"])
 def test_partial_effects_other_profiles(profile):
     # pid failing part-way: fields parsed so far stored, port forced to PWM mode, coast cleared
@@ -510,7 +510,7 @@ def test_partial_effects_other_profiles(profile):
 
 def test_set_var_partial_effect_r6():
     # §3: "`set var` (R6+) whose svar part fails: the shape, min, max, slope and offset are
-    # already stored, and the svar is partly updated." (R7 runs in tests/emulator/test_commands_drive.py)
+    # already stored, and the svar is partly updated." (R7 runs in tests/emulator/commands/test_drive_commands.py)
     emu = empty("R6")
     assert send(emu, b"set var -1 1 0.01 0 0 1 0 s1\r") == ERR
     c = emu.hat.controllers[0]

@@ -2,9 +2,9 @@
 imports included:
 
 - no import circle among the modules under emulator/;
-- only the composition root's users (api.py, cli.py, runners/) import emulator/hat.py: the parts
+- only the composition root's users (api.py, cli.py, script_mode.py) import emulator/hat.py: the parts
   (ports, controllers, faults, start-up, commands, ...) see the HAT through the Protocols of
-  emulator/services.py and emulator/command_context.py.
+  emulator/services.py and emulator/commands/context.py.
 """
 from __future__ import annotations
 
@@ -17,7 +17,7 @@ import buildhat_conformance.emulator as emulator_pkg
 PACKAGE = "buildhat_conformance"
 ROOT = Path(emulator_pkg.__file__).resolve().parent        # the emulator/ folder
 HAT = "emulator.hat"
-HAT_USERS = ("emulator.api", "emulator.cli", "emulator.runners")
+HAT_USERS = ("emulator.api", "emulator.cli", "emulator.script_mode")
 
 
 def _module_name(path: Path) -> str:
@@ -101,11 +101,12 @@ def test_the_graph_sees_the_known_imports():
     # Guards the parser itself: a graph that saw nothing would pass every rule below.
     graph = _graph()
     assert "emulator.hat" in graph["emulator.api"]
-    assert {"emulator.ports", "emulator.controller", "emulator.commands"} <= graph["emulator.hat"]
-    assert "emulator.services" in graph["emulator.ports"]
-    assert {"emulator.active_link", "emulator.port_uart", "emulator.mode_store"} <= graph["emulator.ports"]
-    assert "emulator.lpf2" in graph["emulator.devices.active"]       # from .. import lpf2
-    assert "emulator.devices" in graph["emulator.listing"]      # .devices.info runs devices/
+    assert {"emulator.ports.port", "emulator.motor.controller", "emulator.commands.dispatch"} <= graph["emulator.hat"]
+    assert "emulator.services" in graph["emulator.ports.port"]
+    assert {"emulator.ports.device_conversation", "emulator.ports.device_uart",
+            "emulator.ports.mode_store"} <= graph["emulator.ports.port"]
+    assert "emulator.ports.lpf2" in graph["emulator.devices.active"]       # from ..ports import lpf2
+    assert "emulator.devices" in graph["emulator.commands.listing"]      # ..devices.info runs devices/
 
 
 def test_a_typing_only_import_of_hat_counts(tmp_path):

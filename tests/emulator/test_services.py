@@ -10,10 +10,10 @@ from __future__ import annotations
 
 from typing import Any, Dict, List, Tuple, Union
 
-from buildhat_conformance.emulator.drive import Duty
-from buildhat_conformance.emulator.faults import FaultMonitor
-from buildhat_conformance.emulator.port_uart import PortUart
-from buildhat_conformance.emulator.ports import Port
+from buildhat_conformance.emulator.motor.pwm_drive import Duty
+from buildhat_conformance.emulator.ports.device_uart import PortUart
+from buildhat_conformance.emulator.ports.port import Port
+from buildhat_conformance.emulator.power_faults import FaultMonitor
 from buildhat_conformance.emulator.services import FaultServices, PortServices, UartServices
 from buildhat_conformance.protocol.profiles import Profile, get_profile
 

@@ -1,4 +1,5 @@
-"""The control channel's guards (emulator/control.py): loopback only unless --allow-remote, a per-run token on
+"""The control channel's guards (serving/control_channel.py): loopback only unless --allow-remote, a per-run
+token on
 TCP, a Unix socket of mode 0600 whatever the umask, and a client that stops reading dropped without
 stalling the serial side. Real child processes and sockets; --booted so nothing waits for a start-up.
 """

@@ -1,4 +1,5 @@
-"""The gpiozero pin factory (emulator/gpiozero_pins.py), chosen the way a host library's environment does:
+"""The gpiozero pin factory (emulator/host_fixtures/gpiozero_pins.py), chosen the way a host library's
+environment does:
 ``GPIOZERO_PIN_FACTORY=buildhat_emulator`` resolved through gpiozero's own entry point, the emulator found
 through ``BUILDHAT_EMULATOR_CONTROL`` (+ ``_TOKEN`` on TCP) as it prints them. A real gpiozero in a child
 process drives GPIO 4 (RESET, active low) as python-build-hat 0.5.x does; FIRMWARE-FACTS §9: released,
@@ -19,7 +20,7 @@ pytestmark = pytest.mark.timeout(90)
 CLI = [sys.executable, "-m", "buildhat_conformance.emulator.cli"]
 PULSE = """
 from gpiozero import DigitalOutputDevice
-from buildhat_conformance.emulator.control_client import ControlClient
+from buildhat_conformance.serving.control_client import ControlClient
 ask = ControlClient.from_environment().request
 print("before", ask("@firmware"), flush=True)
 reset = DigitalOutputDevice(4, initial_value=True)      # gpiozero's own name for GPIO 4; driven high

@@ -16,7 +16,7 @@ import pytest
 import serial
 
 from buildhat_conformance.emulator.cli import main
-from buildhat_conformance.emulator.pytest_fixture import EmulatorProcess
+from buildhat_conformance.emulator.host_fixtures.pytest_plugin import EmulatorProcess
 
 CLI = [sys.executable, "-m", "buildhat_conformance.emulator.cli"]
 VERSION_R7 = b"Firmware version: 1737564117 2025-01-22T16:41:57+00:00\r\n"

@@ -18,8 +18,8 @@ import pytest
 from junit_props import properties
 from repo_paths import TESTS
 
-from buildhat_conformance.fuzz.campaign import Budget, parse_budget
-from buildhat_conformance.fuzz.runner import PRELUDE, Stats
+from buildhat_conformance.fuzz.running.campaign import Budget, parse_budget
+from buildhat_conformance.fuzz.running.checked_run import PRELUDE, Stats
 from buildhat_conformance.fuzz.summary import Progress
 
 HERE = TESTS
@@ -102,7 +102,7 @@ def test_a_fresh_emulator_process_starts_booted_as_the_in_process_one_does(tmp_p
     """sil finding (--against emulator, seed 5): `P0: no device detected` on the emulator, the
     motor listed on the other side. The emulator process opened at power-on while the other side
     opened booted, and its devices (about 0.8 s of HAT time to connect) were still setting up."""
-    from buildhat_conformance.fuzz.target_kinds import fresh_boot_options
+    from buildhat_conformance.fuzz.running.target_kinds import fresh_boot_options
 
     assert fresh_boot_options("emulator") == {"booted": True}
     assert fresh_boot_options("emulator:R7?speed=10") == {"booted": True}
@@ -147,8 +147,9 @@ def test_a_finding_is_confirmed_shell_quoted_and_saved_to_the_database_with_a_se
 
     from planted.faults import FAULTS
 
-    from buildhat_conformance.emulator.inprocess_target import InProcessTarget
-    from buildhat_conformance.fuzz import cli, command
+    from buildhat_conformance.emulator.targets.in_process import InProcessTarget
+    from buildhat_conformance.fuzz import cli
+    from buildhat_conformance.fuzz.running import from_arguments as command
 
     empty = {0: None, 1: None, 2: None, 3: None}
     url = "inprocess:R7?device=2=passive 8&seed=3"
@@ -202,7 +203,7 @@ def test_differential_campaign_between_two_paced_real_time_emulators_runs_its_wh
 
 def test_a_finding_on_a_link_target_is_shrunk_by_replaying_smaller_scripts(tmp_path):
     """The planted `wrong` fault as a `cmd:` byte proxy (a process, kept open from run to run)."""
-    from buildhat_conformance.fuzz.reduce import steps_of
+    from buildhat_conformance.fuzz.findings.shrink import steps_of
     from buildhat_conformance.transcripts.script import load_script
 
     res = _fuzz("--target", _proxy_url("wrong"), "--budget", "10x", "--seed", "4", "--steps", "4",

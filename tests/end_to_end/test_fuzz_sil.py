@@ -113,9 +113,10 @@ def test_a_stream_an_odd_combi_left_running_holds_back_the_fence(cache, monkeypa
     printed `Error` and left port 0's reports streaming, as the firmware does; the model took the
     port for silent, so a later step with `help` sent its fence at once, into a ring the reports
     and `help` had filled, and its answer was lost ("0 of 2 fence line(s) arrived" before the fix,
-    fuzz/model.py). Now the step waits for the ring to drain and is judged on what a full ring leaves."""
-    from buildhat_conformance.fuzz.oracles import Finding
-    from buildhat_conformance.fuzz.runner import Runner
+    fuzz/model/reference_model.py). Now the step waits for the ring to drain and is judged on what a full
+    ring leaves."""
+    from buildhat_conformance.fuzz.oracles.registry import Finding
+    from buildhat_conformance.fuzz.running.checked_run import Runner
     from buildhat_conformance.harness.targets import make_target
     from buildhat_conformance.protocol.profiles import get_profile
 

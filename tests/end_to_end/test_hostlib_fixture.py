@@ -1,4 +1,5 @@
-"""The ``buildhat_emulator`` pytest fixture (emulator/pytest_fixture.py) used the way a host library's own
+"""The ``buildhat_emulator`` pytest fixture (emulator/host_fixtures/pytest_plugin.py) used the way a host
+library's own
 test suite would: a plain pyserial host, and the real python-build-hat library pointed at its pty."""
 from __future__ import annotations
 
@@ -71,7 +72,7 @@ def run_case(python: str, case: str, tmp_path: pathlib.Path, env: dict, timeout:
     target = tmp_path / f"test_{case}"
     shutil.copy(CASES / case, target)
     return subprocess.run([python, "-m", "pytest", "-v", "-p", "no:cacheprovider",
-                           "-p", "buildhat_conformance.emulator.pytest_fixture", target.name,
+                           "-p", "buildhat_conformance.emulator.host_fixtures.pytest_plugin", target.name,
                            "--basetemp", str(tmp_path / "basetemp")],
                           cwd=tmp_path, env={**os.environ, "PYTEST_DISABLE_PLUGIN_AUTOLOAD": "1", **env},
                           capture_output=True, text=True, timeout=timeout)

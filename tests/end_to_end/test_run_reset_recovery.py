@@ -107,8 +107,8 @@ def test_a_gpio_reset_lands_in_the_bootloader_and_the_release_is_loaded_again(tm
 
 
 def test_without_an_image_the_reset_cannot_bring_the_firmware_back(tmp_path, pi_hat):
-    from buildhat_conformance.harness.firmware import load_firmware
-    from buildhat_conformance.harness.firmware.image import FirmwareImage
+    from buildhat_conformance.harness.bootloader import load_firmware
+    from buildhat_conformance.harness.bootloader.image import FirmwareImage
     from buildhat_conformance.harness.targets import make_target
 
     target, env = pi_hat

@@ -21,7 +21,7 @@ def test_a_small_campaign_kills_the_planted_regression(tmp_path):
 
 
 def test_hat_output_compares_lines_however_the_reads_cut_them(tmp_path):
-    from buildhat_conformance.sil.case_output import case_lines
+    from buildhat_conformance.conformance.case_output import case_lines
 
     def transcript(name, events):
         path = tmp_path / name
@@ -54,7 +54,7 @@ def test_hat_output_compares_lines_however_the_reads_cut_them(tmp_path):
 def test_killers_of_an_earlier_campaign_run_first_in_their_rank(tmp_path):
     from types import SimpleNamespace
 
-    from buildhat_conformance.sil.mutant_run import killers, pytest_collection_modifyitems
+    from buildhat_conformance.campaigns.first_failure_plugin import killers, pytest_collection_modifyitems
 
     summary = tmp_path / "mutation.json"
     summary.write_text(json.dumps({"mutants": [

@@ -1,9 +1,9 @@
-"""Budgets (fuzz/budget.py): the fuzzing budget and the bound on checking findings."""
+"""Budgets (fuzz/running/budget.py): the fuzzing budget and the bound on checking findings."""
 from __future__ import annotations
 
 import pytest
 
-from buildhat_conformance.fuzz.budget import CHECK_SHARE, Budget, check_limit, parse_seconds
+from buildhat_conformance.fuzz.running.budget import CHECK_SHARE, Budget, check_limit, parse_seconds
 
 
 def test_checking_is_bounded_by_a_share_of_a_time_budget_unless_told():

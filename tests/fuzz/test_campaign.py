@@ -13,10 +13,11 @@ import pytest
 from planted.faults import FAULTS
 from repo_paths import TESTS
 
-from buildhat_conformance.emulator.inprocess_target import InProcessTarget
-from buildhat_conformance.fuzz import cli, command
-from buildhat_conformance.fuzz.reduce import steps_of
-from buildhat_conformance.fuzz.replay import replay_script
+from buildhat_conformance.emulator.targets.in_process import InProcessTarget
+from buildhat_conformance.fuzz import cli
+from buildhat_conformance.fuzz.findings.replay import replay_script
+from buildhat_conformance.fuzz.findings.shrink import steps_of
+from buildhat_conformance.fuzz.running import from_arguments as command
 from buildhat_conformance.protocol.profiles import get_profile
 from buildhat_conformance.transcripts.script import load_script
 
@@ -86,7 +87,7 @@ def test_planted_fault_behind_a_cmd_proxy_replays_as_the_same_finding(tmp_path):
     """The same fault as a byte proxy around `buildhat-emulator --stdio` (a `cmd:` target)."""
     import sys
 
-    from buildhat_conformance.fuzz.runner import PRELUDE
+    from buildhat_conformance.fuzz.running.checked_run import PRELUDE
     from buildhat_conformance.harness.targets import make_target
     lines = [f"> {line.decode()}" for line in PRELUDE.split(b"\r") if line]
     lines += ["> version", "> co", "> version"]
@@ -102,8 +103,8 @@ def test_planted_fault_behind_a_cmd_proxy_replays_as_the_same_finding(tmp_path):
 def _oracle_after(fault, line: bytes, wait_ms: int):
     """The oracle that fails when ``line`` is sent and ``wait_ms`` pass (None: no finding),
     against the emulator with ``fault`` planted (None: as it is)."""
-    from buildhat_conformance.fuzz.oracles import Finding
-    from buildhat_conformance.fuzz.runner import Runner
+    from buildhat_conformance.fuzz.oracles.registry import Finding
+    from buildhat_conformance.fuzz.running.checked_run import Runner
     factory = FAULTS[fault] if fault else None
     runner = Runner([("target", _opener(factory), get_profile("R7"))], 0.3, True, devices=LAYOUT)
     try:
@@ -141,7 +142,7 @@ def test_a_report_due_before_a_selonce_does_not_end_that_selonce():
     wire: here a long comment line) belongs to that selection; the `selonce 2` after it still
     has its own once-report to come (§6.2). The model once took the `P0V:` report for it and
     called the real `P0M2:` report that followed a state finding (issue 14)."""
-    from buildhat_conformance.fuzz.runner import Runner
+    from buildhat_conformance.fuzz.running.checked_run import Runner
     profile = get_profile("R7")
     target = InProcessTarget("R7", devices=LAYOUT, baud=115200)
     runner = Runner([("target", lambda: target, profile)], 0.3, True, devices=LAYOUT)
@@ -161,7 +162,7 @@ def test_a_combi_set_while_a_device_connects_may_outlive_the_setup():
     facts say a reconnect clears the table, not whether an entry set during the setup survives
     (§8), and this emulator keeps it. A `P2C0:` report after `select 0` is then no state finding
     (the model once took `established` for an empty table and wanted `P2M0:`)."""
-    from buildhat_conformance.fuzz.runner import Runner
+    from buildhat_conformance.fuzz.running.checked_run import Runner
     profile = get_profile("R7")
     target = InProcessTarget("R7", devices=LAYOUT)
     runner = Runner([("target", lambda: target, profile)], 0.3, True, devices=LAYOUT)
@@ -179,10 +180,10 @@ def test_a_combi_set_while_a_device_connects_may_outlive_the_setup():
 
 
 def test_kept_targets_that_took_a_set_up_in_part_are_started_anew():
-    """fuzz/setup_loss.py: such a port is not compared until its device sets up again, which on a kept
+    """fuzz/oracles/setup_loss.py: such a port is not compared until its device sets up again, which on a kept
     HAT may be never (a sil campaign left 444 steps' port 0 uncompared); new HATs compare it again."""
-    from buildhat_conformance.fuzz.campaign import Campaign, _Keeper
-    from buildhat_conformance.fuzz.setup_loss import for_target
+    from buildhat_conformance.fuzz.oracles.setup_loss import for_target
+    from buildhat_conformance.fuzz.running.campaign import Campaign, _Keeper
     from buildhat_conformance.harness.events import classify
 
     class _Target:
@@ -212,8 +213,8 @@ def test_a_run_on_a_kept_target_does_not_take_the_layout_for_granted():
     reset drives it 0 (docs/FIRMWARE-BEHAVIOUR.md#fb-pwm-path: no device connected, drive 0). A later run's
     model was built from the layout anyway and judged port 1's drive as if the matrix were there:
     `port 1 drives 0; ... should drive 'coast'`. Only a run on a newly opened target knows the layout."""
-    from buildhat_conformance.fuzz.campaign import Campaign, CampaignConfig
-    from buildhat_conformance.fuzz.oracles import Finding
+    from buildhat_conformance.fuzz.oracles.registry import Finding
+    from buildhat_conformance.fuzz.running.campaign import Campaign, CampaignConfig
     from buildhat_conformance.protocol.devices import DEFAULT_LAYOUT
 
     layout = dict(DEFAULT_LAYOUT)                       # the light matrix on port 1

@@ -12,9 +12,9 @@ import xml.etree.ElementTree as ET
 
 import pytest
 
-from buildhat_conformance.fuzz.campaign import Budget, CampaignResult, not_done
-from buildhat_conformance.fuzz.oracles import finding_class
-from buildhat_conformance.fuzz.runner import Stats
+from buildhat_conformance.fuzz.oracles.registry import finding_class
+from buildhat_conformance.fuzz.running.campaign import Budget, CampaignResult, not_done
+from buildhat_conformance.fuzz.running.checked_run import Stats
 from buildhat_conformance.fuzz.summary import Progress, print_summary
 
 EXE = os.path.join(os.path.dirname(sys.executable), "buildhat-conformance")

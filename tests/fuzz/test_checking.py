@@ -1,4 +1,4 @@
-"""Checking findings (fuzz/checking.py) within the campaign's bound, and what an interrupt leaves.
+"""Checking findings (fuzz/findings/confirm.py) within the campaign's bound, and what an interrupt leaves.
 
 In-process targets with the planted `wrong` fault (tests/planted/faults.py: every `coast` also
 prints `Error`): every run fails, every replay of it fails again, so only the bound, --confirm 0
@@ -12,11 +12,12 @@ from typing import List
 import pytest
 from planted.faults import FAULTS
 
-from buildhat_conformance.emulator.inprocess_target import InProcessTarget
-from buildhat_conformance.fuzz import cli, command
-from buildhat_conformance.fuzz.campaign import Campaign
-from buildhat_conformance.fuzz.checking import Check, CheckClock, check_finding
-from buildhat_conformance.fuzz.reduce import steps_of
+from buildhat_conformance.emulator.targets.in_process import InProcessTarget
+from buildhat_conformance.fuzz import cli
+from buildhat_conformance.fuzz.findings.confirm import Check, CheckClock, check_finding
+from buildhat_conformance.fuzz.findings.shrink import steps_of
+from buildhat_conformance.fuzz.running import from_arguments as command
+from buildhat_conformance.fuzz.running.campaign import Campaign
 
 EMPTY = {0: None, 1: None, 2: None, 3: None}
 

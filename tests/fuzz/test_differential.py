@@ -4,12 +4,18 @@ from __future__ import annotations
 import argparse
 from types import SimpleNamespace
 
-from buildhat_conformance.emulator.inprocess_target import InProcessTarget
-from buildhat_conformance.fuzz import cli, command
-from buildhat_conformance.fuzz.differential import compare_answers, first_difference, open_dump, parted_matrix
-from buildhat_conformance.fuzz.reduce import steps_of
-from buildhat_conformance.fuzz.replay import replay_script
-from buildhat_conformance.fuzz.runner import Runner, Stats
+from buildhat_conformance.emulator.targets.in_process import InProcessTarget
+from buildhat_conformance.fuzz import cli
+from buildhat_conformance.fuzz.findings.replay import replay_script
+from buildhat_conformance.fuzz.findings.shrink import steps_of
+from buildhat_conformance.fuzz.oracles.differential import (
+    compare_answers,
+    first_difference,
+    open_dump,
+    parted_matrix,
+)
+from buildhat_conformance.fuzz.running import from_arguments as command
+from buildhat_conformance.fuzz.running.checked_run import Runner, Stats
 from buildhat_conformance.protocol.profiles import get_profile
 from buildhat_conformance.transcripts.script import load_script
 

@@ -9,10 +9,11 @@ from typing import Dict, Optional
 
 from planted.faults import FAULTS
 
-from buildhat_conformance.emulator.inprocess_target import InProcessTarget
-from buildhat_conformance.fuzz import cli, command
-from buildhat_conformance.fuzz.oracles import Finding
-from buildhat_conformance.fuzz.runner import Runner
+from buildhat_conformance.emulator.targets.in_process import InProcessTarget
+from buildhat_conformance.fuzz import cli
+from buildhat_conformance.fuzz.oracles.registry import Finding
+from buildhat_conformance.fuzz.running import from_arguments as command
+from buildhat_conformance.fuzz.running.checked_run import Runner
 from buildhat_conformance.protocol.profiles import get_profile
 
 EMPTY: Dict[int, Optional[tuple]] = {0: None, 1: None, 2: None, 3: None}
@@ -58,7 +59,7 @@ def test_a_differential_finding_names_the_step_and_what_each_target_printed():
 
 
 def test_a_step_is_cut_after_every_cr_as_the_hat_processes_it():
-    from buildhat_conformance.fuzz.explain import sent_lines, shown
+    from buildhat_conformance.fuzz.findings.explain import sent_lines, shown
 
     assert sent_lines(b"vin\rport 0 ; list\r\rver") == [b"vin\r", b"port 0 ; list\r", b"\r", b"ver"]
     assert sent_lines(b"") == []

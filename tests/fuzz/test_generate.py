@@ -1,4 +1,4 @@
-"""Fuzz inputs from the grammar (fuzz/generate.py): a pure function of the seed, every input one or
+"""Fuzz inputs from the grammar (fuzz/inputs/generate.py): a pure function of the seed, every input one or
 more whole lines ending in CR, each family what it says, and unknown families refused."""
 from __future__ import annotations
 
@@ -6,8 +6,8 @@ import random
 
 import pytest
 
-from buildhat_conformance.fuzz.generate import FAMILIES, InputGenerator
-from buildhat_conformance.fuzz.grammar import grammar_for
+from buildhat_conformance.fuzz.inputs.generate import FAMILIES, InputGenerator
+from buildhat_conformance.fuzz.inputs.grammar import grammar_for
 
 
 def _draw(seed: int, n: int = 300, families=FAMILIES) -> list:

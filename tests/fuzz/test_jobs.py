@@ -10,11 +10,12 @@ import pathlib
 import subprocess
 import sys
 
-from buildhat_conformance.fuzz import cli, command
-from buildhat_conformance.fuzz.campaign import CampaignResult, Confirmed
-from buildhat_conformance.fuzz.jobs import merge_results, merge_stats
-from buildhat_conformance.fuzz.oracles import finding_class
-from buildhat_conformance.fuzz.runner import Stats
+from buildhat_conformance.fuzz import cli
+from buildhat_conformance.fuzz.oracles.registry import finding_class
+from buildhat_conformance.fuzz.running import from_arguments as command
+from buildhat_conformance.fuzz.running.campaign import CampaignResult, Confirmed
+from buildhat_conformance.fuzz.running.checked_run import Stats
+from buildhat_conformance.fuzz.running.workers import merge_results, merge_stats
 from buildhat_conformance.transcripts.script import Script
 
 EXE = os.path.join(os.path.dirname(sys.executable), "buildhat-conformance")
@@ -73,7 +74,7 @@ def test_jobs_need_targets_started_anew_and_say_so_in_one_line(tmp_path):
 
 
 def _auto(monkeypatch, cpus: int, *argv: str, env: str = "") -> int:
-    from buildhat_conformance.fuzz import job_count
+    from buildhat_conformance.fuzz.running import worker_count as job_count
 
     monkeypatch.setattr(job_count, "_usable_cpus", lambda: cpus)
     if env:
@@ -102,7 +103,7 @@ def test_jobs_auto_is_a_worker_per_cpu_for_hats_this_program_starts(monkeypatch)
 
 
 def test_a_bad_jobs_value_is_one_line_and_exit_2(monkeypatch):
-    from buildhat_conformance.harness.cli_options import UsageError
+    from buildhat_conformance.plumbing.cli_options import UsageError
 
     try:
         _auto(monkeypatch, 4, "-t", "inprocess", env="0")

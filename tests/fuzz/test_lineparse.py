@@ -1,4 +1,4 @@
-"""The model's line parsing (fuzz/lineparse.py) against docs/FIRMWARE-BEHAVIOUR.md#fb-matching (first
+"""The model's line parsing (fuzz/model/line_parsing.py) against docs/FIRMWARE-BEHAVIOUR.md#fb-matching (first
 name in table order that starts with the word) and #fb-numbers (decimals: at most 9 significant digits,
 single precision; Q16 storage)."""
 from __future__ import annotations
@@ -7,7 +7,7 @@ import struct
 
 import pytest
 
-from buildhat_conformance.fuzz.lineparse import float_value, prefix_table, q16
+from buildhat_conformance.fuzz.model.line_parsing import float_value, prefix_table, q16
 from buildhat_conformance.protocol.profiles import get_profile
 
 

@@ -1,12 +1,13 @@
-"""The fuzzer's link (fuzz/link.py) on a wire paced at 115200 baud, in virtual time: a prompt the
+"""The fuzzer's link (fuzz/running/target_exchange.py) on a wire paced at 115200 baud, in virtual time: a
+prompt the
 pace splits from its fence answer still completes that answer."""
 from __future__ import annotations
 
 from types import SimpleNamespace
 
 from buildhat_conformance.emulator.api import Emulator
-from buildhat_conformance.emulator.inprocess_target import InProcessTarget
-from buildhat_conformance.fuzz.link import FENCE, Link
+from buildhat_conformance.emulator.targets.in_process import InProcessTarget
+from buildhat_conformance.fuzz.running.target_exchange import FENCE, Link
 
 EMPTY = {0: None, 1: None, 2: None, 3: None}
 
@@ -76,7 +77,7 @@ def test_a_target_that_cannot_tell_waits_the_whole_pause() -> None:
 
 
 def test_target_now_goes_on_from_link_to_link_of_one_target():
-    """What outlives a run on a kept-open target is timed by it (fuzz/reconnecting.py): each run has a
+    """What outlives a run on a kept-open target is timed by it (fuzz/oracles/reconnecting.py): each run has a
     Link of its own, whose ``now`` starts anew on a wall-clock target."""
     hat = _RestingHat(rest_ms=0)
     hat.now = 1234

@@ -1,4 +1,4 @@
-"""What a full TX ring leaves of a step's answer (fuzz/lossymatch.py), while input keeps arriving.
+"""What a full TX ring leaves of a step's answer (fuzz/oracles/lossy_match.py), while input keeps arriving.
 
 The open `fate` row of sil/README.md (`--against inprocess --seed 3`, 20 s): `selrate` reports had the
 firmware's ring half full, a `help` filled it, and the step's next lines were echoed as they arrived,
@@ -10,11 +10,11 @@ from __future__ import annotations
 
 from typing import Dict, Optional
 
-from buildhat_conformance.fuzz.lossymatch import match_lossy
-from buildhat_conformance.fuzz.model import HatModel
-from buildhat_conformance.fuzz.stepplan import plan_step
-from buildhat_conformance.fuzz.stream import allowed_kinds
-from buildhat_conformance.fuzz.txring import backlog, headroom
+from buildhat_conformance.fuzz.model.reference_model import ReferenceModel
+from buildhat_conformance.fuzz.model.step_plan import plan_step
+from buildhat_conformance.fuzz.model.tx_ring import backlog, headroom
+from buildhat_conformance.fuzz.oracles.lossy_match import match_lossy
+from buildhat_conformance.fuzz.oracles.stream_match import allowed_kinds
 from buildhat_conformance.protocol.profiles import get_profile
 
 MOTORS: Dict[int, Optional[tuple]] = {p: ("active", 0x30) for p in range(4)}
@@ -24,7 +24,7 @@ STEP = [b" pwmparam -2. -0 ?;\r", b"plim -.545 ; selrat  4294967296;;por 0\r", b
 
 
 def _plan():
-    model = HatModel(R7, MOTORS)
+    model = ReferenceModel(R7, MOTORS)
     for line in (b"echo 1\r", b"port 3\r", b"select 0\r", b"selrate 1\r"):
         model.feed(line)
     plan = plan_step(model, STEP)
@@ -123,7 +123,7 @@ def test_a_stray_byte_where_the_prediction_would_skip_a_line_is_tried_first():
     step, answer = base64.b64decode(data["step"]), base64.b64decode(data["answer"])
     layout: Dict[int, Optional[tuple]] = {0: ("active", 0x30), 1: ("active", 0x40), 2: ("passive", 8),
                                           3: None}
-    model = HatModel(R7, layout)
+    model = ReferenceModel(R7, layout)
     for line in (b"echo 1\r", b"port 0\r", b"select 0 0 f4\r", b"debug 36\r", b"port 1\r"):
         model.feed(line)
     plan = plan_step(model, [step])

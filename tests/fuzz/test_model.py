@@ -7,8 +7,8 @@ from __future__ import annotations
 
 import pytest
 
-from buildhat_conformance.fuzz.grammar import grammar_for
-from buildhat_conformance.fuzz.model import HatModel
+from buildhat_conformance.fuzz.inputs.grammar import grammar_for
+from buildhat_conformance.fuzz.model.reference_model import ReferenceModel
 from buildhat_conformance.protocol.profiles import get_profile
 
 # §2 "Shortest prefix that resolves to each command" (R6-R7 column, plus R1-R4 differences).
@@ -39,7 +39,7 @@ def test_grammar_forms_come_from_the_profile():
 
 
 def run(profile: str, *lines: bytes, echo: bool = False):
-    m = HatModel(get_profile(profile))
+    m = ReferenceModel(get_profile(profile))
     if echo:
         m.feed(b"echo 1\r")
     out, fates = [], []
@@ -106,13 +106,13 @@ def test_state_and_clamping():
 
 def test_echo_and_prompt_wire_bytes():
     # §1 echo example (R7): echo 1, port 1, "vinx" BS BS CR
-    m = HatModel(get_profile("R7"))
+    m = ReferenceModel(get_profile("R7"))
     wire = b""
     for chunk in (b"echo 1\r", b"port 1\r", b"vinx\x08\x08\r"):
         items, _f = m.feed(chunk)
         wire += b"".join(i.data for i in items if i.kind == "exact")
     assert wire == b"\r\nP0>port 1\r\nP1>vinx\x08 \x08\x08 \x08\r\nP1>"   # vin's own line is a pattern
-    items, _f = HatModel(get_profile("R7")).feed(b"vi\r")
+    items, _f = ReferenceModel(get_profile("R7")).feed(b"vi\r")
     assert [i.kind for i in items] == ["exact", "pattern"]
 
 
@@ -141,7 +141,7 @@ def test_float_parser_keeps_nine_digits():
 
 
 def test_expected_duty_follows_the_drive_path():
-    from buildhat_conformance.fuzz.portmodel import expected_duty
+    from buildhat_conformance.fuzz.model.port_model import expected_duty
     for release, line, duty in [("R7", b"plimit 1\rset -0.1\r", -26), ("R7", b"plimit 1\rset 0.1\r", 25),
                                 ("R7", b"on\r", 25), ("R7", b"set -5\r", -26), ("R7", b"plimit 1\ron\r", 255),
                                 ("R7", b"plimit 1\rset -1\r", -255), ("R3", b"plimit 0.5\rset 0.5\r", 127),
@@ -158,7 +158,7 @@ def test_a_set_var_failing_in_its_sensor_variable_leaves_a_coasting_drive_unjudg
     """sil state finding (`--seed 5` and `--seed 1`, 20 s against inprocess): after `coast`, a `set var`
     whose sensor variable fails (`u1` where its offset goes) prints `Error` having stored the shape
     (fb-errors); the facts do not say whether coast ends, and the firmware drives the set-point."""
-    from buildhat_conformance.fuzz.portmodel import expected_duty
+    from buildhat_conformance.fuzz.model.port_model import expected_duty
     m, _out, fates = run("R7", b"coast\rset var -.6 0.5 676.6 0 3 0 u1 1 0\r")
     assert fates[-1].error
     assert expected_duty(m.profile, m.ports[0], m.plimit) is None
@@ -173,10 +173,10 @@ def test_drive_oracle_allows_a_reverse_duty_flagged_forwards_by_clear_faults():
     """FIRMWARE-BEHAVIOUR#fb-commands: clear_faults writes every driver's flag register (forwards) and
     the direction is written again only at the next change of sign (the sil finding: +26 after
     `coast`, `set -3011.`, `clear_faults`, where the model said -26)."""
-    from buildhat_conformance.fuzz.statecheck import check_drive
-    from buildhat_conformance.fuzz.stream import MatchResult
+    from buildhat_conformance.fuzz.oracles.state_check import check_drive
+    from buildhat_conformance.fuzz.oracles.stream_match import MatchResult
 
-    def judge(m: HatModel, value: object) -> list:
+    def judge(m: ReferenceModel, value: object) -> list:
         res = MatchResult()
         check_drive([{"t": 1, "dir": "pwm", "port": 0, "value": value}], m, 100, res, lambda _o: None)
         return res.problems
@@ -200,8 +200,8 @@ def test_an_odd_combi_leaves_a_streaming_selection_counted_in_the_tx_ring():
     the fence's answer was lost. The facts leave open whether such a combi clears the selection
     (fb-errors); the firmware in the loop went on reporting (`select 1`, `combi 0 1`: `Error`,
     then `P0M1` lines as before). Unknown, then, but still a selection that may report."""
-    from buildhat_conformance.fuzz.stepplan import plan_step
-    from buildhat_conformance.fuzz.txring import THROTTLE, backlog
+    from buildhat_conformance.fuzz.model.step_plan import plan_step
+    from buildhat_conformance.fuzz.model.tx_ring import THROTTLE, backlog
 
     m, _out, fates = run("R7", b"select 1\rselrate 1\r")
     plan = plan_step(m, [b"combi 0 1\r"])

@@ -1,10 +1,10 @@
-"""State kept per target object across runs (fuzz/per_target.py)."""
+"""State kept per target object across runs (fuzz/oracles/differential_memory.py)."""
 from __future__ import annotations
 
 import gc
 from types import SimpleNamespace
 
-from buildhat_conformance.fuzz.per_target import PerTarget
+from buildhat_conformance.fuzz.oracles.differential_memory import PerTarget
 
 
 class _Target:

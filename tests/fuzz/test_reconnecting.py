@@ -1,12 +1,12 @@
-"""Ports a HAT is setting up again, by its own clock, kept per target (fuzz/reconnecting.py)."""
+"""Ports a HAT is setting up again, by its own clock, kept per target (fuzz/oracles/reconnecting.py)."""
 from __future__ import annotations
 
 from types import SimpleNamespace
 
-from buildhat_conformance.emulator.inprocess_target import InProcessTarget
-from buildhat_conformance.fuzz.oracles import Finding
-from buildhat_conformance.fuzz.reconnecting import WINDOW_MS, Reconnecting, for_target
-from buildhat_conformance.fuzz.runner import Runner
+from buildhat_conformance.emulator.targets.in_process import InProcessTarget
+from buildhat_conformance.fuzz.oracles.reconnecting import WINDOW_MS, Reconnecting, for_target
+from buildhat_conformance.fuzz.oracles.registry import Finding
+from buildhat_conformance.fuzz.running.checked_run import Runner
 from buildhat_conformance.harness.events import classify
 from buildhat_conformance.protocol.profiles import get_profile
 

@@ -1,4 +1,4 @@
-"""Which release a fuzz target runs (fuzz/release.py): read from its own `version` answer, and a
+"""Which release a fuzz target runs (fuzz/running/release.py): read from its own `version` answer, and a
 target of another known release than --firmware is refused before any budget is spent."""
 from __future__ import annotations
 
@@ -6,8 +6,8 @@ import dataclasses
 
 import pytest
 
-from buildhat_conformance.emulator.inprocess_target import InProcessTarget
-from buildhat_conformance.fuzz.release import ReleaseMismatch, detect_profile, judged_profile
+from buildhat_conformance.emulator.targets.in_process import InProcessTarget
+from buildhat_conformance.fuzz.running.release import ReleaseMismatch, detect_profile, judged_profile
 
 
 def _opener(firmware: str):
@@ -29,7 +29,7 @@ def test_a_target_of_another_release_than_asked_is_refused_with_what_to_do():
 
 def test_an_emulator_naming_no_release_runs_the_release_the_target_reports():
     # issue #33: `fuzz -t sil:TREE --against emulator` ran the latest release whatever the tree was.
-    from buildhat_conformance.fuzz.release import against_release
+    from buildhat_conformance.fuzz.running.release import against_release
     from buildhat_conformance.protocol.profiles import get_profile
     r5 = get_profile("R5")
     assert against_release("emulator", r5) == (
@@ -44,7 +44,7 @@ def test_an_emulator_naming_no_release_runs_the_release_the_target_reports():
 
 
 def test_two_different_builds_are_not_compared_on_the_lines_that_name_them():
-    from buildhat_conformance.fuzz.differential import first_difference
+    from buildhat_conformance.fuzz.oracles.differential import first_difference
     ours = (b"\r\nFirmware version: 1740000000 x\r\n\r\nFirmware signature: 00 11\r\n"
             b"  own help line\r\nError\r\n")
     theirs = (b"\r\nFirmware version: 1737564117 y\r\n\r\nFirmware signature: AA BB\r\n"

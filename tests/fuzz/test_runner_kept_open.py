@@ -11,9 +11,9 @@ from typing import Dict, List, Optional
 import pytest
 from planted.faults import FAULTS
 
-from buildhat_conformance.emulator.inprocess_target import InProcessTarget
-from buildhat_conformance.fuzz.oracles import Finding
-from buildhat_conformance.fuzz.runner import Runner
+from buildhat_conformance.emulator.targets.in_process import InProcessTarget
+from buildhat_conformance.fuzz.oracles.registry import Finding
+from buildhat_conformance.fuzz.running.checked_run import Runner
 from buildhat_conformance.protocol.profiles import get_profile
 
 LAYOUT = {0: ("active", 0x30), 1: None, 2: None, 3: None}    # a motor on port 0

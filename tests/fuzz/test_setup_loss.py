@@ -1,4 +1,5 @@
-"""Ports whose set-up a side took only in part (fuzz/setup_loss.py), and the differential oracle's use.
+"""Ports whose set-up a side took only in part (fuzz/oracles/setup_loss.py), and the differential oracle's
+use.
 
 The sil finding (`--against emulator --seed 5 --jobs 2`, 20 s): the firmware dropped the motor after
 500 ms without data and set it up again at 2400 baud; meanwhile a step sent the motor frames (`write2`,
@@ -11,8 +12,8 @@ from __future__ import annotations
 
 from types import SimpleNamespace
 
-from buildhat_conformance.fuzz.runner import Runner, Stats
-from buildhat_conformance.fuzz.setup_loss import SetupLoss, for_target
+from buildhat_conformance.fuzz.oracles.setup_loss import SetupLoss, for_target
+from buildhat_conformance.fuzz.running.checked_run import Runner, Stats
 from buildhat_conformance.harness.events import classify
 
 WHOLE = (b"P0: connected to active ID 30\r\ntype 30\r\n  nmodes =5\r\n"

@@ -6,23 +6,23 @@ If that happens before the next line of the same input has crossed the wire, the
 between the two lines' answers, and must be judged by the selection after the first line."""
 from __future__ import annotations
 
-from buildhat_conformance.fuzz.model import HatModel
-from buildhat_conformance.fuzz.statecheck import observe
-from buildhat_conformance.fuzz.stepplan import plan_step
-from buildhat_conformance.fuzz.stream import allowed_kinds, match_stream
+from buildhat_conformance.fuzz.model.reference_model import ReferenceModel
+from buildhat_conformance.fuzz.model.step_plan import plan_step
+from buildhat_conformance.fuzz.oracles.state_check import observe
+from buildhat_conformance.fuzz.oracles.stream_match import allowed_kinds, match_stream
 from buildhat_conformance.protocol.profiles import get_profile
 
 PRELUDE = (b"echo 0\r", b"debug 0\r", b"port 0\r", b"select\r")
 
 
-def _model() -> HatModel:
-    model = HatModel(get_profile("R7"), {0: ("active", 48), 1: None, 2: None, 3: None})
+def _model() -> ReferenceModel:
+    model = ReferenceModel(get_profile("R7"), {0: ("active", 48), 1: None, 2: None, 3: None})
     for line in PRELUDE:
         model.feed(line)
     return model
 
 
-def _fence_answer(model: HatModel) -> bytes:
+def _fence_answer(model: ReferenceModel) -> bytes:
     return b"Firmware version: " + model.profile.version_string.encode() + b"\r\n"
 
 
@@ -52,7 +52,7 @@ def test_a_report_of_a_mode_no_line_selected_is_still_a_finding():
 def test_a_line_still_arriving_at_the_end_of_a_wait_is_carried_over_whole():
     """A report that has only begun to cross the wire when a wait ends (no CRLF in the wait's
     output at all) belongs wholly to what comes next; none of its bytes is judged in the wait."""
-    from buildhat_conformance.fuzz.link import _incomplete_tail
+    from buildhat_conformance.fuzz.running.target_exchange import _incomplete_tail
     assert _incomplete_tail(b"P0V: 0.00000\r", 0) == len(b"P0V: 0.00000\r")
     assert _incomplete_tail(b"P0>P0V: 0.0", 0) == len(b"P0V: 0.0")
     assert _incomplete_tail(b"P0>", 0) == 0
@@ -63,9 +63,9 @@ def test_a_disconnect_inside_a_raw_trace_step_still_moves_the_model_on():
     """A step judged on liveness only (debug bit 1's raw trace) can hold a device's timeout; the
     port reset that follows wipes its settings (coast included, §4.2), so the model must follow it
     or the drive oracle judges the empty port by the wiped settings (a sil finding)."""
-    from buildhat_conformance.fuzz.portmodel import expected_duty
-    from buildhat_conformance.fuzz.statecheck import follow_links
-    model = HatModel(get_profile("R7"), {0: None, 1: ("active", 64), 2: None, 3: None})
+    from buildhat_conformance.fuzz.model.port_model import expected_duty
+    from buildhat_conformance.fuzz.oracles.state_check import follow_links
+    model = ReferenceModel(get_profile("R7"), {0: None, 1: ("active", 64), 2: None, 3: None})
     for line in (b"echo 1\r", b"port 1\r", b"coast\r"):
         model.feed(line)
     assert expected_duty(model.profile, model.ports[1], model.plimit) == "coast"

@@ -1,4 +1,4 @@
-"""Ctrl-C and SIGTERM during a campaign (fuzz/stop_signals.py): the first raises KeyboardInterrupt
+"""Ctrl-C and SIGTERM during a campaign (fuzz/running/stop_signals.py): the first raises KeyboardInterrupt
 (once), a second kills; a block that must not be cut (a message on a pipe) gets the interrupt at
 its end; after ``hold`` a first signal is only counted. Real signals to this process."""
 from __future__ import annotations
@@ -10,7 +10,7 @@ import time
 
 import pytest
 
-from buildhat_conformance.fuzz.stop_signals import StopSignals
+from buildhat_conformance.fuzz.running.stop_signals import StopSignals
 
 pytestmark = pytest.mark.skipif(threading.current_thread() is not threading.main_thread(),
                                 reason="signal handlers are the main thread's")

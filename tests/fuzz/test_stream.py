@@ -1,18 +1,18 @@
-"""Matching a target's answer against the model's prediction (fuzz/stream.py).
+"""Matching a target's answer against the model's prediction (fuzz/oracles/stream_match.py).
 
 On a paced wire the echo leaves byte by byte as the input arrives, so a data report the HAT
 prints meanwhile lands inside the echo; that is timing, not a protocol failure."""
 from __future__ import annotations
 
-from buildhat_conformance.fuzz.model import HatModel
-from buildhat_conformance.fuzz.stream import allowed_kinds, match_stream
+from buildhat_conformance.fuzz.model.reference_model import ReferenceModel
+from buildhat_conformance.fuzz.oracles.stream_match import allowed_kinds, match_stream
 from buildhat_conformance.protocol.profiles import get_profile
 
 R7 = get_profile("R7")
 
 
 def _expected(line: bytes):
-    m = HatModel(R7)
+    m = ReferenceModel(R7)
     m.feed(b"echo 1\r")
     items, _fates = m.feed(line)
     return items
@@ -54,7 +54,7 @@ def test_what_cuts_into_the_echo_must_be_an_asynchronous_line():
 
 
 def test_the_echo_is_made_whole_for_comparison():
-    from buildhat_conformance.fuzz.stream import without_torn
+    from buildhat_conformance.fuzz.oracles.stream_match import without_torn
 
     items = _expected(b"port 2\r")
     torn = b"por" + b"P3: D5 signature=0CC0 id=0\r\n" + b"t 2\r\nP2>"
@@ -65,8 +65,8 @@ def test_the_echo_is_made_whole_for_comparison():
 def test_a_report_right_after_a_prompt_is_set_apart_for_comparison():
     """On one side a report came between the prompt and the echo of the next line (`P0>P0V: ...`):
     compared without it, the answer is the other side's `P0>version`."""
-    from buildhat_conformance.fuzz.expect import CRLF_ITEM, exact_item, prompt_item
-    from buildhat_conformance.fuzz.stream import allowed_kinds, match_stream, without_torn
+    from buildhat_conformance.fuzz.model.expect import CRLF_ITEM, exact_item, prompt_item
+    from buildhat_conformance.fuzz.oracles.stream_match import allowed_kinds, match_stream, without_torn
     from buildhat_conformance.protocol.profiles import get_profile
     expected = [prompt_item(0), exact_item(b"version", "echo", "state"), CRLF_ITEM]
     got = b"P0>P0V: 0.00000\r\nversion\r\n"

@@ -14,16 +14,16 @@ import pytest
 from planted.faults import DropsBytes
 
 from buildhat_conformance.emulator import Emulator
-from buildhat_conformance.emulator.inprocess_target import InProcessTarget
-from buildhat_conformance.fuzz.findings import script_text
-from buildhat_conformance.fuzz.lossymatch import match_lossy
-from buildhat_conformance.fuzz.model import HatModel
-from buildhat_conformance.fuzz.oracles import Finding, finding_class
-from buildhat_conformance.fuzz.replay import replay_script
-from buildhat_conformance.fuzz.runner import Runner
-from buildhat_conformance.fuzz.stepplan import plan_step
-from buildhat_conformance.fuzz.stream import allowed_kinds
-from buildhat_conformance.fuzz.txring import backlog, headroom
+from buildhat_conformance.emulator.targets.in_process import InProcessTarget
+from buildhat_conformance.fuzz.findings.finding_scripts import script_text
+from buildhat_conformance.fuzz.findings.replay import replay_script
+from buildhat_conformance.fuzz.model.reference_model import ReferenceModel
+from buildhat_conformance.fuzz.model.step_plan import plan_step
+from buildhat_conformance.fuzz.model.tx_ring import backlog, headroom
+from buildhat_conformance.fuzz.oracles.lossy_match import match_lossy
+from buildhat_conformance.fuzz.oracles.registry import Finding, finding_class
+from buildhat_conformance.fuzz.oracles.stream_match import allowed_kinds
+from buildhat_conformance.fuzz.running.checked_run import Runner
 from buildhat_conformance.protocol.profiles import get_profile
 from buildhat_conformance.transcripts.script import parse_script
 
@@ -99,7 +99,7 @@ def test_a_real_corruption_while_modes_stream_is_still_a_finding(factory):
 
 
 def _help_plan(streaming: bool):
-    model = HatModel(R7, MOTORS)
+    model = ReferenceModel(R7, MOTORS)
     model.feed(b"echo 0\r")
     if streaming:
         model.feed(b"select 0\r")
@@ -156,7 +156,7 @@ def test_a_step_longer_than_the_whole_ring_loses_only_its_tail(step):
 def test_what_survives_a_full_ring_is_matched_against_the_later_output():
     """Past the drop, what gets through is output written as the ring drained: a `vin` answer cut
     to its last bytes after help's cut tail passes; a byte no output has there does not."""
-    model = HatModel(R7, MOTORS)
+    model = ReferenceModel(R7, MOTORS)
     model.feed(b"echo 0\r")
     model.feed(b"select 0\r")
     plan = plan_step(model, [b"help\r", b"vin\r"])
@@ -196,7 +196,7 @@ def test_only_a_side_with_a_ring_pauses_for_it():
 
 
 def test_the_rings_of_a_pairing_are_per_side():
-    from buildhat_conformance.fuzz.target_kinds import has_tx_ring, ring_sides
+    from buildhat_conformance.fuzz.running.target_kinds import has_tx_ring, ring_sides
     assert ring_sides("sil:/x", "emulator") == (True, False)
     assert ring_sides("inprocess", "sil:/x") == (False, True)
     assert ring_sides("emulator:R7?baud=115200") == (True,)

@@ -9,7 +9,7 @@ import pytest
 from harness_fakehat import FakeHat, PtyResponder  # noqa: E402
 from target_kinds import make_target_of
 
-from buildhat_conformance.emulator.inprocess_target import InProcessTarget
+from buildhat_conformance.emulator.targets.in_process import InProcessTarget
 from buildhat_conformance.harness.errors import ExpectTimeout, SessionError, TargetError
 from buildhat_conformance.harness.session import Session
 from buildhat_conformance.harness.targets import Target, make_target, open_target

@@ -16,11 +16,11 @@ from harness_fakehat import HERE as FAKEHAT  # noqa: E402
 from harness_fakehat import PtyResponder
 from target_kinds import make_target_of
 
-from buildhat_conformance.emulator.process_target import EmulatorTarget
+from buildhat_conformance.emulator.targets.pty_process import EmulatorTarget
 from buildhat_conformance.harness.errors import TargetError
 from buildhat_conformance.harness.session import Session
 from buildhat_conformance.harness.targets import make_target, open_target
-from buildhat_conformance.harness.targets.serial import SerialTarget, pi5_debug_uart_remark
+from buildhat_conformance.harness.targets.serial_device import SerialTarget, pi5_debug_uart_remark
 
 PY = shlex.quote(sys.executable)
 

@@ -2,7 +2,7 @@
 
 Loaded into a child pytest of the conformance suite with ``-p mutant_target`` (this folder on
 PYTHONPATH, as tests/mutants/suite_run.py does). The target is the ``inprocess`` one
-(emulator/inprocess_target.py) whose emulator is wrapped by :class:`MutantHat`: the same named
+(emulator/targets/in_process.py) whose emulator is wrapped by :class:`MutantHat`: the same named
 mutations as the pty relay (mutant_emulator.py, line_mutations.py) on the same boundary, output
 lines and host bytes, so the suite runs in HAT time instead of waiting on the wall clock.
 """
@@ -14,8 +14,8 @@ from typing import Any, Callable
 from line_mutations import MUTATIONS, Mutation
 
 from buildhat_conformance.emulator import Emulator
-from buildhat_conformance.emulator.inprocess_target import InProcessTarget
-from buildhat_conformance.emulator.inprocess_target import from_url as inprocess_from_url
+from buildhat_conformance.emulator.targets.in_process import InProcessTarget
+from buildhat_conformance.emulator.targets.in_process import from_url as inprocess_from_url
 from buildhat_conformance.harness.targets import TargetError, register
 
 # The relay passes a partial line (a prompt) on after 10 ms without more output; so does this, in HAT ms.

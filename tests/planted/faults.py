@@ -23,7 +23,7 @@ import re
 from typing import Optional
 
 from buildhat_conformance.emulator import Emulator
-from buildhat_conformance.fuzz.findings import split_lines
+from buildhat_conformance.fuzz.findings.finding_scripts import split_lines
 
 __all__ = ["FaultFilter", "HangsOnList", "WrongCoast", "DropsBytes", "MutesReports", "IgnoresPlimit",
            "CombiAsMode", "FAULTS"]

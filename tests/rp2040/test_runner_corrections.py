@@ -16,7 +16,7 @@ import subprocess
 import pytest
 from rp2040_support import start_program
 
-from buildhat_conformance.sil.protocol import encode
+from buildhat_conformance.sil.frames import encode
 
 UART_PROGRAM_SOURCE = """
     ldr  r0, =0x40034000   @ UART0
@@ -236,7 +236,7 @@ def test_skipping_idle_polling_changes_nothing_the_world_sees():
     def output(args):
         chip = start_image(image, args)
         try:
-            for port in range(4):        # empty ports (sil/world.py's ID lines for nothing), Vin
+            for port in range(4):        # empty ports (sil/port_world.py's ID lines for nothing), Vin
                 chip.send(encode("I", 0, b"\xc0\x0c\x01", port=port))
             chip.send(encode("A", 0, b"\xce\x06"))
             sent, asked = [], False

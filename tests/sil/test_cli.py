@@ -6,7 +6,7 @@ import sys
 
 import pytest
 
-from buildhat_conformance.harness.cli_exits import EXIT_STATUSES
+from buildhat_conformance.plumbing.cli_exits import EXIT_STATUSES
 from buildhat_conformance.sil.target import _KNOWN
 
 CLI = [sys.executable, "-m", "buildhat_conformance.cli"]

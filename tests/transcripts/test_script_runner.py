@@ -12,7 +12,7 @@ from harness_fakehat import PtyResponder  # noqa: E402
 from target_kinds import make_target_of
 
 from buildhat_conformance.cli import main as cli
-from buildhat_conformance.emulator.inprocess_target import InProcessTarget
+from buildhat_conformance.emulator.targets.in_process import InProcessTarget
 from buildhat_conformance.harness.errors import NeedsCapability, TargetError
 from buildhat_conformance.harness.targets import make_target
 from buildhat_conformance.harness.transcript import read_transcript

@@ -15,7 +15,7 @@ from buildhat_conformance.conformance.report.timing import collect_timing
 from buildhat_conformance.conformance.report.triage import exchange_of, group_failures, headline
 
 FENCE_ANSWER = "Firmware version: 1737564117 2025-01-22T16:41:57+00:00"
-HAT_REPR = "hat = <buildhat_conformance.conformance.link.Hat object at 0x7f45c3dcdb90>"
+HAT_REPR = "hat = <buildhat_conformance.conformance.hat_under_test.Hat object at 0x7f45c3dcdb90>"
 
 
 # The link's clean-up before a case, one write ending in its resynchronising fence.

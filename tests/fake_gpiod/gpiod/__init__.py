@@ -2,7 +2,7 @@
 
 Its chip's lines 4 and 22 are the emulator's RESET and BOOT0 pins, driven through the emulator's
 control channel (``@gpio``; address in BUILDHAT_EMULATOR_CONTROL, a Unix socket), as a Raspberry
-Pi's header drives a real HAT's. Only what harness/firmware/gpio_reset.py calls is here, with
+Pi's header drives a real HAT's. Only what harness/targets/gpio_reset.py calls is here, with
 the real package's names and signatures.
 """
 from __future__ import annotations

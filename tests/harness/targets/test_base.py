@@ -17,7 +17,7 @@ from buildhat_conformance.conformance.target_fault import NOT_READING, target_fa
 from buildhat_conformance.harness.targets import make_target
 from buildhat_conformance.harness.targets.base import WRITE_DEADLINE_S, NotReading
 from buildhat_conformance.harness.targets.cmd import CommandTarget
-from buildhat_conformance.harness.targets.serial import SerialTarget
+from buildhat_conformance.harness.targets.serial_device import SerialTarget
 
 pytestmark = pytest.mark.timeout(60)
 

@@ -1,0 +1,1 @@
+"""The command port: the line editor, the command parser, the dispatcher and every command."""

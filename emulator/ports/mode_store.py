@@ -1,0 +1,42 @@
+"""The per-mode payload store of one port (FIRMWARE-FACTS §6, §7.2).
+
+Each DATA message from the active device overwrites the start of its mode's 132-byte buffer
+(offsets up to 127 plus a 4-byte value) and records how long it was; the rest of the buffer
+keeps what earlier, longer messages left. The report engine (emulator/ports/data_reports.py) reads the
+buffer and the length; the motor controller's sensor variables read the latest payload.
+The store is emptied when an active device starts connecting.
+"""
+from __future__ import annotations
+
+from typing import Dict, Optional, Tuple
+
+__all__ = ["ModeStore", "MODE_BUFFER"]
+
+MODE_BUFFER = 132
+
+
+class ModeStore:
+    def __init__(self) -> None:
+        self._data: Dict[int, bytearray] = {}
+        self._length: Dict[int, int] = {}
+
+    def clear(self) -> None:
+        self._data.clear()
+        self._length.clear()
+
+    def store(self, mode: int, payload: bytes) -> None:
+        buf = self._data.setdefault(mode, bytearray(MODE_BUFFER))
+        buf[:len(payload)] = payload
+        self._length[mode] = len(payload)
+
+    def latest(self, mode: int) -> Optional[bytes]:
+        """The padded buffer of ``mode``, None if nothing arrived for it since the last clear."""
+        buf = self._data.get(mode)
+        return None if buf is None else bytes(buf)
+
+    def stored(self, mode: int) -> Tuple[bytes, int]:
+        """(buffer, received length) of ``mode``; zeros and 0 when nothing arrived."""
+        buf = self._data.get(mode)
+        if buf is None:
+            return bytes(MODE_BUFFER), 0
+        return bytes(buf), self._length.get(mode, 0)

@@ -1,0 +1,1 @@
+"""Findings: confirmed, shrunk, explained, written as scenario scripts and reproduced."""

@@ -1,0 +1,1 @@
+"""Fuzz input: the command language as data and the seeded generator."""

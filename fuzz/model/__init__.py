@@ -1,0 +1,1 @@
+"""The fuzzer's own reference model of the firmware: what a HAT prints for an input."""

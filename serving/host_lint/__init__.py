@@ -1,0 +1,1 @@
+"""The host lint: what a host library does that works only by luck, or not at all."""
