@@ -20,23 +20,13 @@ import re
 from typing import Dict, Iterable, List, Set
 
 import pytest
-from repo_paths import REPO
+from repo_paths import PACKAGE, REPO, package_folders
 
-PACKAGE = "buildhat_conformance"
 # The package root's own modules (the CLI) are mirrored in tests/cli/; every other folder by its name.
 TESTS_OF = {PACKAGE: "cli"}
 COVERAGE_LINE = re.compile(r"^Covered end to end[^:]*:\s*(?P<modules>.+?)\s+by\s+(?P<tests>`.+)$")
 BENCH_ONLY_LINE = re.compile(r"^Run by `make bench` only:\s*(?P<modules>.+)$")
 BENCH_ONLY_FOLDERS = {"bench"}        # measures with no test of their own are allowed there alone
-
-
-def package_folders(repo: pathlib.Path) -> List[str]:
-    """The top-level folders setup.py installs under the package (its ``FOLDERS``), and the root."""
-    tree = ast.parse((repo / "setup.py").read_text(encoding="utf-8"))
-    for node in ast.walk(tree):
-        if isinstance(node, ast.Assign) and any(getattr(t, "id", "") == "FOLDERS" for t in node.targets):
-            return [PACKAGE, *ast.literal_eval(node.value)]
-    raise AssertionError("setup.py has no FOLDERS list")
 
 
 def modules_of(repo: pathlib.Path, folder: str) -> List[pathlib.Path]:
