@@ -510,7 +510,8 @@ def test_partial_effects_other_profiles(profile):
 
 def test_set_var_partial_effect_r6():
     # §3: "`set var` (R6+) whose svar part fails: the shape, min, max, slope and offset are
-    # already stored, and the svar is partly updated." (R7 runs in tests/emulator/commands/test_drive_commands.py)
+    # already stored, and the svar is partly updated." (R7 runs in
+    # tests/emulator/commands/test_drive_commands.py)
     emu = empty("R6")
     assert send(emu, b"set var -1 1 0.01 0 0 1 0 s1\r") == ERR
     c = emu.hat.controllers[0]

@@ -101,7 +101,8 @@ def test_the_graph_sees_the_known_imports():
     # Guards the parser itself: a graph that saw nothing would pass every rule below.
     graph = _graph()
     assert "emulator.hat" in graph["emulator.api"]
-    assert {"emulator.ports.port", "emulator.motor.controller", "emulator.commands.dispatch"} <= graph["emulator.hat"]
+    assert {"emulator.ports.port", "emulator.motor.controller",
+            "emulator.commands.dispatch"} <= graph["emulator.hat"]
     assert "emulator.services" in graph["emulator.ports.port"]
     assert {"emulator.ports.device_conversation", "emulator.ports.device_uart",
             "emulator.ports.mode_store"} <= graph["emulator.ports.port"]
