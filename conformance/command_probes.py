@@ -121,13 +121,13 @@ def pid_or_diff(pvs: List[float], positions: List[float]) -> Optional[str]:
     """Which of pid / pid_diff produced these process values (scale 1 on APOS, whole degrees),
     given the positions the motor reported meanwhile; None when the values cannot tell.
 
-    FACTS §7.2: ``pid`` takes the position itself; ``pid_diff`` takes 100 x its change per
-    10 ms tick, a multiple of 100, and 0 whenever the sensor did not change. A value is
-    evidence for one of them only if the other could not have printed it: a position that is
-    no multiple of 100 (a resting motor's jitter, or any angle but 0 and +-100) tells ``pid``; a
-    multiple of 100 far from every reported position (the jitter's +-100, or 0 while the motor
-    rests elsewhere) tells ``pid_diff``. A motor resting at exactly 0 (or +-100) without jitter
-    gives neither: the caller moves it and looks again."""
+    docs/FIRMWARE-BEHAVIOUR.md#fb-unwrap-r6: ``pid`` takes the position itself; ``pid_diff`` takes
+    100 x its change per 10 ms tick, a multiple of 100, and 0 whenever the sensor did not change. A
+    value is evidence for one of them only if the other could not have printed it: a position that
+    is no multiple of 100 (a resting motor's jitter, or any angle but 0 and +-100) tells ``pid``; a
+    multiple of 100 far from every reported position (the jitter's +-100, or 0 while the motor rests
+    elsewhere) tells ``pid_diff``. A motor resting at exactly 0 (or +-100) without jitter gives
+    neither: the caller moves it and looks again."""
     def like_position(pv: float) -> bool:
         return any(abs(pv - p) <= 2 for p in positions)
 
@@ -148,7 +148,7 @@ def _nudge(hat: HatUnderTest, port: int) -> None:
     reports_after(hat, port, count=2)
     hat.exchange("coast")
     reports_after(hat, port, count=4)
-    hat.exchange("plimit 0.1")           # the boot value (§7.3)
+    hat.exchange("plimit 0.1")           # the boot value (docs/FIRMWARE-BEHAVIOUR.md#fb-plimit)
 
 
 def _pid_like(differentiate: bool) -> Callable[[Ctx, str], Outcome]:
@@ -171,7 +171,8 @@ def _pid_like(differentiate: bool) -> Callable[[Ctx, str], Outcome]:
             if not lines:
                 return Outcome(False, r.errors > 0, f"{r.raw!r}; no PID lines")
             # The first sample after pid/pid_diff is the position for both on R1-R5 and for pid,
-            # 0 for pid_diff (§7.2): fine either way, but skip it so a stale line cannot mislead.
+            # 0 for pid_diff (docs/FIRMWARE-BEHAVIOUR.md#fb-unwrap-r1, #fb-unwrap-r6): fine either
+            # way, but skip it so a stale line cannot mislead.
             pvs = [ln.value("pv") for ln in lines[1:]]
             positions = [float(v) for t in data_lines(events, ctx.port) if t.startswith(f"P{ctx.port}M3:")
                          for v in t.split(":", 1)[1].split()[:1]]

@@ -65,7 +65,8 @@ class PortNeeds:
     # -- what is there -------------------------------------------------------------------
     def layout(self) -> List[PortEntry]:
         """What ``list`` shows on each port. On R1 a passive port reads as empty during each
-        ~80 ms scan (FACTS §5), so there a few looks are merged: a device seen once is there."""
+        ~80 ms scan (docs/FIRMWARE-BEHAVIOUR.md#fb-r1-passive), so there a few looks are merged: a
+        device seen once is there."""
         entries = self._one_layout()
         # An unknown build between R1 and R2 may do either: the merged looks suit both.
         key = "passive_port_reset_each_scan"
@@ -94,7 +95,8 @@ class PortNeeds:
 
     def settled_entry(self, port: int, spec: Spec, attempts: int = 8) -> PortEntry:
         """The port's ``list`` entry once it shows ``spec``; R1 shows a passive port as empty
-        during each ~80 ms scan (FACTS §5), so a few looks may be needed."""
+        during each ~80 ms scan (docs/FIRMWARE-BEHAVIOUR.md#fb-r1-passive), so a few looks may be
+        needed."""
         entry = self.layout()[port]
         for _ in range(attempts - 1):
             if self.spec_of(entry) == spec:
@@ -125,8 +127,9 @@ class PortNeeds:
         if not self.can("plug") and not self.hat.devices_settled and \
                 not any(self.spec_of(e) == spec and e.port not in avoid for e in layout):
             # Without a control channel the device cannot be plugged on demand; it may still
-            # be setting up (about a second after power-up, FACTS §10): look once more. Once
-            # per run (and again after a restart): what is not there then is not coming.
+            # be setting up (about a second after power-up, docs/FIRMWARE-BEHAVIOUR.md#fb-timing):
+            # look once more. Once per run (and again after a restart): what is not there then is
+            # not coming.
             self.hat.wait_ms(SETTLE_MS)
             self.hat.devices_settled = True
             layout = self.layout()
@@ -263,7 +266,8 @@ class PortNeeds:
 
     def _wait_for(self, port: int, spec: Spec) -> None:
         """Until ``list`` shows ``spec`` on the port. ``list`` is asked again when the HAT prints
-        a line that ends a change on that port (FACTS §5), or after ``STEP_MS`` without one
+        a line that ends a change on that port (docs/FIRMWARE-BEHAVIOUR.md#fb-async), or after
+        ``STEP_MS`` without one
         (R1 prints nothing when a passive device goes)."""
         ends_change = re.compile(rf"P{port}: (?:established serial|connected to passive|disconnected|"
                                  rf"timeout|too many errors|checksum error)")
@@ -274,7 +278,8 @@ class PortNeeds:
         while waited <= CONNECT_MS:
             if spec is not None and spec[0] == "passive" and any(
                     e.text == f"P{port}: connected to passive ID {spec[1]}" for e in self.hat.since(began)):
-                # R1 shows a rescanned passive port as empty most of the time (FACTS §5).
+                # R1 shows a rescanned passive port as empty most of the time
+                # (docs/FIRMWARE-BEHAVIOUR.md#fb-r1-passive).
                 return
             t0 = self.hat.clock()
             self.hat.watch(look_from, lambda e: bool(ends_change.match(e.text)), STEP_MS)

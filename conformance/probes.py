@@ -2,7 +2,8 @@
 
 Most commands print nothing; the suite watches their effect instead. A port in PID mode
 with ``debug 16`` prints one line per 10 ms tick showing the set-point, so ``set``, ``on``,
-``off``, ``pwm``, ``coast`` and ``pid`` all become visible on the wire (FIRMWARE-FACTS §7.4).
+``off``, ``pwm``, ``coast`` and ``pid`` all become visible on the wire
+(docs/FIRMWARE-BEHAVIOUR.md#fb-debug-pid).
 """
 from __future__ import annotations
 
@@ -48,7 +49,7 @@ def start_quiet_pid(hat: HatUnderTest, port: int, sp: str = "0", mode: int = APO
     replies = hat.setup(f"port {port} ; select {mode} ; {pid} ; set {sp} ; debug 16")
     assert not any(r.errors for r in replies), \
         f"setting up a quiet PID on port {port} failed: {b''.join(r.raw for r in replies)!r}"
-    # PID lines start once the mode's data has arrived (FACTS §7.2).
+    # PID lines start once the mode's data has arrived (docs/FIRMWARE-BEHAVIOUR.md#fb-pid).
     seen = hat.wait_for(lambda e: _is_pid(e, port), 2, 1000)
     assert pid_lines(seen, port), f"no PID debug lines on port {port} within 1 s of HAT time"
 
@@ -60,8 +61,9 @@ def _is_pid(event: Any, port: int) -> bool:
 
 def reports_after(hat: HatUnderTest, port: int, count: int = 2, max_hat_ms: float = 1500) -> List[Any]:
     """Events until ``count`` data reports of the selected mode on ``port`` arrived (every
-    100 ms by default, FACTS §6.2): proof that ~10 controller ticks passed, however slow the
-    target, so "no PID line among them" means the controller really is not in PID mode."""
+    100 ms by default, docs/FIRMWARE-BEHAVIOUR.md#fb-reporting): proof that ~10 controller ticks
+    passed, however slow the target, so "no PID line among them" means the controller really is
+    not in PID mode."""
     return hat.wait_for(lambda e: bool(DATA_LINE.fullmatch(getattr(e, "text", "")))
                         and e.text[1] == str(port), count, max_hat_ms)
 
@@ -77,8 +79,8 @@ def last_sp(hat: HatUnderTest, port: int, hat_ms: float = 120) -> Optional[str]:
 
 class TickClock:
     """HAT time read from the HAT itself: with a quiet PID and ``debug 16`` on a motor port,
-    each PID line is one 10 ms controller tick (FACTS §7), however fast or unevenly the
-    target runs against the wall clock."""
+    each PID line is one 10 ms controller tick (docs/FIRMWARE-BEHAVIOUR.md#fb-controller), however
+    fast or unevenly the target runs against the wall clock."""
 
     def __init__(self, hat: HatUnderTest, port: int):
         self.hat, self.port = hat, port

@@ -1,5 +1,5 @@
 """What one host line produced (:class:`Reply`), and the lines a HAT prints on its own that a
-reply must be able to leave out (FIRMWARE-FACTS §5-§7)."""
+reply must be able to leave out (docs/FIRMWARE-BEHAVIOUR.md#fb-async, #fb-data, #fb-debug)."""
 from __future__ import annotations
 
 import re
@@ -8,8 +8,9 @@ from typing import Any, List
 
 __all__ = ["Reply", "ASYNC_LINE", "ASYNC_BYTES", "without_fence_line"]
 
-# Lines the HAT may print at any time (FIRMWARE-FACTS §5, §6): a reply that contains one of
-# these was interleaved with something asynchronous and an exact comparison must retry.
+# Lines the HAT may print at any time (docs/FIRMWARE-BEHAVIOUR.md#fb-async, #fb-data, #fb-debug): a
+# reply that contains one of these was interleaved with something asynchronous and an exact
+# comparison must retry.
 ASYNC_LINE = re.compile(
     r"P[0-3]: (?:connecting|connected to|established|disconnected|timeout|checksum|too many|button|"
     r"pulse done|ramp done|pv=|DATA)|P[0-3][MCV][0-9]*:|set baud rate|deltat=|Port power fault|"
@@ -17,7 +18,8 @@ ASYNC_LINE = re.compile(
 
 
 # Whole lines a HAT prints on its own between (never inside) command outputs: the R1 passive
-# re-connect every scan, data reports, PID debug, completion messages (FACTS §5-§7).
+# re-connect every scan, data reports, PID debug, completion messages
+# (docs/FIRMWARE-BEHAVIOUR.md#fb-r1-passive, #fb-data-lines, #fb-debug-pid, #fb-waveform-end).
 # ``Reply.raw`` leaves them out so a reply can be compared byte for byte; ``Reply.wire`` keeps all.
 ASYNC_BYTES = re.compile(
     rb"P[0-3]: (?:connected to passive ID [0-9]+|disconnected|button (?:pressed|released)|pulse done|"
@@ -72,7 +74,8 @@ class Reply:
 
     def list_lines(self) -> List[str]:
         """The lines of a ``list`` dump: asynchronous lines dropped, including a port header
-        out of sequence (R1 repeats ``P<n>: connected to passive ID`` on its own, FACTS §5)."""
+        out of sequence (R1 repeats ``P<n>: connected to passive ID`` on its own,
+        docs/FIRMWARE-BEHAVIOUR.md#fb-r1-passive)."""
         out, expected = [], 0
         for line in self.wire.split(b"\r\n")[:-1]:
             text = line.decode("utf-8", errors="replace")

@@ -108,7 +108,8 @@ class Resync:
         return self.babble() or garbled_reply(bytes(s.received[self._case_bytes:]))
 
     def _banner_since(self, start: int) -> Optional[int]:
-        # The banner's first line marks a restart (FACTS §5; the bootloader prints it too).
+        # The banner's first line marks a restart (docs/FIRMWARE-BEHAVIOUR.md#fb-startup; the
+        # bootloader prints it too, #fb-bootloader).
         return self.session.events.scan(lambda e: e.kind == "banner" and e.fields.get("stage") == "help_hint",
                                         max(start, self._scanned))
 
@@ -192,7 +193,8 @@ class Resync:
         parts = self.setup_check.commands(self.cleanup_commands(powered))
         if separate:
             return parts
-        # One line per 200 bytes at most: the line buffer holds 256 (FACTS §1).
+        # One line per 200 bytes at most: the line buffer holds 256
+        # (docs/FIRMWARE-BEHAVIOUR.md#fb-line-buffer).
         lines, line = [], ""
         for part in parts:
             if len(line) + len(part) + 3 > 200:
@@ -224,7 +226,8 @@ class Resync:
                     self.setup_said += self.setup_check.learn(self.cleanup_commands(self.powered_ports),
                                                         self.exchange)
                 # The lines go back to back under one sync (H10: a fence each made three round
-                # trips per case); they fit the 8192-byte receive ring many times over (FACTS §1).
+                # trips per case); they fit the 8192-byte receive ring many times over
+                # (docs/FIRMWARE-BEHAVIOUR.md#fb-uart).
                 lines = self.cleanup_lines(self.powered_ports, separate=not self.clauses.trusted("separator"))
                 sent = s.mark()
                 after = self._find_place(b"\r" + b"".join(line.encode() + b"\r" for line in lines))
@@ -276,7 +279,8 @@ class Resync:
             except ExpectTimeout:
                 pass
         # Output still draining from a stream the last case left on (the set-up lines have
-        # stopped it) may have filled the HAT's TX ring, which drops output bytes (FACTS §1):
+        # stopped it) may have filled the HAT's TX ring, which drops output bytes
+        # (docs/FIRMWARE-BEHAVIOUR.md#fb-tx-ring):
         # wait the stream out, then find the place by content, the set-up lines sent again.
         self._wait_out_stream()
         return s.sync(self._sync_wait(), before=before, separate=separate).after
@@ -293,7 +297,7 @@ class Resync:
 
     def _await_started(self, banner: Optional[int]) -> None:
         """Wait (at most 3 s of HAT time) for `Done initialising ports` after the banner at
-        index ``banner`` (FACTS §5: the host waits for it)."""
+        index ``banner`` (docs/FIRMWARE-BEHAVIOUR.md#fb-startup: the host waits for it)."""
         s = self.session
 
         def started(e: Any) -> bool:

@@ -66,14 +66,16 @@ def fault_line(exc: BaseException) -> str:
 
 _TEXT = bytes(range(0x20, 0x7F)) + b"\r\n"
 
-#: Pieces of the lines a stream prints (data reports FACTS §6.1, PID and DATA debug §7.4).
+#: Pieces of the lines a stream prints (data reports docs/FIRMWARE-BEHAVIOUR.md#fb-data-lines, PID
+#: and DATA debug #fb-debug).
 _STREAM_PIECES = re.compile(r"P[0-3](?:[MC][0-9]+|V):|pv=|sp=|cv=| ie=| de=|DATA mode=|payload=")
 
 
 def foreign(event: Any) -> bool:
     """A line no Build HAT prints (event kind ``unknown``), not counting stream output with
-    bytes missing: the HAT drops output bytes when its TX ring is full (FACTS §1, §7.4), so a
-    printable line holding pieces of report or PID lines is its own output, cut."""
+    bytes missing: the HAT drops output bytes when its TX ring is full
+    (docs/FIRMWARE-BEHAVIOUR.md#fb-tx-ring, #fb-debug), so a printable line holding pieces of report
+    or PID lines is its own output, cut."""
     if getattr(event, "kind", "") != "unknown":
         return False
     text = str(getattr(event, "text", ""))

@@ -55,8 +55,9 @@ class Verdict:
         dev = deviation(key)
         if self.between is not None and dev.applies_to(self.between[0]) != dev.applies_to(self.between[1]):
             # An unknown build between a release with this deviation and one without it may
-            # be either: what the deviating one does is no fault of this build (FACTS is
-            # silent on it). Anything else is neither release's behaviour: a failure.
+            # be either: what the deviating one does is no fault of this build
+            # (docs/FIRMWARE-BEHAVIOUR.md describes the releases only). Anything else is neither
+            # release's behaviour: a failure.
             had, fixed = self.between if dev.applies_to(self.between[0]) else self.between[::-1]
             if firmware_ok:
                 self.inform(f"behaviour of {self.between[0]} or {self.between[1]}: unknown build; it does "

@@ -1,9 +1,10 @@
 """SYN-ABBREV: command names may be abbreviated.
 
-Document: "Any command can be abbreviated to its shortest unique prefix". FIRMWARE-FACTS §2:
-any non-empty prefix is accepted and the *first* name in the release's table order wins. The
-document leaves ambiguous prefixes open, so what they do is reported as *informational*; it must
-still be what FIRMWARE-FACTS says the release does (the earlier command runs). A token longer
+Document: "Any command can be abbreviated to its shortest unique prefix".
+docs/FIRMWARE-BEHAVIOUR.md#fb-matching: any non-empty prefix is accepted and the *first* name in the
+release's table order wins. The document leaves ambiguous prefixes open, so what they do is reported
+as *informational*; it must still be what #fb-ambiguous says the release does (the earlier command
+runs). A token longer
 than a name never matches it; matching is case-sensitive. Every expectation here is
 computed from the target profile's command table by ``oracles/commands.py``.
 """
@@ -20,7 +21,7 @@ from ..oracles.commands import ambiguous_prefixes, resolve, shortest_resolving_p
 from ..verdict import Verdict
 
 ALL_COMMANDS: List[str] = sorted({c for p in load_profiles().values() for c in p.commands})
-DOCUMENT_COMMANDS = get_profile("R1").commands     # FACTS §0: the document's set is R1-R4's
+DOCUMENT_COMMANDS = get_profile("R1").commands     # the document's set is R1-R4's (#fb-releases)
 ALL_AMBIGUOUS: List[str] = sorted({prefix for p in load_profiles().values()
                                    for prefix, _first, _names in ambiguous_prefixes(p.commands)})
 
@@ -122,7 +123,8 @@ def test_matching_is_case_sensitive(hat: HatUnderTest, token: str) -> None:
 
 @pytest.mark.req("SYN-ABBREV", "FW-MATCH-WRITE2")
 def test_write2_must_be_typed_in_full(hat: HatUnderTest, motor_port: int) -> None:
-    # Every shorter prefix of write2 is write1's (FACTS §2): `write 44 11 22` is write1.
+    # Every shorter prefix of write2 is write1's (docs/FIRMWARE-BEHAVIOUR.md#fb-ambiguous):
+    # `write 44 11 22` is write1.
     for n in range(1, len("write2")):
         assert resolve("write2"[:n], hat.commands) == "write1", \
             f"`{'write2'[:n]}` must be write1's in {hat.profile.name}'s table " \

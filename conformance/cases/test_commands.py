@@ -1,5 +1,6 @@
 """Commands with a direct answer on the wire: help, version, vin, port, ledmode, signature,
-debug, and the `Error` rule (document §Command Summary; FIRMWARE-FACTS §3, §4)."""
+debug, and the `Error` rule (document §Command Summary; docs/FIRMWARE-BEHAVIOUR.md#fb-arguments,
+#fb-commands)."""
 from __future__ import annotations
 
 import re
@@ -22,7 +23,7 @@ def test_help_prints_the_synopsis_of_this_release(hat: HatUnderTest, command: st
     missing = [c for c in hat.commands if not re.search(rf"(^|[\s,]){re.escape(c)}([\s,:]|$)", text,
                                                                   re.M)]
     assert not missing, f"help does not mention {missing}"
-    # FIRMWARE-FACTS §4.3: the exact text of this release.
+    # docs/FIRMWARE-BEHAVIOUR.md#fb-help: the exact text of this release.
     same(raw, b"\r\n" + hat.help_bytes, "this release's help text (docs/FIRMWARE-BEHAVIOUR.md#fb-help)",
          sent=command)
 
@@ -83,7 +84,8 @@ def _port_line(hat: HatUnderTest, text: str) -> bytes:
                                              ("port -1", 2, True), ("port 1x", 1, True),
                                              ("port 1.5", 1, True), ("port", 2, True)])
 def test_port_sets_the_current_port(hat: HatUnderTest, text: str, port: int, error: bool) -> None:
-    # A negative port is an Error and leaves the port (FACTS §3, §12.16).
+    # A negative port is an Error and leaves the port (docs/FIRMWARE-BEHAVIOUR.md#fb-clamping,
+    # #fb-doc-port-clamp).
     raw = _port_line(hat, text)
     expected = text.encode() + b"\r\n" + (b"Error\r\n" if error else b"") + f"P{port}>".encode()
     same(raw, expected, sent=text)
@@ -92,7 +94,7 @@ def test_port_sets_the_current_port(hat: HatUnderTest, text: str, port: int, err
 @pytest.mark.req("CMD-PORT", "FW-PORT-CLAMP")
 @pytest.mark.parametrize("text", ["port 9", "port 4"])
 def test_port_above_3_is_clamped_to_3(hat: HatUnderTest, text: str) -> None:
-    # FACTS §3 (parameter clamping): `port <p>` clamps silently to 0..3, never an error.
+    # docs/FIRMWARE-BEHAVIOUR.md#fb-clamping: `port <p>` clamps silently to 0..3, never an error.
     raw = _port_line(hat, text)
     assert raw == text.encode() + b"\r\nP3>", \
         (f"port clamping: `{text}` must select port 3 silently "
@@ -165,7 +167,8 @@ def test_error_with_echo_is_followed_by_the_prompt(hat: HatUnderTest) -> None:
 @pytest.mark.parametrize("command", ["help", "list", "vin", "version", "signature", "coast", "pwm", "on",
                                      "off", "clear_faults"])
 def test_junk_after_a_command_that_cannot_fail(hat: HatUnderTest, command: str) -> None:
-    # FACTS §3: these never fail, but a following token is a new command, so junk is an Error.
+    # docs/FIRMWARE-BEHAVIOUR.md#fb-errors, #fb-trailing: these never fail, but a following token is
+    # a new command, so junk is an Error.
     lines = hat.exchange_quiet(f"{command} junk").lines
     assert lines[-1] == "Error" and lines.count("Error") == 1, \
         f"sent `{command} junk`: expected {command}'s answer, then one `Error` for `junk`; came {lines[-4:]}"

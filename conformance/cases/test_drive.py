@@ -55,7 +55,8 @@ def test_plimit_default_after_a_reset_is_a_tenth(hat: HatUnderTest, world: PortN
     world.require("reset", "resetting the HAT (its reset line)")
     mark = hat.mark()
     world.action("@reset")
-    # Input is thrown away while the firmware starts (FACTS §1): wait for the banner's end.
+    # Input is thrown away while the firmware starts (docs/FIRMWARE-BEHAVIOUR.md#fb-boot-input): wait
+    # for the banner's end.
     hat.expect(lambda e: e.text == "Done initialising ports" and e in hat.since(mark), 8000)
     hat.expect(lambda e: e.text.startswith(f"P{motor_port}: established") and e in hat.since(mark), 8000)
     p = world.active(0x30)
@@ -86,13 +87,15 @@ def test_plimit_before_plugging_the_motor(hat: HatUnderTest, world: PortNeeds, v
     world.require("plug", "plugging a motor in after plimit")
     p = empty_port
     hat.exchange("plimit 1")
-    # An empty port is reset about every 100 ms (FACTS §4.2): wait for a few of those first.
+    # An empty port is reset about every 100 ms (docs/FIRMWARE-BEHAVIOUR.md#fb-port-reset): wait for
+    # a few of those first.
     hat.wait_ms(400)
     world.plug(p, ("active", 0x30))
     drive(hat, p, "set 1")
     full = speed(hat, p)
     drive(hat, p, "set 0 ; plimit 0.1")
-    # Document: a global limit, so 1 still applies. R6+: reset to 0.1 with the port (FACTS §12.9).
+    # Document: a global limit, so 1 still applies. R6+: reset to 0.1 with the port
+    # (docs/FIRMWARE-BEHAVIOUR.md#fb-doc-plimit).
     verdict.document(full > 30, key="PLIMIT-RESET-ON-EMPTY-PORT", firmware_ok=0 < full <= 30,
                      seen=f"SPEED {full} after plimit 1 then plug then set 1")
 
@@ -142,7 +145,8 @@ def test_each_port_has_its_own_controller(hat: HatUnderTest, motor_port: int, se
 
 @pytest.mark.req("CMD-PWM", "FW-PWM-KEEPS-GENERATOR")
 def test_pwm_keeps_the_configured_setpoint(hat: HatUnderTest, motor_port: int) -> None:
-    # FACTS §4.1: `pwm` zeroes the set-point for one tick only; the generator keeps driving.
+    # docs/FIRMWARE-BEHAVIOUR.md#fb-pwm: `pwm` zeroes the set-point for one tick only; the generator
+    # keeps driving.
     p = motor_port
     start_quiet_pid(hat, p, sp="0.6")
     drive(hat, p, "plimit 1 ; debug 0 ; pwm")

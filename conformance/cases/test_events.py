@@ -1,4 +1,5 @@
-"""EVT-CONNECT / EVT-DISCONNECT: what plugging and unplugging prints (FIRMWARE-FACTS §5)."""
+"""EVT-CONNECT / EVT-DISCONNECT: what plugging and unplugging prints
+(docs/FIRMWARE-BEHAVIOUR.md#fb-passive, #fb-active)."""
 from __future__ import annotations
 
 import re
@@ -98,7 +99,8 @@ def test_unplug_says_disconnected(hat: HatUnderTest, world: PortNeeds, verdict: 
     texts = _texts(hat.since(mark))
     said = f"P{p}: disconnected" in texts
     if spec[0] == "active":
-        # FACTS §5: the data-phase watchdog (>500 ms) notices an active device is gone.
+        # docs/FIRMWARE-BEHAVIOUR.md#fb-active: the data-phase watchdog (>500 ms) notices an active
+        # device is gone.
         assert f"P{p}: timeout during data phase: disconnecting" in texts, \
             f"unplugged an active device: expected `P{p}: timeout during data phase: disconnecting`, " \
             f"came {texts[:8]}"

@@ -41,8 +41,8 @@ def test_motor_triangle(hat: HatUnderTest, motor_port: int) -> None:
     for reply in replies:
         accepted(reply, "the document's example")
     start = len(hat.since(mark))
-    # SPEED is reported every 100 ms of HAT time (FACTS §6.2): 100 reports are the 10 s period,
-    # counted on the HAT's clock rather than the wall's.
+    # SPEED is reported every 100 ms of HAT time (docs/FIRMWARE-BEHAVIOUR.md#fb-reporting): 100
+    # reports are the 10 s period, counted on the HAT's clock rather than the wall's.
     hat.wait_for(lambda e: e.text.startswith(f"P{p}M1:"), 100, 30000)
     events = hat.since(mark)[start:]
     hat.exchange("select ; set 0 ; plimit 0.1")

@@ -1,4 +1,5 @@
-"""Power faults (document §Device Power; FIRMWARE-FACTS §5 for timing and wording).
+"""Power faults (document §Device Power; docs/FIRMWARE-BEHAVIOUR.md#fb-power-faults for timing and
+wording).
 
 PWR-PORT-FAULT: printed for as long as the 3.3 V fault persists (at 1 Hz after a >10 ms
 deglitch) and not after. PWR-MOTOR-FAULT / PWR-MOTOR-LATCH: printed repeatedly (R2+: with a
@@ -19,7 +20,8 @@ from ..needs import PortNeeds
 from ..probes import TickClock
 
 DUMP_HEADER = " Port 4D 4E 4F"
-# Three spaces, the port, one space, then three times (space + 2 hex digits) (FACTS §5).
+# Three spaces, the port, one space, then three times (space + 2 hex digits)
+# (docs/FIRMWARE-BEHAVIOUR.md#fb-motor-fault-dump).
 DUMP_ROW = re.compile(r"   ([0-3]) ((?: [0-9A-F]{2}){3})")
 
 

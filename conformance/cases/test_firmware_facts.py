@@ -1,5 +1,5 @@
-"""Behaviour the document leaves open and FIRMWARE-FACTS pins down (FW- IDs): select edge
-cases, the R1-R4 / R5+ report engines, button events, per-port limits, `set var`."""
+"""Behaviour the document leaves open and docs/FIRMWARE-BEHAVIOUR.md pins down (FW- IDs): select
+edge cases, the R1-R4 / R5+ report engines, button events, per-port limits, `set var`."""
 from __future__ import annotations
 
 import pytest
@@ -15,7 +15,8 @@ from .test_drive import drive, speed
 
 @pytest.mark.req("FW-SELECT-CLAMP", "CMD-SELECT-MODE")
 def test_select_minus_one_selects_mode_0(hat: HatUnderTest, motor_port: int) -> None:
-    # FACTS §3 / Appendix A: the mode is clamped to 0..15, so -1 is mode 0.
+    # docs/FIRMWARE-BEHAVIOUR.md#fb-clamping, #fb-vectors: the mode is clamped to 0..15, so -1 is
+    # mode 0.
     p = motor_port
     reply = hat.exchange(f"port {p} ; select -1")
     lines = data_lines(reply.events + hat.wait_for(lambda e: e.text.startswith(f"P{p}M"), 2, 1500), p)
@@ -35,7 +36,8 @@ def test_select_with_offset_but_no_format_turns_reporting_off(hat: HatUnderTest,
 
 @pytest.mark.req("FW-SELONCE-TIMING", "CMD-SELONCE")
 def test_selonce_first_report_timing(hat: HatUnderTest, motor_port: int) -> None:
-    # R1-R4: about one 100 ms period after the data; R5+: with the first data (FACTS §6.2).
+    # R1-R4: about one 100 ms period after the data; R5+: with the first data
+    # (docs/FIRMWARE-BEHAVIOUR.md#fb-reporting-r1, #fb-selonce-immediate).
     p = motor_port
     clock = TickClock(hat, p)              # PID on mode 3; selonce 1 below switches the mode
     reply = hat.exchange(f"port {p} ; selonce 1")

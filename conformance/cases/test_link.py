@@ -1,7 +1,8 @@
 """Link and line handling: plain text, CR as the only terminator, echo and prompt.
 
-Document: LINK-SERIAL, LINK-TEXT, LINK-PROMPT, CMD-ECHO. Firmware facts: FIRMWARE-FACTS §1
-(CR always gives CRLF, LF is an ordinary byte, BS/DEL editing, 256-byte buffer, NUL, `#`).
+Document: LINK-SERIAL, LINK-TEXT, LINK-PROMPT, CMD-ECHO. Firmware facts:
+docs/FIRMWARE-BEHAVIOUR.md#fb-line (CR always gives CRLF, LF is an ordinary byte, BS/DEL editing,
+256-byte buffer, NUL, `#`).
 """
 from __future__ import annotations
 
@@ -46,8 +47,9 @@ def test_output_is_plain_text_lines(hat: HatUnderTest, command: str) -> None:
 
 @pytest.mark.req("LINK-PROMPT", "CMD-ECHO", "CMD-PORT")
 def test_echo_and_prompt_as_in_appendix_a(hat: HatUnderTest) -> None:
-    # FIRMWARE-FACTS Appendix A: echo 1 -> CRLF then the prompt; typed text echoed; the prompt
-    # shows the port selected at the end of the line; `c` runs clear_faults, which prints nothing.
+    # docs/FIRMWARE-BEHAVIOUR.md#fb-vectors: echo 1 -> CRLF then the prompt; typed text echoed; the
+    # prompt shows the port selected at the end of the line; `c` runs clear_faults, which prints
+    # nothing.
     same(hat.exchange("echo 1"), b"\r\nP0>")
     same(hat.exchange("p 2"), b"p 2\r\nP2>")
     same(hat.exchange("c"), b"c\r\nP2>")
@@ -74,7 +76,8 @@ def test_cr_always_answers_crlf(hat: HatUnderTest) -> None:
 
 @pytest.mark.req("FW-LINE-LF-ORDINARY", "SYN-SEMICOLON")
 def test_crlf_from_the_host_breaks_the_next_line(hat: HatUnderTest) -> None:
-    # The CRLF pitfall (FACTS §1, Appendix A): LF is stored, so the next line starts with it.
+    # The CRLF pitfall (docs/FIRMWARE-BEHAVIOUR.md#fb-control-bytes, #fb-vectors): LF is stored, so
+    # the next line starts with it.
     line = vin_line(hat)
     same(hat.exchange_quiet(b"vin\r\nvin\r"), b"\r\n" + line + b"\r\nError\r\n")
     rejected(hat.exchange(b"vin\n\r"))
@@ -85,7 +88,8 @@ def test_crlf_pitfall_with_echo_appendix_a(hat: HatUnderTest) -> None:
     hat.exchange("echo 1")
     raw = hat.exchange(b"port 1\r\nlist\r").raw
     hat.exchange("echo 0 ; port 0")
-    same(raw, b"port 1\r\nP1>\nlist\r\nError\r\nP1>", "Appendix A's answer", sent=b"port 1\r\nlist")
+    same(raw, b"port 1\r\nP1>\nlist\r\nError\r\nP1>",
+         "the worked example's answer (docs/FIRMWARE-BEHAVIOUR.md#fb-vectors)", sent=b"port 1\r\nlist")
 
 
 @pytest.mark.req("FW-LINE-SEPARATORS")
@@ -102,7 +106,8 @@ def test_backspace_and_delete_edit_the_line(hat: HatUnderTest, erase: bytes) -> 
     raw = hat.exchange(b"vinx" + erase + erase + b"\r").raw
     empty = hat.exchange(erase + b"\r").raw
     hat.exchange("echo 0 ; port 0")
-    # FACTS §1 echo example: the edited line is `vi`, which resolves to vin.
+    # The echo example of docs/FIRMWARE-BEHAVIOUR.md#fb-echo: the edited line is `vi`, which resolves
+    # to vin.
     same(raw, b"vinx\x08 \x08\x08 \x08\r\n" + line + b"P1>", sent=b"vinx" + erase + erase)
     assert empty == b"\r\nP1>", "erasing in an empty buffer echoes nothing"
 

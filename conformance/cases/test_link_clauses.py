@@ -56,8 +56,9 @@ def test_clause_version_answers_one_line(hat: HatUnderTest) -> None:
 @pytest.mark.link_clause("echo")
 @pytest.mark.req("CMD-ECHO", "LINK-PROMPT")
 def test_clause_echo_on_echoes_and_prompts_echo_off_stops(hat: HatUnderTest) -> None:
-    # FACTS §1: `echo 1` typed with echo off gives CRLF and the prompt; then every stored byte
-    # is echoed; `echo 0` is echoed (echo was on while it arrived) and prints no prompt.
+    # docs/FIRMWARE-BEHAVIOUR.md#fb-echo: `echo 1` typed with echo off gives CRLF and the prompt;
+    # then every stored byte is echoed; `echo 0` is echoed (echo was on while it arrived) and prints
+    # no prompt.
     on = echo_on_reply(hat)
     typed = hat.exchange("vin").raw
     off = hat.exchange("echo 0").raw

@@ -1,5 +1,6 @@
 """CMD-LIST*: the `list` dump, checked against a grammar for the whole output and, for every
-device present, against its devices.json catalogue entry (layout: FIRMWARE-FACTS §4.4)."""
+device present, against its devices.json catalogue entry (layout:
+docs/FIRMWARE-BEHAVIOUR.md#fb-list)."""
 from __future__ import annotations
 
 import pytest
@@ -46,7 +47,7 @@ def test_list_of_an_empty_hat_appendix_a(hat: HatUnderTest, world: PortNeeds) ->
         world.unplug(port)
     raw = hat.exchange_quiet("list").raw
     same(raw, b"\r\n" + b"".join(f"P{p}: no device detected\r\n".encode() for p in range(4)),
-         "Appendix A's empty HAT", sent="list")
+         "the worked example of an empty HAT (docs/FIRMWARE-BEHAVIOUR.md#fb-vectors)", sent="list")
 
 
 @pytest.mark.req("CMD-LIST-PASSIVE", "ID-PASSIVE")
@@ -57,7 +58,8 @@ def test_passive_device_is_listed_by_its_id(hat: HatUnderTest, world: PortNeeds,
     unknown = hat.undecided(key)         # an unknown build between R1 and R2: either behaviour
     if ident == 5 and unknown is None and hat.feature(key):
         # R1 rescans a button continuously and clears the port at each scan start, so `list`
-        # practically never shows it (FACTS §5); the connect line is what identifies it.
+        # practically never shows it (docs/FIRMWARE-BEHAVIOUR.md#fb-r1-passive); the connect line is
+        # what identifies it.
         hat.expect(lambda e: e.text == f"P{port}: connected to passive ID 5", 1000)
         return
     expected = [f"P{port}: connected to passive ID {ident}"]

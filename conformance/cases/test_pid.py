@@ -2,7 +2,7 @@
 
 Document: CMD-PID (parameters), CMD-PID-PV (port, mode, offset, format, scale), CMD-PID-SELECT,
 CMD-PID-UNWRAP, CMD-PID-TIME (1 s time unit), CMD-PID-WINDUP, CMD-PWM, CMD-OFF, CMD-ON.
-Exact law from FIRMWARE-FACTS §7.2: e = PV - SP (deadzone), de = (e - e_prev)/0.01,
+Exact law from docs/FIRMWARE-BEHAVIOUR.md#fb-pid-law: e = PV - SP (deadzone), de = (e - e_prev)/0.01,
 ie = clamp(ie + e*0.01), output = -(e*Kp + ie*Ki + de*Kd). The oracle is oracles/pid.py.
 """
 from __future__ import annotations
@@ -55,7 +55,8 @@ def _run_pid(hat: HatUnderTest, port: int, *, scale: str, unwrap: str, kp: str, 
 
 
 def _deadzone(hat: HatUnderTest, text: str):
-    # R1-R5 have a fixed band (-0.01, 0.01); R6+ take it as the 11th parameter (FACTS §7.2).
+    # R1-R5 have a fixed band (-0.01, 0.01); R6+ take it as the 11th parameter
+    # (docs/FIRMWARE-BEHAVIOUR.md#fb-pid-law).
     return _num(text) if hat.feature("pid_deadzone") == "parameter" else None
 
 
@@ -145,8 +146,9 @@ def test_unwrap_across_plus_minus_180(hat: HatUnderTest, world: PortNeeds, verdi
     world.action(f"@data {p} 3 {_le16(raws[0])}")
     try:
         hat.wait_ms(150)
-        # A PID with another scale and modulo first: whatever state an unwrapper keeps across
-        # `pid` commands then shows (FACTS §12.21); the document's guarantee must not depend on it.
+        # A PID with another scale and modulo first: whatever state an unwrapper keeps across `pid`
+        # commands then shows (docs/FIRMWARE-BEHAVIOUR.md#fb-doc-unwrap); the document's guarantee
+        # must not depend on it.
         _run_pid(hat, p, scale="0.37", unwrap="1", kp="0", ki="0", kd="0", windup="0", deadzone="0", sp="0")
         hat.wait_for(lambda e: e.text.startswith(f"P{p}: pv="), 3, 1000)
         _run_pid(hat, p, scale="1", unwrap="360", kp="0", ki="0", kd="0", windup="0", deadzone="0", sp="0")
@@ -202,7 +204,8 @@ def test_pid_diff_differentiates_the_process_variable(hat: HatUnderTest, world: 
         world.action(f"@data {p} 3 auto")
     pvs = [ln.pv for ln in pid_lines(events, p)]
     nonzero = [v for v in pvs if v != "0.00000"]
-    # 170 -> -170 unwraps to +20 degrees in one 10 ms tick: 20 * 100 per tick (FACTS §7.2).
+    # 170 -> -170 unwraps to +20 degrees in one 10 ms tick: 20 * 100 per tick
+    # (docs/FIRMWARE-BEHAVIOUR.md#fb-unwrap-r6).
     assert nonzero == ["2000.00"], f"pid_diff pv sequence {pvs}"
 
 
@@ -258,7 +261,8 @@ def test_document_ten_parameter_pid(hat: HatUnderTest, verdict: Verdict, motor_p
 
 @pytest.mark.req("CMD-PID", "FW-PID-ELEVEN")
 def test_eleven_parameter_pid(hat: HatUnderTest, motor_port: int) -> None:
-    # FACTS Appendix A: R6+ accept it; R1-R5 apply the first ten, then `0.01` is an Error.
+    # docs/FIRMWARE-BEHAVIOUR.md#fb-pid-command: R6+ accept it; R1-R5 apply the first ten, then
+    # `0.01` is an Error.
     p = motor_port
     hat.exchange(f"port {p} ; select 3 ; debug 16")
     reply = hat.exchange(f"pid {p} 3 0 s2 0 0 0 0 0 0 0.01")
@@ -294,8 +298,9 @@ def test_pwm_and_coast_leave_pid_mode(hat: HatUnderTest, motor_port: int, comman
 
 @pytest.mark.req("CMD-DEBUG", "FW-DEBUG-16", "CMD-PID-TIME")
 def test_debug_16_prints_one_pid_line_per_tick(hat: HatUnderTest, motor_port: int) -> None:
-    # Two clocks inside the HAT: PID lines (one per 10 ms tick) against the selected mode's
-    # reports (one per 100 ms, FACTS §6.2): ten lines per report, whatever the wall clock does.
+    # Two clocks inside the HAT: PID lines (one per 10 ms tick) against the selected mode's reports
+    # (one per 100 ms, docs/FIRMWARE-BEHAVIOUR.md#fb-reporting): ten lines per report, whatever the
+    # wall clock does.
     p = motor_port
     start_quiet_pid(hat, p)
     events = hat.wait_for(lambda e: e.text.startswith(f"P{p}M3:"), 31, 10000)

@@ -1,5 +1,6 @@
 """select / selonce / selrate / combi / write1 / write2 (document §Command Summary;
-FIRMWARE-FACTS §6 for the line formats and the reporting engine, §8 for combi)."""
+docs/FIRMWARE-BEHAVIOUR.md#fb-data for the line formats and the reporting engine, #fb-combi for
+combi)."""
 from __future__ import annotations
 
 import re
@@ -14,7 +15,8 @@ from ..oracles.floatfmt import fw_float
 from ..probes import TickClock, data_lines
 from ..verdict import Verdict
 
-# FACTS §6.1: integers are `+N`, `-N`, or a space then `0`; floats come from the float printer.
+# docs/FIRMWARE-BEHAVIOUR.md#fb-data-ints: integers are `+N`, `-N`, or a space then `0`; floats come
+# from the float printer (#fb-float).
 INT = r"(?:\+[1-9][0-9]*|-[1-9][0-9]*| 0)"
 MODE_LINE = re.compile(rf"P([0-3])M([0-9]+):((?: {INT})+)")
 HEX_LINE = re.compile(r"P[0-3]M[0-9]+:(?: [0-9A-Fa-f]{2})+")
@@ -77,7 +79,8 @@ def test_select_variable_prints_one_float(hat: HatUnderTest, world: PortNeeds, m
         if exact:
             world.action(f"@data {p} 4 auto")
     assert reply.errors == 0 and len(lines) >= 2, f"{len(lines)} variable reports"
-    # FACTS §6.1: `P<p>V: <float>`, the mode not shown, always the float printer.
+    # docs/FIRMWARE-BEHAVIOUR.md#fb-data-var: `P<p>V: <float>`, the mode not shown, always the
+    # float printer.
     assert all(re.fullmatch(r"P[0-3]V: -?[0-9.]+(E-?[0-9]+)?", ln) for ln in lines), lines[:3]
     if exact:
         code = {"s2": "<h", "u1": "<B", "s1": "<b", "u2": "<H", "f4": "<f"}[fmt]
@@ -191,13 +194,15 @@ def test_write_accepts_hex_bytes(hat: HatUnderTest, world: PortNeeds, motor_port
                  "(docs/FIRMWARE-BEHAVIOUR.md#fb-device-messages)")
 
 
-# FACTS §8's byte-exact examples (docs/FIRMWARE-BEHAVIOUR.md#fb-device-messages): the header's length
-# bits replaced, zero padding to 2^L payload bytes, the checksum 0xFF XOR every byte before it.
+# The byte-exact examples of docs/FIRMWARE-BEHAVIOUR.md#fb-write, framed as #fb-framing says: the
+# header's length bits replaced, zero padding to 2^L payload bytes, the checksum 0xFF XOR every byte
+# before it.
 FRAMES = {"write1 c5 10 20 30 40": "D5 10 20 30 40 6A", "write1 c0 5": "C0 05 3A", "write1 40": "40 00 BF",
           "write1 c2 12 23 34 45 12 23 34 45 12": "E2 12 23 34 45 12 23 34 45 12 00 00 00 00 00 00 00 0F",
-          # §8's `write2 44 11 22` -> `44 11 22 88` is a CMD header, which a device reads with one
-          # header byte (its receiving rules), so it does not take that frame whole. With an INFO
-          # header (a command byte follows) by the same rule: 80 11 22, then FF ^ 80 ^ 11 ^ 22 = 4C.
+          # #fb-write's `write2 44 11 22` -> `44 11 22 88` is a CMD header, which a device reads
+          # with one header byte (its receiving rules, #fb-lpf2-receive), so it does not take that
+          # frame whole. With an INFO header (a command byte follows) by the same rule: 80 11 22,
+          # then FF ^ 80 ^ 11 ^ 22 = 4C.
           "write2 80 11 22": "80 11 22 4C"}
 
 

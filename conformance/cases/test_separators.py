@@ -1,8 +1,9 @@
 """SYN-SEMICOLON: several commands on one line, separated by semicolons.
 
-FIRMWARE-FACTS §2-§3: runs of spaces and `;` between commands are skipped; a `;` may follow a
-name directly (`set;0.25`); a separator is not even needed (`port 1 vin`); an error prints
-`Error`, keeps everything done before it on the line and drops the rest.
+docs/FIRMWARE-BEHAVIOUR.md#fb-matching, #fb-separators, #fb-errors: runs of spaces and `;`
+between commands are skipped; a `;` may follow a name directly (`set;0.25`); a separator is not
+even needed (`port 1 vin`); an error prints `Error`, keeps everything done before it on the line
+and drops the rest.
 """
 from __future__ import annotations
 
@@ -72,8 +73,8 @@ def test_bad_argument_mid_line_drops_the_rest(hat: HatUnderTest) -> None:
 
 @pytest.mark.req("SYN-SEMICOLON", "FW-ARGUMENTS-END")
 def test_arguments_end_at_a_semicolon(hat: HatUnderTest, motor_port: int) -> None:
-    # FACTS §3: number parsers skip spaces only, so `;` ends the argument list: `0.3` is then
-    # read as a command (Error), after `set 0.5` has taken effect.
+    # docs/FIRMWARE-BEHAVIOUR.md#fb-separators: number parsers skip spaces only, so `;` ends the
+    # argument list: `0.3` is then read as a command (Error), after `set 0.5` has taken effect.
     start_quiet_pid(hat, motor_port)
     reply = hat.exchange("set 0.5;0.3")
     lines = pid_lines(reports_after(hat, motor_port), motor_port)

@@ -1,8 +1,9 @@
 """`set` waveforms, sampled tick by tick through `debug 16` and compared with oracles/waveform.py.
 
 Document: CMD-SET-SQUARE/SINE/TRIANGLE (min max period phase), CMD-SET-PHASE, CMD-SET-PULSE,
-CMD-SET-RAMP (4th parameter ignored), CMD-SET-DONE. Exact generator: FIRMWARE-FACTS §7.1
-(10 ms ticks, float32 phase accumulator, 256-entry sine table, period/phase clamps).
+CMD-SET-RAMP (4th parameter ignored), CMD-SET-DONE. Exact generator:
+docs/FIRMWARE-BEHAVIOUR.md#fb-setpoint (10 ms ticks, float32 phase accumulator, 256-entry sine
+table, period/phase clamps).
 Timing: each PID line is one 10 ms tick of HAT time, so shape, amplitude, period and phase
 are checked in ticks; wall-clock times are only bounded from below (a message cannot be
 early) and loosely from above, scaled by the target's time scale.
@@ -91,9 +92,11 @@ def _done_check(hat: HatUnderTest, port: int, shape: str, args: str) -> Tuple[Li
     accepted(reply)
     texts = [e.text for e in events]
     done_line = f"P{port}: {shape} done"
-    # CMD-SET-DONE: the document's message, as the firmware words it (FACTS §12.11).
+    # CMD-SET-DONE: the document's message, as the firmware words it
+    # (docs/FIRMWARE-BEHAVIOUR.md#fb-doc-done-lines).
     assert texts.count(done_line) == 1, f"expected one `{done_line}`, got {[t for t in texts if 'done' in t]}"
-    # It comes in tick n: after the line of tick n-1, before the line of tick n (FACTS §7.1).
+    # It comes in tick n: after the line of tick n-1, before the line of tick n
+    # (docs/FIRMWARE-BEHAVIOUR.md#fb-waveform-end).
     i = texts.index(done_line)
     before = [ln.sp for ln in pid_lines(events[:i], port)]
     old = f"{_n(OLD_SP):.5f}"
@@ -128,10 +131,11 @@ def test_ramp_runs_linearly_and_reports_done(hat: HatUnderTest, motor_port: int,
     assert not problems, "\n".join(problems[:10])
 
 
-# FACTS §7.1: a pulse ends on tick n of its float accumulator (ticks_until_done) and the first
-# tick comes 0-10 ms after the command, so `done` is printed (n-1)*10 to n*10 ms after the CR.
-# For these lengths (n-1)*10 ms is the length or more: no HAT reports them done early. Not for
-# every length: 5 s ends on tick 500, up to 10 ms before 5 s have passed (0.2 s, 0.3 s, 10 s too).
+# docs/FIRMWARE-BEHAVIOUR.md#fb-setpoint: a pulse ends on tick n of its float accumulator
+# (ticks_until_done) and the first tick comes 0-10 ms after the command, so `done` is printed
+# (n-1)*10 to n*10 ms after the CR. For these lengths (n-1)*10 ms is the length or more: no HAT
+# reports them done early. Not for every length: 5 s ends on tick 500, up to 10 ms before 5 s have
+# passed (0.2 s, 0.3 s, 10 s too).
 NOT_EARLY_LENGTHS = ["0.1", "0.5", "1"]
 
 
@@ -215,12 +219,13 @@ def test_waveform_keywords_abbreviate_in_table_order(hat: HatUnderTest, motor_po
 
 @pytest.mark.req("CMD-SET-SINE", "FW-SET-CLAMPS")
 def test_period_and_phase_are_clamped(hat: HatUnderTest, motor_port: int) -> None:
-    # FACTS Appendix A: `set si -1 1 0.001 7` is a sine with T = 0.02 s and phase 1.
+    # docs/FIRMWARE-BEHAVIOUR.md#fb-vectors: `set si -1 1 0.001 7` is a sine with T = 0.02 s and
+    # phase 1.
     seen, _e, _t, reply = capture(hat, motor_port, "set si -1 1 0.001 7", 8)
     model = [v for v, _d in Generator("sine", -1, 1, 0.02, 1).run(8)]
     accepted(reply)
     assert not mismatches(seen, model), \
-        f"expected a sine with T = 0.02 s and phase 1 (Appendix A), came {seen}"
+        f"expected a sine with T = 0.02 s and phase 1 (docs/FIRMWARE-BEHAVIOUR.md#fb-vectors), came {seen}"
 
 
 @pytest.mark.req("CMD-SET-TRIANGLE", "FW-ERROR")

@@ -1,8 +1,9 @@
 """PID controller and process-variable unwrap, recomputed in float32 (FIRMWARE-BEHAVIOUR.md#fb-pid).
 
 The document fixes only the shape (Kp, Ki, Kd with a one-second time unit, integral clamped
-to the windup); FIRMWARE-FACTS gives the exact law: e = PV - SP, deadzone, de = (e - e_prev)/0.01,
-ie = clamp(ie + e*0.01), output = -(e*Kp + ie*Ki + de*Kd). ``debug 16`` prints every step.
+to the windup); docs/FIRMWARE-BEHAVIOUR.md#fb-pid-law gives the exact law: e = PV - SP, deadzone,
+de = (e - e_prev)/0.01, ie = clamp(ie + e*0.01), output = -(e*Kp + ie*Ki + de*Kd). ``debug 16``
+prints every step (#fb-debug-pid).
 """
 from __future__ import annotations
 

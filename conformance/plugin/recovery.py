@@ -4,9 +4,10 @@ After ``--max-target-faults`` target faults in a row the run would stop talking 
 When the target can reset the HAT (the emulator's control channel, or ``?reset=gpio`` on a
 Raspberry Pi) the run first resets it, once:
 
-- a real HAT restarts in its bootloader (its firmware lives in RAM, FIRMWARE-FACTS §9), so the
-  release is loaded again from the run's ``--image``/``--signature``; without them the reset
-  cannot bring the firmware back, and the run says so in one line;
+- a real HAT restarts in its bootloader (its firmware lives in RAM,
+  docs/FIRMWARE-BEHAVIOUR.md#fb-bootloader), so the release is loaded again from the run's
+  ``--image``/``--signature``; without them the reset cannot bring the firmware back, and the run
+  says so in one line;
 - the emulator restarts its firmware, or its bootloader when the run has an image to load.
 
 The HAT must then answer ``version`` with the firmware it ran before; the next case's set-up
