@@ -182,7 +182,7 @@ def _add_bisect(sub) -> None:  # type: ignore[no-untyped-def]
 
 
 def _bisect(args: argparse.Namespace) -> int:
-    from .bisect import BisectError, bisect
+    from .commit_bisection import BisectError, bisect
 
     extra = ["--firmware", args.firmware] if args.firmware else []
     try:
@@ -258,8 +258,8 @@ def _add_history(sub) -> None:  # type: ignore[no-untyped-def]
 
 
 def _history(args: argparse.Namespace) -> int:
-    from .bisect import BisectError
-    from .history import merge_history, read_history_part, run_history, write_history
+    from .commit_bisection import BisectError
+    from .commit_history import merge_history, read_history_part, run_history, write_history
     from .shards import MergeError, parse_shard
 
     try:

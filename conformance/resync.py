@@ -24,7 +24,7 @@ from .target_fault import (
     garbled_reply,
     target_fault_of,
 )
-from .trusted_clauses import LinkClauses
+from .trusted_clauses import TrustedClauses
 
 __all__ = ["Resync", "BABBLE_LINES", "BABBLE_BURST", "BABBLE_BINARY", "QUIET_S"]
 
@@ -64,7 +64,7 @@ class Resync:
 
     def _init_resync(self) -> None:
         #: What the run knows of the clauses the set-up relies on (conformance/trusted_clauses.py).
-        self.clauses = LinkClauses()
+        self.clauses = TrustedClauses()
         self._powered_checked = False
         #: Devices had their time to connect (conformance/needs.py waits for them once per run,
         #: and again after a restart).

@@ -22,7 +22,7 @@ from __future__ import annotations
 
 from typing import Dict, List, Tuple
 
-__all__ = ["CLAUSES", "LinkClauses", "MARKER"]
+__all__ = ["CLAUSES", "TrustedClauses", "MARKER"]
 
 MARKER = "link_clause"
 
@@ -37,7 +37,7 @@ CLAUSES: Dict[str, Tuple[str, str]] = {
 _OK = "ok"
 
 
-class LinkClauses:
+class TrustedClauses:
     """What the run has learnt about the clauses in :data:`CLAUSES`: unchecked, held, broken."""
 
     def __init__(self) -> None:

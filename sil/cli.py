@@ -95,7 +95,7 @@ def main(args: argparse.Namespace) -> int:
         for line in build.plan.said() if build.plan is not None else []:
             print(line)
         return 0
-    from .coverage import coverage_summary, reset_counts
+    from .firmware_coverage import coverage_summary, reset_counts
     if args.reset:
         reset_counts(build)
         print(f"coverage counts cleared: {build.folder}")

@@ -204,7 +204,7 @@ class SilTarget(VirtualTimeTarget):
         """The firmware's coverage so far (a ``coverage=1`` build, after close), else None."""
         if self.build is None or not self.build.coverage:
             return None
-        from .coverage import coverage_summary
+        from .firmware_coverage import coverage_summary
         try:
             return coverage_summary(self.build)
         except RuntimeError as exc:
@@ -251,7 +251,7 @@ def from_url(url: str, **options) -> Any:
         except SuppressionsError as exc:
             raise TargetError(f"sil: {exc}") from None
     if build is not None and build.coverage:
-        from .coverage import reset_counts
+        from .firmware_coverage import reset_counts
         reset_counts(build)          # the figure at the end is this run's, not the sum of all runs
     if "speed" in q:
         # Paced to the wall clock: the firmware in its own real-time runner on a pty (sil/serve.py),

@@ -86,10 +86,10 @@ def _timing_plots(runs: List[JunitRun]) -> List[Plot]:
 def build_report(junit_paths: Sequence[str], out_path: str, max_plots: int = MAX_PLOTS) -> str:
     """Write the HTML report for one or more JUnit files; returns ``out_path``."""
     from ...plumbing.package_version import __version__
-    from .coverage import coverage
     from .excerpt import excerpt_lines
     from .junit import read_junit
     from .page import render_html
+    from .requirement_coverage import coverage
 
     if not junit_paths:
         raise ValueError("build_report needs at least one JUnit file")

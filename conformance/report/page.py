@@ -6,7 +6,6 @@ from dataclasses import dataclass, field
 from typing import Dict, List, Optional, Sequence, Tuple
 
 from ...protocol.behaviour import anchors_in, section_text
-from .coverage import Coverage
 from .html_defects import defects_section
 from .html_triage import (
     by_requirement_section,
@@ -24,6 +23,7 @@ from .markup import names
 from .markup import tag as _tag
 from .markup import tests_cell as _tests_cell
 from .plots import Plot
+from .requirement_coverage import Coverage
 from .triage import Change, FailureGroup, headline, scrub
 
 __all__ = ["render_html", "Triage"]

@@ -148,9 +148,9 @@ def test_judging_a_known_release_as_another_exits_3_in_one_line(tmp_path) -> Non
 
 
 def test_a_clause_is_trusted_only_after_its_case_passed_and_never_after_it_failed() -> None:
-    from buildhat_conformance.conformance.trusted_clauses import LinkClauses
+    from buildhat_conformance.conformance.trusted_clauses import TrustedClauses
 
-    clauses = LinkClauses()
+    clauses = TrustedClauses()
     assert not clauses.trusted("separator") and clauses.split("port 1 ; select") == ["port 1", "select"]
     clauses.held("separator")
     assert clauses.trusted("separator") and clauses.split("port 1 ; select") == ["port 1 ; select"]

@@ -10,8 +10,8 @@ import pytest
 from buildhat_conformance.cli import main as cli_main
 from buildhat_conformance.conformance.report import build_report
 from buildhat_conformance.conformance.report import page as report_html
-from buildhat_conformance.conformance.report.coverage import coverage
 from buildhat_conformance.conformance.report.junit import check_junit, read_junit
+from buildhat_conformance.conformance.report.requirement_coverage import coverage
 from buildhat_conformance.conformance.report.series import ideal_setpoint, pid_series, wave_runs
 from buildhat_conformance.protocol.requirements import requirement_ids
 

@@ -21,7 +21,7 @@ from typing import Callable, Dict, List, Optional, Sequence, Tuple
 
 from ..conformance.case_output import read_verdicts
 from ..sil.build import BuildError, build_tree
-from .bisect import default_folder, first_parent_line, git, resolve_commit
+from .commit_bisection import default_folder, first_parent_line, git, resolve_commit
 from .mutation import run_suite
 from .shards import MergeError, parse_shard, read_part, shard_of
 
