@@ -246,3 +246,25 @@ def test_clear_faults_leaves_the_drive_on_and_forwards(hat: HatUnderTest, world:
     assert {d for _t, d in before[:-1]} == {duty}, f"set {setpoint}: drive {before}"
     assert {d for _t, d in after[:-1]} == {abs(duty)}, \
         f"set {setpoint}, then clear_faults: the drive must be {abs(duty)} (0x7F: on, forwards); got {after}"
+
+
+@pytest.mark.req("CMD-PLIMIT", "FW-PLIMIT-CLAMP")
+@pytest.mark.parametrize("outside,edge", [("2", "1"), ("-1", "0")])
+def test_a_plimit_out_of_range_drives_as_its_edge(hat: HatUnderTest, world: PortNeeds, motor_port: int,
+                                                  outside: str, edge: str) -> None:
+    # docs/FIRMWARE-BEHAVIOUR.md#fb-clamping: plimit is clamped to [0, 1] before it is stored, so a limit
+    # outside drives exactly as the edge it is clamped to. The drive, not the motor's speed, tells a
+    # limit of 0 from one the firmware did not clamp (which drove full reverse on the firmware in the loop).
+    p = motor_port
+    levels = {}
+    try:
+        for limit in (edge, outside):
+            drive(hat, p, f"pwm ; plimit {limit} ; set 0.4")
+            hat.wait_ms(50)
+            levels[limit] = {d for _t, d in world.drive_levels(p, 200)[:-1]}
+            drive(hat, p, "set 0")
+    finally:
+        drive(hat, p, "set 0 ; plimit 0.1")
+    assert levels[outside] == levels[edge], (
+        f"sent: plimit {outside} ; set 0.4, expected the drive of plimit {edge} (clamped to [0,1]): "
+        f"{sorted(levels[edge], key=str)}; came: {sorted(levels[outside], key=str)}")
