@@ -2,7 +2,8 @@
 
 Each measurement opens the emulator target at speed 1, lets the firmware produce timed
 output, and compares the arrival times of the lines (stamped by the session's reader
-thread) with what FIRMWARE-FACTS says the firmware does (§6.2 report period, §7.1 ticks).
+thread) with what the firmware does (FIRMWARE-BEHAVIOUR.md#fb-reporting: the report period;
+#fb-setpoint: the ticks).
 The figures include the pty and scheduling latency of this machine: that is what a host
 library sees.
 """
@@ -18,7 +19,7 @@ from ..harness.targets import open_target
 # Real time, powered up before the host opens the port (start-up and device set-up are not what
 # is measured, and took 2.5 s of every run at real time).
 BOOTED = "emulator:latest?speed=1&booted=1"
-# FIRMWARE-FACTS §7.1: a pulse of T seconds ends after N ticks of 10 ms (float accumulation).
+# FIRMWARE-BEHAVIOUR.md#fb-setpoint: a pulse of T seconds ends after N ticks of 10 ms (float accumulation).
 PULSE_TICKS = {0.5: 51, 1.0: 101}
 
 

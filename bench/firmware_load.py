@@ -1,6 +1,7 @@
 """Firmware upload through the user's own ``buildhat-conformance load``: how long a release-sized
 image (R7's 51,456 bytes) takes from STX to the bootloader's ``Checksum OK``, against the least
-time its bytes need on the wire at 115200 baud (8N1: 10 bits a byte, FIRMWARE-FACTS §9).
+time its bytes need on the wire at 115200 baud (8N1: 10 bits a byte, FIRMWARE-BEHAVIOUR.md#fb-uart,
+#fb-bootloader).
 
 The HAT is the emulator in its bootloader behind a real pty (``buildhat-emulator --pty
 --bootloader``), at real time. The image has R7's size and checksum and is signed with a key

@@ -1,7 +1,7 @@
 """The real firmware in the loop (``sil:``), measured through the user's own commands: the suite
 in virtual time and at real time, fuzzing throughput, and the firmware coverage the suite and a
-campaign reach. The firmware tree is ``$BUILDHAT_FIRMWARE_TREE`` or the test material beside
-the checkout (``../shared/firmware/firmware-pico-*``); without one, the groups say so.
+campaign reach. The firmware tree is ``$BUILDHAT_FIRMWARE_TREE`` or, on a developer's machine, the
+``firmware-pico-*`` tree of the developers' material beside the checkout; without one, the groups say so.
 """
 from __future__ import annotations
 

@@ -7,7 +7,7 @@
 
 Nothing here reads the wall clock: time moves only through :meth:`advance`. Output is
 readable as soon as the firmware writes it unless ``baud`` is given (then both directions
-of the serial link move at the wire rate, FIRMWARE-FACTS §1).
+of the serial link move at the wire rate, FIRMWARE-BEHAVIOUR.md#fb-uart).
 """
 from __future__ import annotations
 
@@ -26,7 +26,7 @@ __all__ = ["Emulator", "WorldError", "BOOT_LIMIT_MS", "DEFAULT_ADC"]
 
 # boot() gives up (with an error naming the ports) if the layout is not up by then.
 BOOT_LIMIT_MS = 20000
-BOOTLOADER_RING = 4096     # §9: the bootloader's RX/TX rings
+BOOTLOADER_RING = 4096     # FIRMWARE-BEHAVIOUR.md#fb-bootloader: the bootloader's RX/TX rings
 # boot() looks at the layout every 10 ms, as the firmware in the loop's boot does (sil/hat.py).
 BOOT_STEP_MS = 10
 _BYTE_US = 10 * 1_000_000 / 115200      # one byte on the HAT's 115200-baud wire (8N1)

@@ -1,4 +1,5 @@
-"""The Build HAT bootloader on the command port (FIRMWARE-FACTS §9, §10), in virtual time.
+"""The Build HAT bootloader on the command port (FIRMWARE-BEHAVIOUR.md#fb-bootloader, #fb-timing), in
+virtual time.
 
 The same machine interface as ``Hat`` for ``emulator/api.py``: ``Bootloader(uart, now=...,
 event_sink=..., reboot=..., key=...)``, ``tick()`` (one millisecond), ``poll()`` (handle the

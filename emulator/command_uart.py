@@ -1,7 +1,7 @@
 """The command UART: the firmware's RX/TX rings and, optionally, the wire's pace.
 
-FIRMWARE-FACTS §1: RX and TX rings of 8192 bytes (the bootloader's are 4096); a byte that
-arrives when the RX ring is full is dropped, and an output byte is dropped when the TX ring
+FIRMWARE-BEHAVIOUR.md#fb-uart, #fb-tx-ring: RX and TX rings of 8192 bytes (the bootloader's are 4096);
+a byte that arrives when the RX ring is full is dropped, and an output byte is dropped when the TX ring
 is full. With ``baud=None`` the wire is infinitely fast: host bytes land in the RX ring at
 once and output is readable as soon as the firmware writes it (the TX ring never fills).
 With a baud rate, both directions move ``baud / 10`` bytes per second of virtual time
@@ -83,7 +83,7 @@ class Uart:
         return self.rx.popleft() if self.rx else None
 
     def write(self, data: bytes) -> None:
-        """Firmware output. Bytes that do not fit in the TX ring are dropped (§1)."""
+        """Firmware output. Bytes that do not fit in the TX ring are dropped (#fb-tx-ring)."""
         if self.baud is None:
             self._deliver(data)
             return

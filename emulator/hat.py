@@ -1,7 +1,8 @@
 """``Hat``: one running firmware instance (one release profile) in virtual time.
 
 The Hat owns the command port (UART rings, line editor, dispatcher, start-up) and the
-global state of FIRMWARE-FACTS §4 (current port, echo, debug, LED mode, input voltage).
+global state the commands of FIRMWARE-BEHAVIOUR.md#fb-commands set and read (current port, echo, debug,
+LED mode, input voltage).
 Ports, controllers and the fault monitor are separate objects it ticks:
 
 - ``emulator/ports/port.py``      ``Port(hat, index)``           with ``tick(now)``
@@ -56,7 +57,7 @@ class LineRecord:
 
 
 def led_code_for_vin(mv: int) -> int:
-    """ledmode -1 (§4.1): the LED code that follows the input voltage."""
+    """ledmode -1 (#fb-ledmode): the LED code that follows the input voltage."""
     if mv < 4800:
         return 0
     if mv < 6000:
@@ -101,7 +102,7 @@ class Hat:
         # HAT) re-binds methods to the copy but keeps a lambda pointing at the original.
         self.editor = LineEditor(self.write_out, self.echo_enabled)
         self._early_bytes = 0    # bytes received before the main loop started, not yet consumed
-        # Main-loop stalls (§5 `deltat=`): a line whose pass costs >= 1 ms keeps the loop busy
+        # Main-loop stalls (#fb-stall): a line whose pass costs >= 1 ms keeps the loop busy
         # until ``_busy_until``; the pass that starts then prints the stall line if > 2 ms.
         self.pass_cost = PassCost(self.profile.features)
         self.tx_written = 0      # bytes the firmware has written to the TX ring (costs lines)
@@ -122,12 +123,12 @@ class Hat:
 
     @property
     def vin_mv(self) -> int:
-        """Input voltage in mV from the ADC reading, integer steps as in §4.4."""
+        """Input voltage in mV from the ADC reading, integer steps as in #fb-vin."""
         return ((self.adc * 57) // 10) * 3300 // 4096
 
     def set_adc(self, raw: int) -> None:
         """The input-voltage pin now reads ``raw``; the firmware samples it on its next 1 ms
-        tick (§4.4, §10), so a `vin` in the same millisecond still shows the previous sample."""
+        tick (#fb-vin, #fb-timing), so a `vin` in the same millisecond still shows the previous sample."""
         if not 0 <= raw <= 4095:
             raise ValueError(f"ADC reading must be 0..4095, got {raw}")
         self._adc_pin = raw
@@ -154,7 +155,7 @@ class Hat:
         self.uart.write(bytes(line) + CRLF)
 
     def tx_pending(self) -> int:
-        """Bytes queued in the TX ring (R5+ report throttle, §6.2)."""
+        """Bytes queued in the TX ring (R5+ report throttle, #fb-reporting-r5)."""
         return self.uart.tx_pending()
 
     def event(self, kind: str, **fields: Any) -> None:
@@ -191,7 +192,7 @@ class Hat:
     def _tick(self) -> None:
         now = self.now = self.now + 1
         uart = self.uart
-        self.adc = self._adc_pin                 # the 1 ms ADC sample (§10)
+        self.adc = self._adc_pin                 # the 1 ms ADC sample (#fb-timing)
         if self.ledmode != self._led_mode or self.adc != self._led_adc:
             self._refresh_leds()
         startup = self.startup
@@ -299,7 +300,7 @@ class Hat:
                 rx.extendleft(reversed(data[pos:]))
 
     def _charge(self, commands: List[str], written: int) -> None:
-        """The pass that ran this line lasts its cost (§5): a stall of whole milliseconds."""
+        """The pass that ran this line lasts its cost (#fb-stall): a stall of whole milliseconds."""
         cost_us = self.pass_cost.line_cost_us(commands, written, self.ports)
         stall = int(cost_us // 1000)
         if stall >= 1:

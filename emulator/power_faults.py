@@ -1,4 +1,5 @@
-"""Power faults (FIRMWARE-FACTS §5 "Power faults", §10): the port-supply and motor-driver fault pins.
+"""Power faults (FIRMWARE-BEHAVIOUR.md#fb-power-faults, #fb-timing): the port-supply and motor-driver
+fault pins.
 
 ``Hat`` builds ``FaultMonitor(hat)`` and calls ``tick(now)`` every millisecond.
 

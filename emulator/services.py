@@ -15,7 +15,7 @@ The services, by job:
 - output:      ``emit(line)`` (CRLF added), ``write_out(bytes)`` (raw), ``tx_pending()``
 - transcript:  ``event(kind, **fields)``, ``note(text)``
 - scheduling:  ``wake()`` (something is due earlier than the HAT last noted), ``now`` (virtual ms)
-- global state (FIRMWARE-FACTS §4): ``profile``, ``debug``, ``seed``
+- global state (FIRMWARE-BEHAVIOUR.md#fb-commands): ``profile``, ``debug``, ``seed``
 - the sibling parts, each seen through its own small view: ``ports``, ``controllers``, ``faults``
 """
 from __future__ import annotations
@@ -72,7 +72,7 @@ class Firmware(Protocol):
 class DebugBits(Protocol):
     @property
     def debug(self) -> int:
-        """The ``debug`` bits (§7.4)."""
+        """The ``debug`` bits (#fb-debug)."""
         ...
 
 
@@ -120,7 +120,7 @@ class PortServices(Output, EventLog, Scheduler, Clock, Firmware, DebugBits, Prot
     def seed(self) -> int: ...
 
     def tx_pending(self) -> int:
-        """Bytes queued for the host (R5+ report throttle, §6.2)."""
+        """Bytes queued for the host (R5+ report throttle, #fb-reporting-r5)."""
         ...
 
     @property

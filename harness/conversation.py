@@ -18,7 +18,8 @@ from .sync import SEPARATE_TAIL, SYNC_ATTEMPTS, SyncResult, new_token, sync_byte
 __all__ = ["Conversation", "FENCE_KINDS", "STREAM_KINDS"]
 
 FENCE_KINDS = ("version", "bootloader_version")
-#: Lines a HAT prints on its own, again and again while a stream is on (FACTS §6, §7.4).
+#: Lines a HAT prints on its own, again and again while a stream is on (FIRMWARE-BEHAVIOUR.md#fb-data,
+#: #fb-debug).
 STREAM_KINDS = frozenset({"mode_data", "combi_data", "var_data", "pid_debug", "data_debug"})
 
 
@@ -186,8 +187,8 @@ class Conversation:
             echo = self._wait_index(own_echo, start, timeout)
             if echo is None:
                 continue
-            # A stream still draining (reports, PID lines: whole lines, FACTS §5-§7) may put a
-            # line between the echo and the answer: set aside, it is not the answer.
+            # A stream still draining (reports, PID lines: whole lines, #fb-data-lines, #fb-debug-pid) may
+            # put a line between the echo and the answer: set aside, it is not the answer.
             answer = self._wait_index(lambda e: e.kind not in STREAM_KINDS, echo + 1, timeout)
             if answer is None or self.events[answer].kind != "version":
                 continue     # the answer was garbled: the next attempt brings a fresh token

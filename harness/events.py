@@ -180,17 +180,17 @@ _V = rf"(?:[+-]?\d+|{_F})"        # one value of a data line: a signed integer o
 LINE_PATTERNS: Sequence[Tuple[str, str, FieldParser]] = (
     ("blank", r"", _none),
     ("error", r"Error", _none),
-    # §4.1 version / signature; §9 bootloader version
+    # version / signature (#fb-version, #fb-signature); bootloader version (#fb-bootloader-version)
     ("version", r"Firmware version: (?P<v>.*)", _version),
     ("bootloader_version", r"BuildHAT bootloader version (?P<v>.*)", _version),
     ("signature", r"Firmware signature:(?P<hex>(?: [0-9A-F]{2})*)", _hex_bytes),
-    # §4.4 vin
+    # vin (#fb-vin)
     ("vin", r"(?P<v>\d+\.\d\d) V", _vin),
-    # §6.1 data lines
+    # data lines (#fb-data-lines)
     ("mode_data", _P + rf"M(?P<m>\d+):(?P<vals>(?: +{_V})*)", _mode_data),
     ("combi_data", _P + rf"C(?P<i>\d+):(?P<vals>(?: +{_V})*)", _combi_data),
     ("var_data", _P + rf"V: (?P<v>{_F})", _var_data),
-    # §7.4 debug output
+    # debug output (#fb-debug)
     ("pid_debug", _P + rf": pv=(?P<pv>{_F}) sp=(?P<sp>{_F}): e=(?P<e>{_F}) ie=(?P<ie>{_F}) "
                        rf"de=(?P<de>{_F}) cv=(?P<cv>{_F})", _pid_debug),
     ("data_debug", _P + r": DATA mode=(?P<m>[0-9a-fA-F]+) "
@@ -201,7 +201,7 @@ LINE_PATTERNS: Sequence[Tuple[str, str, FieldParser]] = (
     ("unknown_debug", _P + r" message type=(?P<type>[0-9A-Fa-f]{2})", _with(phase="setup")),
     ("unknown_debug", _P + r": data-phase message type (?P<type>[0-9A-Fa-f]{2}) payload=(?P<payload>.*)",
      _with(phase="data")),
-    # §4.4 list / device dump (also printed when an active device is established)
+    # list / device dump (#fb-list; also printed when an active device is established)
     ("list_port", _P + r": no device detected", _list_port("none")),
     ("connected_passive", _P + r": connected to passive ID (?P<id>\d+)", _list_port("passive")),
     ("list_port", _P + r": connected to active ID (?P<id>[0-9A-F]{2})", _list_port("active")),
@@ -220,7 +220,7 @@ LINE_PATTERNS: Sequence[Tuple[str, str, FieldParser]] = (
     ("list_line", rf"(?:     (?P<which>speed) PID|  (?P<which_>position) PID):(?P<vals>(?: {_H8}){{4}})",
      lambda m: {"field": (m.group("which") or m.group("which_")) + "_pid",
                 "values": [int(v, 16) for v in m.group("vals").split()]}),
-    # §5 asynchronous messages
+    # lines the HAT prints on its own (#fb-async)
     ("connecting", _P + r": connecting to active device", _port),
     ("baud", r"set baud rate to (?P<baud>\d+)", lambda m: {"baud": int(m.group("baud"))}),
     ("established", _P + r": established serial communication with active ID (?P<id>[0-9A-F]{2})",
@@ -243,7 +243,7 @@ LINE_PATTERNS: Sequence[Tuple[str, str, FieldParser]] = (
     ("fault_read_error", r"Error reading fault flags", _none),
     ("mq_overrun", r"MQ overrun!", _none),
     ("deltat", r"deltat=(?P<hex>[0-9A-F]{8})", lambda m: {"ms": int(m.group("hex"), 16)}),
-    # §5 start-up banner (firmware; the bootloader shares the first line)
+    # start-up banner (#fb-startup; the bootloader shares the first line)
     ("banner", r"Type help <RETURN> for help", _with(stage="help_hint")),
     ("banner", r"Initialising ports", _with(stage="initialising")),
     ("banner", r"Resetting drivers: (?P<digits>\d*)", _with(stage="resetting")),
@@ -253,7 +253,7 @@ LINE_PATTERNS: Sequence[Tuple[str, str, FieldParser]] = (
     ("i2c_error", r"(?P<before>.*?)<(?P<error>generic I²C bus error|I²C bus timeout)>(?P<after>.*)", _with()),
     ("i2c_error", r"Attempting reset of I²C bus", _with(error="reset")),
     ("assertion", r"Assertion failed", _none),
-    # §9 bootloader messages
+    # bootloader messages (#fb-bootloader)
     ("bootloader_message", r"Image too large \(maximum (?P<max>\d+) bytes\)", _with(message="too_large")),
     ("bootloader_message", r"Timed out waiting for data", _with(message="data_timeout")),
     ("bootloader_message", r"Image received", _with(message="image_received")),
@@ -271,7 +271,7 @@ LINE_PATTERNS: Sequence[Tuple[str, str, FieldParser]] = (
     ("bootloader_message", r"Image verifed OK", _with(message="verified")),
     ("bootloader_message", r"Image verification failed", _with(message="verification_failed")),
     ("bootloader_message", r"Rebooting\.\.\.", _with(message="rebooting")),
-    # §9: the bootloader build of 2021-09-12 answered `version` with the bare number only
+    # the bootloader build of 2021-09-12 answered `version` with the bare number only (#fb-bootloader-version)
     ("bootloader_version", r"(?P<v>\d{10})", lambda m: dict(_version(m), bare=True)),
     ("hex_dump", r"(?P<hex>(?: [0-9A-Fa-f]{2})+)", _hex_bytes),
 )
@@ -294,7 +294,7 @@ UNASKED_KINDS: FrozenSet[str] = frozenset({
 
 @lru_cache(maxsize=1)
 def _help_lines() -> FrozenSet[str]:
-    """Every help-text line of every release and of the bootloader (§4.3, §9)."""
+    """Every help-text line of every release and of the bootloader (#fb-help, #fb-bootloader-commands)."""
     from ..protocol.profiles import bootloader_data, load_profiles
     lines = set()
     for p in load_profiles().values():

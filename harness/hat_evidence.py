@@ -6,7 +6,7 @@ Such a HAT deserves a failure of that clause, not a refusal as "not like a Build
 else (silence, garbage, lines that are not the HAT's) stays refused as a target fault. The evidence
 is the line discipline and vocabulary the facts give every release (docs/FIRMWARE-BEHAVIOUR.md
 #fb-cr): each CR is answered with CRLF before anything else, and then come only lines the Build HAT
-prints word for word: ``Error`` (no command matched, FACTS §2) or a ``vin`` line (``7.20 V``, §4.4).
+prints word for word: ``Error`` (no command matched, #fb-matching) or a ``vin`` line (``7.20 V``, #fb-vin).
 A wrong serial device would have to speak exactly that; a modem's ``ERROR`` or ``OK`` does not.
 
 A target that floods instead is reset once (when it can be) and shows the HAT's start-up lines,

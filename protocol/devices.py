@@ -1,4 +1,4 @@
-"""The LPF2 device catalogue (a copy of shared/protocol/devices.json) as Python objects."""
+"""The LPF2 device catalogue (a verbatim copy of the developers' original) as Python objects."""
 from __future__ import annotations
 
 import json

@@ -8,7 +8,8 @@ _POLY = 0x1D872B41
 
 
 def bootloader_checksum(data: bytes, state: int = 1) -> int:
-    """§9: s starts at 1; per byte s = (s << 1) ^ (0x1D872B41 if the old top bit was 1), s ^= byte."""
+    """#fb-image-checksum: s starts at 1; per byte s = (s << 1) ^ (0x1D872B41 if the old top bit was 1),
+    s ^= byte."""
     s = state
     for b in data:
         top = s >> 31

@@ -1,4 +1,4 @@
-"""What one main-loop pass costs on the HAT, for the ``deltat=`` stall line (FIRMWARE-FACTS §5).
+"""What one main-loop pass costs on the HAT, for the ``deltat=`` stall line (FIRMWARE-BEHAVIOUR.md#fb-stall).
 
 The firmware's loop measures the milliseconds since its last pass; a pass that took more than
 ``stall_line_above_ms`` prints ``deltat=XXXXXXXX`` at the start of the next pass. A command runs
@@ -68,5 +68,5 @@ class PassCost:
         return us + written * self.text_byte_us
 
     def prints_stall(self, deltat_ms: int) -> bool:
-        """The firmware prints the stall line when ``deltat > 2`` (§5, §10)."""
+        """The firmware prints the stall line when ``deltat > 2`` (#fb-stall, #fb-timing)."""
         return deltat_ms > self.stall_above_ms

@@ -1,4 +1,4 @@
-"""The requirement IDs of the protocol document (a copy of shared/protocol/REQUIREMENTS.md)."""
+"""The requirement IDs of the protocol document (REQUIREMENTS.md, a copy of the developers' original)."""
 from __future__ import annotations
 
 import re

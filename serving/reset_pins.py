@@ -1,9 +1,10 @@
 """The HAT's RESET and BOOT0 lines as a host drives them from its GPIO header (control request ``@gpio``).
 
-A Raspberry Pi resets the Build HAT through two GPIOs (FIRMWARE-FACTS §9, python-build-hat's sequence):
-RESET on GPIO 4 (active low) and BOOT0 on GPIO 22. While RESET is held low the chip is stopped: it prints
-nothing and what the host sends is lost. When RESET is released the chip starts from flash, which holds the
-bootloader; the firmware lives in RAM and is gone, so the host finds ``BHBL>`` and must upload again.
+A Raspberry Pi resets the Build HAT through two GPIOs (FIRMWARE-BEHAVIOUR.md#fb-host-update,
+python-build-hat's sequence): RESET on GPIO 4 (active low) and BOOT0 on GPIO 22. While RESET is held low the
+chip is stopped: it prints nothing and what the host sends is lost. When RESET is released the chip starts
+from flash, which holds the bootloader; the firmware lives in RAM and is gone, so the host finds ``BHBL>``
+and must upload again.
 
 BOOT0: python-build-hat holds it low during the pulse. What the chip does with BOOT0 high at release is not
 in the facts; the emulator treats it like low (the bootloader starts) and says so in a transcript note.

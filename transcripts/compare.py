@@ -179,8 +179,8 @@ def output_units(events: Iterable[dict], since: float = 0.0) -> List[Unit]:
     """The HAT's output from ``since`` on, as lines; partials join the line they begin.
 
     Each line's ``host_index`` is the host line it answers: the HAT ends every host line with a
-    CRLF of its own (the blank line, or the echo when echo is on, FACTS §1) before that line's
-    answer, so the n-th such line starts the answer to the n-th host line. Counting the host
+    CRLF of its own (the blank line, or the echo when echo is on, FIRMWARE-BEHAVIOUR.md#fb-cr) before that
+    line's answer, so the n-th such line starts the answer to the n-th host line. Counting the host
     lines *sent* instead would tie an answer to whatever the host had typed by the time it
     arrived, which differs between a recording and a replay on a loaded machine."""
     units: List[Unit] = []

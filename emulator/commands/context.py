@@ -1,7 +1,7 @@
 """``CommandContext``: what a command (``fn(hat, cur)`` in commands_*.py) may read and change.
 
-Commands work on the global state of FIRMWARE-FACTS §4 and on the parts of the HAT as they
-are (a port's reporter and combi table, a controller's set point and PID, the fault latches),
+Commands work on the global state they set (FIRMWARE-BEHAVIOUR.md#fb-commands) and on the parts of
+the HAT as they are (a port's reporter and combi table, a controller's set point and PID, the fault latches),
 so this Protocol names the concrete part classes; it lives here rather than in services.py,
 which the parts themselves import. ``Hat`` (emulator/hat.py) satisfies it.
 """
@@ -18,7 +18,7 @@ __all__ = ["CommandContext"]
 
 
 class CommandContext(Output, EventLog, Firmware, Protocol):
-    # The global state (§4) that commands set.
+    # The global state (#fb-commands) that commands set.
     port: int
     echo: int
     debug: int

@@ -1,4 +1,5 @@
-"""Command-port commands that touch no device or motor (FIRMWARE-FACTS §3, §4.1, §4.4).
+"""Command-port commands that touch no device or motor (FIRMWARE-BEHAVIOUR.md#fb-arguments,
+#fb-commands, #fb-vin).
 
 help/?, port, vin, ledmode, echo, debug, version, signature. Each is ``fn(hat, cur)``.
 """
@@ -25,7 +26,7 @@ def cmd_port(hat: CommandContext, cur: Cursor) -> None:
 
 
 def format_vin(mv: int) -> str:
-    """§4.4: hundredths rounded with a third decimal of 5 going down."""
+    """#fb-vin: hundredths rounded with a third decimal of 5 going down."""
     k = (mv + 4) // 10
     return f"{k // 100}.{k % 100:02d} V"
 

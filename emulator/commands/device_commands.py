@@ -1,6 +1,6 @@
-"""Device commands: list, select, selonce, selrate, combi, write1, write2 (FIRMWARE-FACTS §3,
-§4.4, §6, §8). Each is ``fn(hat, cur)``; a failure raises :class:`CommandError` after whatever
-the firmware had already done (partial-failure rules of §3).
+"""Device commands: list, select, selonce, selrate, combi, write1, write2 (FIRMWARE-BEHAVIOUR.md#fb-arguments,
+#fb-list, #fb-data, #fb-device-messages). Each is ``fn(hat, cur)``; a failure raises :class:`CommandError`
+after whatever the firmware had already done (partial-failure rules of #fb-errors).
 """
 from __future__ import annotations
 
@@ -93,7 +93,7 @@ def cmd_write1(hat: CommandContext, cur: Cursor) -> None:
 def cmd_write2(hat: CommandContext, cur: Cursor) -> None:
     header = cur.hexbyte()
     second = cur.hex32()
-    # §8: a second token >= 2^31 is taken as "no second byte".
+    # FIRMWARE-BEHAVIOUR.md#fb-framing: a second token >= 2^31 is taken as "no second byte".
     b1 = None if second >= 0x80000000 else second & 0xFF
     hat.ports[hat.port].send_to_device(lpf2.hat_frame(header, _payload(cur), b1))
 

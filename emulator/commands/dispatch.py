@@ -1,4 +1,4 @@
-"""The command dispatcher (FIRMWARE-FACTS §2, §3 "Errors").
+"""The command dispatcher (FIRMWARE-BEHAVIOUR.md#fb-matching, #fb-errors).
 
 The table is the profile's command order; the functions come from the ``COMMANDS`` dict of
 ``commands_core``, ``commands_device`` and ``commands_drive`` (``name -> fn(hat, cur)``).

@@ -1,4 +1,5 @@
-"""Motor-drive commands (FIRMWARE-FACTS §3 "Errors", §4.1, §7): each is ``fn(hat, cur)``.
+"""Motor-drive commands (FIRMWARE-BEHAVIOUR.md#fb-errors, #fb-commands, #fb-controller): each is
+``fn(hat, cur)``.
 
 clear_faults, pwm, coast, on, off, set, pid, pid_diff, bias, plimit, port_plimit, pwmparams.
 They write the state of ``hat.controllers[hat.port]`` (``emulator/motor/controller.py``); the 10 ms
@@ -50,7 +51,7 @@ def _constant(hat: CommandContext, value: float) -> None:
 
 
 def cmd_on(hat: CommandContext, cur: Cursor) -> None:
-    # Despite the help text, on/off do not switch to PWM mode (§4.1).
+    # Despite the help text, on/off do not switch to PWM mode (#fb-on-off).
     _constant(hat, 1.0)
 
 

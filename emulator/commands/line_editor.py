@@ -1,4 +1,5 @@
-"""The command-port line editor shared by the firmware and the bootloader (FIRMWARE-FACTS §1, §9).
+"""The command-port line editor shared by the firmware and the bootloader (FIRMWARE-BEHAVIOUR.md#fb-line,
+#fb-bootloader).
 
 - CR is the only terminator; it always produces CRLF (echo on or off) and hands the line over.
 - BS (0x08) / DEL (0x7F) remove the last stored byte; with echo on they send ``08 20 08``.

@@ -1,4 +1,4 @@
-"""``list``: the device dump of one port (FIRMWARE-FACTS §4.4), rendered from the HAT's parsed
+"""``list``: the device dump of one port (FIRMWARE-BEHAVIOUR.md#fb-list), rendered from the HAT's parsed
 record of the device (emulator/devices/info.py), never from the catalogue.
 
 Rules that matter: the port is one hex digit; ranges are floats printed as unsigned 32-bit

@@ -1,4 +1,5 @@
-"""The firmware's command-line tokenizer and number parsers (FIRMWARE-FACTS §2, §3).
+"""The firmware's command-line tokenizer and number parsers (FIRMWARE-BEHAVIOUR.md#fb-matching,
+#fb-arguments).
 
 A :class:`Cursor` walks over the bytes of one line. NUL ends the line (everything after it
 is invisible). Command functions read their arguments with the methods below and raise
@@ -7,7 +8,7 @@ is invisible). Command functions read their arguments with the methods below and
 Methods (all return the value and advance; on failure they raise ``CommandError`` and
 leave the position where the token started):
 
-- ``match(names)``: the command/sub-keyword matcher (§2). First name in ``names`` that the
+- ``match(names)``: the command/sub-keyword matcher (#fb-matching). First name in ``names`` that the
   token is a non-empty prefix of; the token ends at space, ``;`` or end of line. One
   separator byte after the token is consumed, then spaces. Returns ``None`` (and consumes
   nothing) when no name matches.
@@ -41,7 +42,8 @@ T = TypeVar("T")
 SPACE = 0x20
 SEMI = 0x3B
 
-# Internal format codes (§3): size in the low nibble, 0x100 = signed, 0x200 = float.
+# Internal codes of the value formats (``u1`` ... ``f4``, #fb-numbers): size in the low nibble,
+# 0x100 = signed, 0x200 = float.
 FORMAT_CODES = {b"u1": 0x001, b"s1": 0x101, b"u2": 0x002, b"s2": 0x102,
                 b"u4": 0x004, b"s4": 0x104, b"f4": 0x204}
 
@@ -76,7 +78,7 @@ def _f32_power10(n: int) -> float:
 
 
 def _accumulate(whole: bytes, fraction: bytes) -> Tuple[int, int, int]:
-    """The float parser's 32-bit digit accumulator (§3) over the digits before and after the
+    """The float parser's 32-bit digit accumulator (#fb-numbers) over the digits before and after the
     point: (accumulator, integer digits that did not fit, fraction digits kept)."""
     if len(whole) + len(fraction) <= 9:
         return int(whole + fraction), 0, len(fraction)   # nine digits always fit
@@ -96,7 +98,7 @@ def _accumulate(whole: bytes, fraction: bytes) -> Tuple[int, int, int]:
 @lru_cache(maxsize=64)
 def prefix_table(names: Tuple[str, ...]) -> Dict[bytes, str]:
     """Every non-empty prefix of every name -> the first name (in matching order) it starts.
-    Built once per name list, so matching a token is one dict lookup (§2's rule unchanged)."""
+    Built once per name list, so matching a token is one dict lookup (#fb-matching's rule unchanged)."""
     table: Dict[bytes, str] = {}
     for name in names:
         encoded = name.encode("ascii")
@@ -164,7 +166,7 @@ class Cursor:
 
     # -- matcher -------------------------------------------------------------------------
     def match(self, names: Sequence[str]) -> Optional[str]:
-        """First of ``names`` that the next token is a non-empty prefix of (§2), or None."""
+        """First of ``names`` that the next token is a non-empty prefix of (#fb-matching), or None."""
         tok = self.token()
         name = prefix_table(tuple(names)).get(tok) if tok else None
         if name is None:

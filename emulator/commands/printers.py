@@ -1,4 +1,4 @@
-"""The firmware's value printers: floats (FIRMWARE-FACTS §6.3) and data integers (§6.1).
+"""The firmware's value printers: floats (FIRMWARE-BEHAVIOUR.md#fb-float) and data integers (#fb-data-ints).
 
 Every float step is one IEEE single-precision operation, so each intermediate result is
 rounded with :func:`f32`; that is what makes e.g. 9.999999 print as ``10.0000``.
@@ -53,7 +53,7 @@ def format_float(x: float) -> str:
 
 
 def format_int(v: int) -> str:
-    """A data-line integer (§6.1): ``+N``, ``-N``, and a zero as `` 0`` (space, zero)."""
+    """A data-line integer (#fb-data-ints): ``+N``, ``-N``, and a zero as `` 0`` (space, zero)."""
     if v > 0:
         return f"+{v}"
     if v < 0:

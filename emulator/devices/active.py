@@ -46,8 +46,8 @@ __all__ = ["ActiveDevice", "SETUP_START_MS", "DATA_START_MS", "SETUP_BAUD", "pac
 
 SETUP_BAUD = 2400        # the rate the HAT listens at until the handshake (fb-active)
 FAST_SETUP_BAUD = 9600   # only when asked (``fast_setup``)
-SETUP_START_MS = 110     # > the HAT's 100 ms receive-sync gap (FIRMWARE-FACTS §8 "Receiving")
-DATA_START_MS = 20       # after the HAT's ACK; the HAT switches its baud rate at +10 ms (§5)
+SETUP_START_MS = 110     # > the HAT's 100 ms receive-sync gap (FIRMWARE-BEHAVIOUR.md#fb-lpf2-receive)
+DATA_START_MS = 20       # after the HAT's ACK; the HAT switches its baud rate at +10 ms (#fb-active)
 
 
 def setup_timing(features: Optional[dict], fast: bool = False) -> tuple[int, int, int]:

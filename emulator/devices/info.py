@@ -1,4 +1,4 @@
-"""What the HAT learns about an active device from its setup messages (FIRMWARE-FACTS §8).
+"""What the HAT learns about an active device from its setup messages (FIRMWARE-BEHAVIOUR.md#fb-lpf2-receive).
 
 :class:`DeviceInfo` is the HAT's record of one device; :meth:`DeviceInfo.apply` takes one
 received setup message. ``list`` (emulator/commands/listing.py) prints from this record only, so what it

@@ -1,7 +1,7 @@
 """Passive devices (IDs 1..11): what the HAT's ID scan reads on the port's ID pins.
 
-The raw signature a scan reads depends on the scan (FIRMWARE-FACTS §7.4: R1/R2 and R3+ sample
-differently and use different tables), so the device gives the signature of its ID in the
+The raw signature a scan reads depends on the scan (FIRMWARE-BEHAVIOUR.md#fb-debug-signatures: R1/R2
+and R3+ sample differently and use different tables), so the device gives the signature of its ID in the
 release's table (:meth:`PassiveDevice.signature_in`); ``signature`` is the catalogue's
 (devices.json lists the R3+ codes)."""
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""One port's motor controller: the 10 ms update of FIRMWARE-FACTS §7 (``proc_pwm``).
+"""One port's motor controller: the 10 ms update of FIRMWARE-BEHAVIOUR.md#fb-controller (``proc_pwm``).
 
 ``Hat`` builds ``PortController(hat, index)`` for ports 0..3 and calls ``tick(now)`` every
 millisecond; the controller runs its own drift-free 10 ms timer. Each update:
@@ -21,7 +21,7 @@ State (what the commands in ``emulator/commands/drive_commands.py`` write):
 - ``duty``: the last value written to the driver (+-255 or ``"coast"``); 0 at boot
 - ``output``: what the driver puts out; ``duty``, except after ``clear_faults`` (:meth:`clear_faults`)
 
-``reset()`` is the firmware's ``port_initpwm`` (§4.2); the port state machine
+``reset()`` is the firmware's ``port_initpwm`` (#fb-port-reset); the port state machine
 (``emulator/ports/port.py``) calls it every time the port passes state 0. It clears pwmmode, coast,
 set point and generator (constant 0, period 1), PID gains and state, both svars, bias
 (R1-R5) or pwmthresh/minpwm and - when ``plimit_scope`` is ``per_port`` (R6+) - the limit
@@ -75,7 +75,7 @@ class PortController:
 
     # -- state ---------------------------------------------------------------------------
     def reset(self) -> None:
-        """``port_initpwm`` (§4.2)."""
+        """``port_initpwm`` (#fb-port-reset)."""
         self.pwmmode = MODE_PWM
         self.coast = False
         self.setpoint = 0.0
@@ -86,7 +86,7 @@ class PortController:
         self.drive.reset(reset_limit=self.per_port_limit)
 
     def autopower(self) -> None:
-        """R4/R6+ LED-matrix auto-power on establish (§7.1): constant 1.0, coast cleared."""
+        """R4/R6+ LED-matrix auto-power on establish (#fb-led-matrix): constant 1.0, coast cleared."""
         self.generator.set_constant(1.0)
         self.coast = False
 
@@ -128,7 +128,7 @@ class PortController:
         self.due = self._next_update     # nothing happens in between (the Hat skips those ms)
 
     def update(self) -> None:
-        """One 10 ms controller pass (§7 steps 1-5)."""
+        """One 10 ms controller pass (#fb-controller, steps 1-5)."""
         sp, done = self.generator.step(self._read_var)
         self.setpoint = sp
         if done:
@@ -153,7 +153,7 @@ class PortController:
         self._write(self.drive.drive(step.cv))
 
     def debug_line(self, step: PidStep) -> str:
-        """The debug-16 line (§7.4)."""
+        """The debug-16 line (#fb-debug-pid)."""
         f = format_float
         return (f"P{self.index:X}: pv={f(step.pv)} sp={f(step.sp)}: e={f(step.e)} "
                 f"ie={f(step.ie)} de={f(step.de)} cv={f(step.cv)}")

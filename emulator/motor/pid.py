@@ -1,4 +1,4 @@
-"""Sensor variables and the PID control law (FIRMWARE-FACTS §7.2).
+"""Sensor variables and the PID control law (FIRMWARE-BEHAVIOUR.md#fb-pid).
 
 - :class:`SensorVariable` ("svar"/"pv"): where a value is read from (port, mode, byte offset,
   format), its scale and phase unwrap, and the unwrap state. It is used as the PID's process
@@ -57,7 +57,7 @@ class SensorVariable:
         self.clear()
 
     def clear(self) -> None:
-        """The port reset (§4.2): fields cleared and unwrap state back to its start."""
+        """The port reset (#fb-port-reset): fields cleared and unwrap state back to its start."""
         self.port = 0
         self.mode = 0
         self.offset = 0

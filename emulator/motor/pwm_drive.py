@@ -1,4 +1,5 @@
-"""The PWM drive path of one port (FIRMWARE-FACTS §7.3): value -> Q16 -> bias/slow PWM -> limit -> duty.
+"""The PWM drive path of one port (FIRMWARE-BEHAVIOUR.md#fb-pwm-path): value -> Q16 -> bias/slow PWM ->
+limit -> duty.
 
 ``DrivePath.drive(x)`` returns the signed duty (+-255) the motor driver gets; the controller
 writes it to the HAT only when it differs from the previous write. Per-release behaviour comes
@@ -60,7 +61,7 @@ class DrivePath:
         self.reset()
 
     def reset(self, reset_limit: bool = False) -> None:
-        """The port reset (§4.2): bias / pwmparams 0; the limit only when ``reset_limit``."""
+        """The port reset (#fb-port-reset): bias / pwmparams 0; the limit only when ``reset_limit``."""
         self.bias = 0
         self.pwmthresh = 0
         self.minpwm = 0

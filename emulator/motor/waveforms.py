@@ -1,4 +1,4 @@
-"""The per-port set-point generator (FIRMWARE-FACTS §7.1): constants and waveforms.
+"""The per-port set-point generator (FIRMWARE-BEHAVIOUR.md#fb-setpoint): constants and waveforms.
 
 One :class:`SetpointGenerator` per port, stepped once per 10 ms controller tick by
 ``emulator/motor/controller.py``. Every float operation the firmware does in single precision is
@@ -50,7 +50,7 @@ class SetpointGenerator:
         self.reset()
 
     def reset(self) -> None:
-        """The port reset (§4.2): constant 0, period 1, accumulator 0."""
+        """The port reset (#fb-port-reset): constant 0, period 1, accumulator 0."""
         self.shape = "square"
         self.a = 0.0
         self.b = 0.0

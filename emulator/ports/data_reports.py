@@ -1,5 +1,5 @@
 """Data reporting of one port: select / selonce / selrate / combi state and the data lines
-(FIRMWARE-FACTS §6.1, §6.2).
+(FIRMWARE-BEHAVIOUR.md#fb-data-lines, #fb-reporting).
 
 Two engines, chosen by ``Profile.features["report_engine"]``:
 
@@ -10,7 +10,7 @@ Two engines, chosen by ``Profile.features["report_engine"]``:
 - ``selrate`` (R5+): rate -2 off, -1 once, 0 every message, N every N ms (timer reset to 0 at
   each report); SELECT only when the mode changes; ``combi`` deselects; once = immediately on
   the first matching message, then rate -2 with the mode kept; no report while the TX ring
-  holds 4096 bytes or more (``tx_throttle_reports``). The per-pass check is §6.2's, in its
+  holds 4096 bytes or more (``tx_throttle_reports``). The per-pass check is #fb-reporting-r5's, in its
   order: no mode -> nothing (the timer runs on); no matching message since the select or the
   last direct (rate 0) report -> timer held at 0; throttle; -2; -1; 0 (report, clear the
   count); N (report when the timer reaches N, timer 0). So ``selrate 0`` reports the stored
@@ -150,7 +150,8 @@ class Reporter:
         self.port.wake()
 
     def connection_changed(self) -> None:
-        """Connect, disconnect or timeout. The R5+ engine resets the select state (§5, §6.2).
+        """Connect, disconnect or timeout. The R5+ engine resets the select state (#fb-active,
+        #fb-reporting-r5).
         The R1-R4 engine keeps the selection; since the port's stored data is cleared with a new
         connection, the report waits for fresh data of that mode (a modelling choice: the facts
         do not say what R1-R4 print from the previous device's data)."""
@@ -232,7 +233,7 @@ class Reporter:
         self.port.hat.emit(self.report_line())
 
     def report_line(self) -> str:
-        """The line for the current selection from the latest stored payload (§6.1)."""
+        """The line for the current selection from the latest stored payload (#fb-data-lines)."""
         port = self.port
         p = f"P{port.index:X}"
         buf, length = port.stored(self.mode)

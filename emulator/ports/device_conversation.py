@@ -1,5 +1,5 @@
-"""The HAT's conversation with one active device, from setup to the data phase (FIRMWARE-FACTS
-§5 "Active devices", §8).
+"""The HAT's conversation with one active device, from setup to the data phase
+(FIRMWARE-BEHAVIOUR.md#fb-active, #fb-device-messages).
 
 ``Port`` (emulator/ports/port.py) detects the device and prints ``connecting to active device``; it
 then starts an ``ActiveLink`` and ticks it every millisecond until the link ends. Setup
@@ -14,7 +14,7 @@ phase) without a message, or on more than 5 bad messages in the data phase. :met
 says how the millisecond ended and the port acts on it: None (carry on), ``ESTABLISHED``,
 ``RESTART`` (an ACK before any TYPE message: back to state 0 silently) or a :class:`Failure`,
 whose text the port prints before it disconnects.
-Debug bits (§7.4) printed here: 8 DATA payloads, 32 unknown messages.
+Debug bits (#fb-debug) printed here: 8 DATA payloads, 32 unknown messages.
 """
 from __future__ import annotations
 
@@ -111,7 +111,7 @@ class ActiveLink:
                     return Failure("timeout during setup phase: disconnecting")
                 return None
         # Each step waits its delay from the step before (the firmware's per-port delay): a step
-        # that runs late, e.g. after a main-loop stall (§5 `deltat=`), shifts the ones after it.
+        # that runs late, e.g. after a main-loop stall (#fb-stall), shifts the ones after it.
         if now < self._handshake_at:
             return None
         baud = self.info.baud

@@ -1,4 +1,4 @@
-"""The HAT's UART on one device port (FIRMWARE-FACTS §8 "Receiving", §7.4 debug 1).
+"""The HAT's UART on one device port (FIRMWARE-BEHAVIOUR.md#fb-lpf2-receive, #fb-debug bit 1).
 
 ``Port`` (emulator/ports/port.py) owns the wire: the bytes the device sends arrive on it at the
 device's baud rate. Each byte that has arrived goes to :meth:`PortUart.receive`, the port's

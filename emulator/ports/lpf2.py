@@ -1,4 +1,4 @@
-"""LPF2 (LEGO UART protocol) messages between the HAT and a device (FIRMWARE-FACTS §8).
+"""LPF2 (LEGO UART protocol) messages between the HAT and a device (FIRMWARE-BEHAVIOUR.md#fb-device-messages).
 
 Two directions share one wire format (type byte, optional command byte, payload, checksum):
 
@@ -31,7 +31,7 @@ PRG = 0x05
 # Commands (bits 2-0 of a CMD type byte).
 CMD_TYPE, CMD_MODES, CMD_SPEED, CMD_SELECT, CMD_WRITE = 0, 1, 2, 3, 4
 CMD_EXT_MODE, CMD_VERSION = 6, 7
-# INFO command bytes the HAT parses (§8 "Receiving").
+# INFO command bytes the HAT parses (#fb-lpf2-receive).
 INFO_NAME, INFO_RAW, INFO_PCT, INFO_SI, INFO_SYMBOL = 0x00, 0x01, 0x02, 0x03, 0x04
 INFO_MAPPING, INFO_COMBI, INFO_SPEED_PID, INFO_POS_PID = 0x05, 0x06, 0x09, 0x0A
 INFO_FORMAT = 0x80
@@ -57,7 +57,7 @@ def length_code(n: int) -> int:
 
 
 def hat_frame(b0: int, payload: Sequence[int] = (), b1: Optional[int] = None) -> bytes:
-    """A message as the HAT's sender frames it (§8 Framing).
+    """A message as the HAT's sender frames it (#fb-framing).
 
     The payload is clamped to 128 bytes; the header's length bits are replaced by L, the
     type and mode bits kept; the optional second byte follows the header; the payload is

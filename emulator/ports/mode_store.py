@@ -1,4 +1,4 @@
-"""The per-mode payload store of one port (FIRMWARE-FACTS §6, §7.2).
+"""The per-mode payload store of one port (FIRMWARE-BEHAVIOUR.md#fb-data, #fb-pid).
 
 Each DATA message from the active device overwrites the start of its mode's 132-byte buffer
 (offsets up to 127 plus a 4-byte value) and records how long it was; the rest of the buffer

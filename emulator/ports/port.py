@@ -1,4 +1,5 @@
-"""One HAT port: the device state machine of FIRMWARE-FACTS §4.2, §5, §8 and §10.
+"""One HAT port: the device state machine of FIRMWARE-BEHAVIOUR.md#fb-port-reset, #fb-async,
+#fb-device-messages and #fb-timing.
 
 ``Hat`` builds ``Port(hat, index)`` and calls ``tick(now)`` every millisecond once the start-up
 is done. The port owns the wire to the plugged-in device model (``emulator/devices/``): bytes
@@ -21,7 +22,7 @@ the device's rate), and frames the HAT sends reach the device at once. Phases:
 
 Beside it: the port's UART (receive sync, LPF2 framing, the 4-slot message queue, debug-1
 trace) is ``emulator/ports/device_uart.py``; the per-mode payload store ``emulator/ports/mode_store.py``.
-Debug bit 4 (§7.4, the scan's signature line) is printed here.
+Debug bit 4 (#fb-debug-signatures, the scan's signature line) is printed here.
 
 Interfaces other modules use: ``connected``, ``mode_data(mode)``, ``describe()``, ``settled``,
 ``send_to_device(frame)``, ``send_select(mode)``, the world actions ``plug(spec)``, ``unplug()``,
@@ -82,7 +83,7 @@ class Port(PortActions):
         self.repeat_connect = bool(f["passive_connect_repeats"])
         self.button_events = bool(f["button_events"])
         self.matrix_autopower = bool(f["matrix_autopower"])
-        # §7.4: the release's signature -> ID table, and the "possibly active" rule (id 99).
+        # The release's signature -> ID table, and the "possibly active" rule (id 99): #fb-debug-signatures.
         (self._signature_ids, self._active_mask, self._active_value,
          self._active_id) = passive_signature_ids(f["passive_signature_table"])
         self.rng = random.Random((hat.seed or 0) * 7919 + index)
@@ -246,7 +247,7 @@ class Port(PortActions):
     # -- scanning ----------------------------------------------------------------------------------
     def _state0(self, now: int) -> None:
         """Pass through state 0: controller reset, disconnect report, start a scan."""
-        self.hat.controllers[self.index].reset()      # port_initpwm (§4.2)
+        self.hat.controllers[self.index].reset()      # port_initpwm (#fb-port-reset)
         if self.connected and self.print_disconnected:
             self._line("disconnected")
         if self.established:
@@ -272,7 +273,7 @@ class Port(PortActions):
 
     def _read_pins(self) -> Tuple[int, int]:
         """(signature, table ID) as the scan reads them: the ID from the release's table,
-        ``_active_id`` (99) for a possible active device, 0 for unknown codes (§7.4)."""
+        ``_active_id`` (99) for a possible active device, 0 for unknown codes (#fb-debug-signatures)."""
         dev = self.device
         if isinstance(dev, PassiveDevice):
             signature = dev.signature_in(self._signature_ids)
@@ -376,7 +377,7 @@ class Port(PortActions):
             self.established = True
             dev = self.device
             if self.matrix_autopower and dev is not None and dev.entry.get("category") == "light":
-                self.hat.controllers[self.index].autopower()   # constant 1.0, coast cleared (§7.1)
+                self.hat.controllers[self.index].autopower()   # constant 1.0, coast cleared (#fb-led-matrix)
 
     def _fail(self, now: int, text: str) -> None:
         """A setup or data-phase failure: print, reset the select state, rescan."""

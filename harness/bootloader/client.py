@@ -22,11 +22,13 @@ from .wire import Wire
 
 __all__ = ["BootloaderClient", "WIRE_BAUD", "wire_seconds"]
 
-WIRE_BAUD = 115200           # §1 / §9: the HAT's UART, 8N1: 10 bits a byte
+# FIRMWARE-BEHAVIOUR.md#fb-uart, #fb-bootloader: the HAT's UART, 8N1: 10 bits a byte
+WIRE_BAUD = 115200
 STX, ETX = b"\x02", b"\x03"
 _FIRMWARE = re.compile(rb"Firmware version: ([^\r\n]*)\r\n")
 _BOOTLOADER = re.compile(rb"BuildHAT bootloader version ([^\r\n]*)\r\n")
-_BARE = re.compile(rb"version\r\n(\d{10})\r\n")      # §9: the 2021-09-12 build printed the number only
+# the 2021-09-12 build printed the number only (#fb-bootloader-version)
+_BARE = re.compile(rb"version\r\n(\d{10})\r\n")
 _ERROR = re.compile(rb"(?:^|\r\n)Error\r\n")
 _GAVE_UP = re.compile(rb"Timed out waiting for data\r\n")
 _DONE = b"Done initialising ports\r\n"

@@ -4,7 +4,7 @@ The outputs are the place's resources named ``reset`` and ``boot0`` (the target 
 ``reset_output=``/``boot0_output=`` name others). Any digital-output resource labgrid can drive
 works: the resource class picks labgrid's driver (the table below, as ``labgrid-client io``
 picks it), and the driver's ``set(True)`` is the line high. RESET is active low: ``set(False)``
-holds the HAT in reset. The sequence is :mod:`..firmware.gpio_reset`'s (FIRMWARE-FACTS §9):
+holds the HAT in reset. The sequence is :mod:`..targets.gpio_reset`'s (FIRMWARE-BEHAVIOUR.md#fb-host-update):
 BOOT0 low, RESET low 10 ms, high, 10 ms, then 0.5 s for the bootloader to start.
 """
 from __future__ import annotations

@@ -1,10 +1,10 @@
 """What the HAT can take from a host: its receive ring against the wire and the cost of each line.
 
 The host lint's ``overrun`` rule asks one question: would a real HAT have lost bytes of this host's
-input? FIRMWARE-FACTS §1: the command UART runs at 115200 baud (8N1, so at most 11.52 bytes per ms reach
-the HAT) into an RX ring of 8192 bytes, and a byte that arrives when the ring is full is dropped. The main
-loop takes the ring's lines one after another, and a line costs what its commands cost on the 133 MHz
-Cortex-M0+ (§5: a ``list`` of three active devices stretches its pass past 2 ms).
+input? FIRMWARE-BEHAVIOUR.md#fb-uart, #fb-tx-ring: the command UART runs at 115200 baud (8N1, so at most
+11.52 bytes per ms reach the HAT) into an RX ring of 8192 bytes, and a byte that arrives when the ring is
+full is dropped. The main loop takes the ring's lines one after another, and a line costs what its commands
+cost on the 133 MHz Cortex-M0+ (#fb-stall: a ``list`` of three active devices stretches its pass past 2 ms).
 
 The model, in HAT milliseconds: line ``i`` (``b`` bytes with its CR) finishes arriving at
 ``a = max(now, a_prev) + b / 11.52`` (a host cannot push bytes faster than the wire, whatever our own
@@ -28,7 +28,7 @@ from ...protocol.profiles import get_profile
 
 __all__ = ["IntakeModel", "WIRE_BYTES_PER_MS", "line_cost_ms"]
 
-WIRE_BYTES_PER_MS = 115200 / 10 / 1000      # FIRMWARE-FACTS §1: 115200 baud, 8N1
+WIRE_BYTES_PER_MS = 115200 / 10 / 1000      # FIRMWARE-BEHAVIOUR.md#fb-uart: 115200 baud, 8N1
 _PORTS = 4
 
 

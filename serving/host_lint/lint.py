@@ -13,10 +13,10 @@ session, and keeps the first examples of:
 ``pid_arity``
     ``pid``/``pid_diff`` with a number of arguments the release does not take: the 2021 document's 10 on
     R6+ (``Error``, and the port is left in direct-PWM mode), or 11 on R1-R5 (the PID applies, then
-    ``Error`` for the extra number). FIRMWARE-FACTS §4.1, §12 item 7.
+    ``Error`` for the extra number). FIRMWARE-BEHAVIOUR.md#fb-pid-command, #fb-doc-pid-args.
 ``crlf``
     a line that starts with (or holds) LF: the host ends lines with CRLF. Only CR ends a line; the LF
-    becomes the first byte of the next command, which then fails (FIRMWARE-FACTS §1).
+    becomes the first byte of the next command, which then fails (#fb-control-bytes).
 ``before_ready``
     a non-empty line processed before the firmware finished starting up (``Done initialising ports``):
     input sent during the first moments is thrown away byte by byte, so such a host relies on timing.
@@ -237,7 +237,7 @@ class HostLint:
     def _check_intake(self, now: int, text: str, commands: List[str], raw: bytes,
                       profile: Optional[Profile]) -> None:
         fill = self._intake.line(now, len(raw) + 1, line_cost_ms(profile, raw, commands, self._hat))
-        # The emulator's main loop stalls as a HAT's does (§5 `deltat=`), so input also waits in its
+        # The emulator's main loop stalls as a HAT's does (#fb-stall), so input also waits in its
         # own RX ring behind a long pass; what that ring holds or had to drop counts too.
         uart = getattr(self._hat, "uart", None)
         held = int(uart.rx_available()) if uart is not None and hasattr(uart, "rx_available") else 0
@@ -252,7 +252,8 @@ class HostLint:
 
     def _check_tx_drops(self, now: int, text: str) -> None:
         """Output the paced UART model dropped since the last line (its TX ring was full). Reports are
-        throttled before the ring fills (§6.2), so what is dropped is replies to this host's requests."""
+        throttled before the ring fills (#fb-reporting-r5), so what is dropped is replies to this host's
+        requests."""
         dropped = int(getattr(getattr(self._hat, "uart", None), "tx_dropped", 0) or 0)
         if dropped > self._tx_dropped:
             episode = self._grow("tx", now, text, 0)
