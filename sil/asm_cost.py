@@ -4,7 +4,7 @@ The RP2040's Cortex-M0+ has no FPU; every float operation is a library routine o
 hundreds of cycles, where the host does it in one instruction. The stand-in's clock charges a
 fixed time per basic block (standin/machine.c), so float-heavy code (number formatting, the
 PID) would run too fast in virtual time, and a long `list` would not stretch its main-loop pass
-into the `deltat=` line a real HAT prints (docs/FIRMWARE-BEHAVIOUR.md#fb-deltat).
+into the `deltat=` line a real HAT prints (docs/FIRMWARE-BEHAVIOUR.md#fb-stall).
 
 This pass counts the floating-point instructions of each basic block in the compiler's output
 (a block begins at the compiler's ``__sanitizer_cov_trace_pc`` call) and, where there are any,

@@ -35,7 +35,7 @@ __all__ = ["SilWorld", "SilPort", "SETUP_BAUD", "SHAFT_MODES", "shows_shaft"]
 SETUP_BAUD = 2400            # LPF2 devices start talking at 2400 baud
 Duty = Union[int, str]
 # The motor modes whose values come from the shaft (emulator/devices/motor.py, model_values); the
-# others show zeros or what the HAT wrote. tests/test_sil_world_motor.py holds the two together.
+# others show zeros or what the HAT wrote. tests/sil/test_port_world.py holds the two together.
 SHAFT_MODES = frozenset({"SPEED", "POS", "APOS", "CALIB"})
 
 

@@ -1,7 +1,8 @@
 """An active LPF2 device on its side of the port wire (setup handshake, modes, data messages).
 
 The device model is built from its devices.json entry; subclasses (motor, sensors, matrix)
-only say what values each mode holds. Behaviour modelled here (DEVICES.md "Mode data"):
+only say what values each mode holds. Behaviour modelled here (protocol/devices.json's ``_meta``
+``data_output``):
 
 - Handshake: when the HAT starts listening (``begin_setup``), the device waits ``start_ms``
   (so the HAT sees the 100 ms quiet gap it needs before it parses), then sends its setup stream

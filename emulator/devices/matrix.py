@@ -1,9 +1,10 @@
 """The SPIKE Essential 3x3 colour light matrix (type 0x40): all modes are outputs.
 
-Reported data: each mode echoes the last value written to it (DEVICES.md calls this a guess),
-zeros before any write.
+Reported data: each mode echoes the last value written to it, zeros before any write (a guess: the
+catalogue, protocol/devices.json, lists every mode as write-only; docs/EMULATOR-MODELS.md "Devices").
 
-Power rule (DEVICES.md: "It needs motor power soon after setup or it disconnects"; the delay
+Power rule (the ``power`` note of 0x40 in protocol/devices.json: it "must receive motor power within a
+short time after setup or it disconnects"; the delay
 is not in the facts, so it is chosen here and is profile data, ``matrix_power_grace_ms``): once
 the data phase starts, the matrix must see a non-zero motor drive on its port. If the drive is
 0 or coast for more than the grace in a row, the matrix stops talking for good; the HAT then times out

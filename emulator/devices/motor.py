@@ -2,11 +2,12 @@
 (emulator/motor/shaft_physics.py).
 
 SPEED = % of rated speed, POS = whole degrees since connect (never wraps, 0 at every connect),
-APOS = absolute angle wrapped to -180..179, CALIB = [0, APOS in 0.1 deg as 0..3599] (DEVICES.md,
-the first value is unknown), STATS/TEST zeros, POWER = the last value written to it (else 0).
+APOS = absolute angle wrapped to -180..179, CALIB = [0, APOS in 0.1 deg as 0..3599] (its
+``typical_values`` in protocol/devices.json: the first value is unknown), STATS/TEST zeros, POWER = the
+last value written to it (else 0).
 At rest the absolute encoder flickers: APOS reads the true angle plus a jitter of -1, 0 or +1
 that changes every 5..25 ms (seeded, so runs are repeatable); that is what makes a resting
-motor send every few ms (DEVICES.md).
+motor send every few ms (protocol/devices.json's ``_meta`` ``data_output``).
 """
 from __future__ import annotations
 

@@ -1,10 +1,11 @@
 """Sensors (22, 23, 25, 3D, 3E, 3F): plausible resting values per mode, and the port-power rule.
 
-Resting values describe a sensor on a desk with nothing in front of it (DEVICES.md "typical
-values"): colour -1, distance -1 (no echo), proximity 10 (far), force 0 with FRAW about 380.
+Resting values describe a sensor on a desk with nothing in front of it (each mode's ``typical_values``
+in protocol/devices.json): colour -1, distance -1 (no echo), proximity 10 (far), force 0 with FRAW about 380.
 Scenarios set other values with ``@data P M HH..``.
 
-Power rule (DEVICES.md: the SPIKE colour and distance sensors need port power, ``set -1``):
+Power rule (protocol/devices.json's ``power`` notes: the SPIKE colour and distance sensors need port
+power, ``set -1``):
 a device whose catalogue entry says ``needs_port_power_at_connect`` measures only while the
 HAT drives its port negative (any duty < 0, which is what ``set -1`` gives whatever the plimit).
 Without it, every input mode reads as "nothing": the no-detection value (-1) for colour and

@@ -6,7 +6,8 @@ NAME, RAW, PCT, SI, SYMBOL, MAPPING, FORMAT; mode 0 also carries the COMBI masks
 SPEED-PID / POS-PID words (only when the device has them); the stream ends with ACK.
 
 VERSION carries two little-endian 32-bit words; the HAT prints the first as ``hwver`` and the
-second as ``swver`` (DEVICES.md), so the words are taken from those catalogue fields in that order.
+second as ``swver`` (protocol/devices.json's ``_meta`` ``field_guide``), so the words are taken from
+those catalogue fields in that order.
 """
 from __future__ import annotations
 

@@ -13,7 +13,8 @@ Model (first-order DC motor with Coulomb friction, integrated in 1 ms steps):
 - a coasting motor (``"coast"``) only feels friction and a weak viscous drag;
 - ``hold`` (world action ``@hold P 1``) stalls the shaft; ``set_position`` (``@pos P DEG``)
   turns it by hand.
-Sign convention (DEVICES.md): positive duty -> SPEED > 0, POS and APOS increasing.
+Sign convention (each motor's ``motion_model`` ``direction_rule`` in protocol/devices.json): positive
+duty -> SPEED > 0, POS and APOS increasing.
 """
 from __future__ import annotations
 
