@@ -1,6 +1,6 @@
 """Target faults: what a HAT did that is not a protocol question (silent, dead, rebooted,
 garbled, not reading). A case that meets one gets the verdict ``target-fault``, never ``fail``
-(docs/DEVELOPING.md), with one line saying what the target did.
+(conformance/README.md, "Verdicts"), with one line saying what the target did.
 """
 from __future__ import annotations
 
