@@ -16,6 +16,7 @@ from functools import cache
 from typing import Dict, List, Optional, Tuple
 
 from ...protocol.profiles import Profile
+from ..oracles.built_in import STATE
 from .expect import (
     CRLF_ITEM,
     LISTING_ITEM,
@@ -119,7 +120,7 @@ class ReferenceModel:
             if stop > pos:
                 echo = self._edit(data[pos:stop])
                 if echo and self.echo:
-                    out.append(exact_item(echo, "echo", "state"))
+                    out.append(exact_item(echo, "echo", STATE.name))
             if end < 0:
                 break
             out.append(CRLF_ITEM)

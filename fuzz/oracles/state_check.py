@@ -14,7 +14,8 @@ from typing import Callable, Dict, List, Optional, Sequence
 from ...harness.events import classify
 from ..model.port_model import PortModel, expected_duty
 from ..model.reference_model import ReferenceModel
-from .stream_match import MatchResult, Problem
+from .built_in import STATE
+from .stream_match import MatchResult
 
 __all__ = ["observe", "follow_links", "expect_reports", "check_drive"]
 
@@ -49,7 +50,7 @@ def observe(model: ReferenceModel, res: MatchResult, states: List[List[PortModel
         form_of = _REPORT_FORMS.get(ev.kind)
         if form_of is None:
             continue
-        count("state")
+        count(STATE.name)
         form = form_of(ev.fields)
         # The form follows the HAT's own selection and combi table (§6.1), whatever the
         # device was sent (write1/write2 change what it sends, not how the HAT prints it).
@@ -59,8 +60,8 @@ def observe(model: ReferenceModel, res: MatchResult, states: List[List[PortModel
         if not sources:
             before, after = (_selection(s[port], model.selrate_engine) for s in (states[0], states[-1]))
             whose = before if before == after else f"{before} before the step, {after} after it"
-            res.problems.append(Problem(
-                "state", f"report {ev.text!r} from port {port}, whose selection is {whose}"))
+            res.problems.append(STATE.problem(f"report {ev.text!r} from port {port}, whose selection is "
+                                              f"{whose}"))
             continue
         # The report ends the once-selection that printed it, the first that could have: a
         # report already due when a later select ran belongs to the earlier one (§6.2).
@@ -106,13 +107,12 @@ def expect_reports(model: ReferenceModel, ms: int, before: List[PortModel], res:
                 continue
         elif p.once:
             continue
-        count("state")
+        count(STATE.name)
         forms = p.report_forms()
         if not any((port, form) in seen for form in forms):
             want = " or ".join(f"P{port}{form}" for form in forms)
-            res.problems.append(Problem(
-                "state", f"port {port} has mode {p.mode} selected (rate {p.rate}) on an "
-                         f"established device, but no {want} report came in {ms} ms"))
+            res.problems.append(STATE.problem(f"port {port} has mode {p.mode} selected (rate {p.rate}) on an "
+                                              f"established device, but no {want} report came in {ms} ms"))
 
 
 def check_drive(events: Optional[Sequence[dict]], model: ReferenceModel, ms: int, res: MatchResult,
@@ -134,13 +134,12 @@ def check_drive(events: Optional[Sequence[dict]], model: ReferenceModel, ms: int
         want = expected_duty(model.profile, p, model.plimit)
         if want is None:
             continue
-        count("state")
+        count(STATE.name)
         if p.forward_flag and isinstance(want, int) and want < 0 and last[port] == -want:
             continue            # still flagged forwards since a clear_faults (§4.1)
         if last[port] == want:
             p.forward_flag = False      # the driver was written since: its direction is the duty's
             continue
         limit = p.plimit if model.per_port_plimit else model.plimit
-        res.problems.append(Problem(
-            "state", f"port {port} drives {last[port]!r}; direct PWM at setpoint "
-                     f"{p.constant} with plimit {limit}/65536 should drive {want!r}"))
+        res.problems.append(STATE.problem(f"port {port} drives {last[port]!r}; direct PWM at setpoint "
+                                          f"{p.constant} with plimit {limit}/65536 should drive {want!r}"))
