@@ -116,12 +116,13 @@ class Oracle:
 
 
 _REGISTERED: Dict[str, Oracle] = {}
+_PACKAGE = __name__.rpartition(".")[0]      # this folder's package (fuzz/oracles/)
 
 
 def register(new: Oracle) -> Oracle:
     """Adds ``new`` to the registry (after the fuzzer's own and those registered before it: the
     JUnit file's order)."""
-    importlib.import_module(f"{__package__}.built_in")      # (while it registers them: itself, as is)
+    importlib.import_module(f"{_PACKAGE}.built_in")      # (while it registers them: itself, as is)
     known = _REGISTERED.get(new.name)
     if known is not None and known != new:
         raise ValueError(f"an oracle named {new.name!r} is registered already")
@@ -136,10 +137,10 @@ def unregister(name: str) -> None:
 
 def _import_folder() -> None:
     """Imports every module of this folder not imported yet: a module declaring an oracle registers it."""
-    package = sys.modules[__package__]
+    package = sys.modules[_PACKAGE]
     for module in sorted(m.name for m in pkgutil.iter_modules(package.__path__)):
-        if f"{__package__}.{module}" not in sys.modules:
-            importlib.import_module(f"{__package__}.{module}")
+        if f"{_PACKAGE}.{module}" not in sys.modules:
+            importlib.import_module(f"{_PACKAGE}.{module}")
 
 
 def oracles() -> Tuple[Oracle, ...]:

@@ -154,7 +154,7 @@ class Runner:
         self.stats = stats or Stats()
         # The oracles judging every answer (counted in this order: by priority), added ones included.
         self._per_answer = sorted((o for o in oracles() if o.per_answer), key=lambda o: o.priority)
-        self._checks = [o for o in self._per_answer if o.check is not None]
+        self._checks = [o.check for o in self._per_answer if o.check is not None]
         self.sides: List[Side] = []
         self.kinds_seen: Set[str] = set()
         self.fresh = fresh
@@ -436,7 +436,7 @@ class Runner:
         if self._checks:
             answer = Answer(side.label, side.profile.name, step if isinstance(step, bytes) else b"",
                             details["received"])
-            problems = problems + [p for judge in self._checks for p in judge.check(answer)]
+            problems = problems + [p for check in self._checks for p in check(answer)]
         if not problems:
             return
         first = min(problems, key=lambda p: oracle_named(p.oracle).priority)
