@@ -52,7 +52,7 @@ def observe(model: ReferenceModel, res: MatchResult, states: List[List[PortModel
             continue
         count(STATE.name)
         form = form_of(ev.fields)
-        # The form follows the HAT's own selection and combi table (§6.1), whatever the
+        # The form follows the HAT's own selection and combi table (fb-data-lines, fb-combi), whatever the
         # device was sent (write1/write2 change what it sends, not how the HAT prints it).
         sources = [s[port] for s in states
                    if not s[port].known or (s[port].reporting(model.selrate_engine)
@@ -64,7 +64,7 @@ def observe(model: ReferenceModel, res: MatchResult, states: List[List[PortModel
                                               f"{whose}"))
             continue
         # The report ends the once-selection that printed it, the first that could have: a
-        # report already due when a later select ran belongs to the earlier one (§6.2).
+        # report already due when a later select ran belongs to the earlier one (fb-reporting).
         for s in states:
             if s[port].selection == sources[0].selection:
                 model.report_seen(s[port])
@@ -76,7 +76,7 @@ _LEADING_PROMPTS = re.compile(rb"^(?:P[0-3]>)+")
 def follow_links(model: ReferenceModel, data: bytes, states: List[List[PortModel]]) -> None:
     """Link changes in output that no oracle matched (a step judged on liveness only, its raw
     serial trace around them): the model still follows them, as :func:`observe` does, or it
-    keeps judging a port by settings a disconnect's port reset has wiped (§4.2)."""
+    keeps judging a port by settings a disconnect's port reset has wiped (fb-port-reset)."""
     for raw in data.split(b"\r\n"):
         ev = classify(_LEADING_PROMPTS.sub(b"", raw))
         if ev.kind not in _LINK_KINDS or ev.port is None or not 0 <= ev.port <= 3:
@@ -91,7 +91,7 @@ def expect_reports(model: ReferenceModel, ms: int, before: List[PortModel], res:
                    count: Callable[[str], None]) -> None:
     """The other half of the state oracle: a plain `select <m>` on an established device that
     has mode m must report within a wait that is long enough (first report about one period
-    after the first data, §6.2). Only clear cases are judged: no combi, no raw writes to the
+    after the first data, fb-reporting). Only clear cases are judged: no combi, no raw writes to the
     device, no link change, a rate well inside the wait."""
     if ms < 300:
         return
@@ -119,8 +119,9 @@ def check_drive(events: Optional[Sequence[dict]], model: ReferenceModel, ms: int
                 count: Callable[[str], None]) -> None:
     """State oracle on the drive, for targets that show it (the in-process emulator's
     ``drive_events``): a port in direct-PWM mode with a known constant setpoint settles at the
-    duty §7.3 gives for it and the port's plimit (per release); a coasting port coasts. After a
-    ``clear_faults`` a negative duty may show forwards (§4.1) until the drive shows its own sign."""
+    duty fb-pwm-path gives for it and the port's plimit (per release); a coasting port coasts. After a
+    ``clear_faults`` a negative duty may show forwards (fb-commands, `clear_faults`) until the drive
+    shows its own sign."""
     if events is None or ms < 30:
         return
     changed = {ev.port for _i, ev in res.asynchronous if ev.kind in _LINK_KINDS}
@@ -136,7 +137,7 @@ def check_drive(events: Optional[Sequence[dict]], model: ReferenceModel, ms: int
             continue
         count(STATE.name)
         if p.forward_flag and isinstance(want, int) and want < 0 and last[port] == -want:
-            continue            # still flagged forwards since a clear_faults (§4.1)
+            continue            # still flagged forwards since a clear_faults (fb-commands)
         if last[port] == want:
             p.forward_flag = False      # the driver was written since: its direction is the duty's
             continue

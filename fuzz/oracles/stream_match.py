@@ -22,7 +22,7 @@ from .registry import Problem
 __all__ = ["Problem", "MatchResult", "match_stream", "ASYNC_KINDS", "allowed_kinds", "split_lines",
            "without_torn"]
 
-# Lines the firmware prints on its own (§5, §6, §7.4); anything else must be predicted.
+# Lines the firmware prints on its own (fb-async, fb-data, fb-debug); anything else must be predicted.
 ASYNC_KINDS = frozenset({
     "mode_data", "combi_data", "var_data", "pid_debug", "data_debug", "signature_debug", "unknown_debug",
     "connecting", "baud", "established", "disconnected", "timeout", "checksum_error", "framing_error",
@@ -55,7 +55,7 @@ def without_torn(actual: bytes, res: MatchResult) -> bytes:
 
 
 def allowed_kinds(profile: Profile, debug: Optional[int]) -> frozenset:
-    """Asynchronous line kinds this release can print (§11), given the debug bits (None: any)."""
+    """Asynchronous line kinds this release can print (fb-versions), given the debug bits (None: any)."""
     kinds = set(ASYNC_KINDS)
     if not profile.feature("button_events"):
         kinds.discard("button")

@@ -341,7 +341,7 @@ class Runner:
             self._dump_open[len(answers) - 1] = open_dump(_after_fence(got, side.fence_line))
             self._note_kinds(got)
             if plan.debug & 1 and side.link.timed:
-                # The raw serial trace (debug bit 1, §7.4) has no line structure; where input
+                # The raw serial trace (debug bit 1, fb-debug) has no line structure; where input
                 # takes time to arrive it runs until the guard's `debug 0` is read. Liveness only.
                 if not side.model.tainted:
                     follow_links(side.model, got, plan.states)
@@ -355,7 +355,8 @@ class Runner:
                 continue   # the facts do not say what this line does: liveness only
             res = match_stream(plan.expected, got, self._allowed(side, plan.debug))
             if res.problems and keep is not None:
-                # Bytes a full TX ring dropped are no finding (FIRMWARE-FACTS §1); anything else is.
+                # Bytes a full TX ring dropped are no finding (docs/FIRMWARE-BEHAVIOUR.md#fb-tx-ring);
+                # anything else is.
                 lossy = match_lossy(plan.expected, got, self._allowed(side, plan.debug), keep)
                 if lossy is not None:
                     res, lost = lossy, True
