@@ -9,27 +9,27 @@ from .registry import WHERE_CHECKED, WITH_AGAINST, Oracle, register
 
 __all__ = ["LIVENESS", "FATE", "STATE", "HYGIENE", "DIFFERENTIAL", "CRASH", "SANITIZER"]
 
-# (priority: of two problems in one answer, a reboot or a dead link says most, then a line of no
-# known class, then a wrong answer, then the state it shows)
-LIVENESS = register(Oracle(
-    "liveness", "every step's fence answers within its deadline, and no start-up banner (a reboot) comes",
-    priority=0, target_lost=True))
-FATE = register(Oracle(
-    "fate", "each line's answer (Error or not, the output of every command that ran) is the one the "
-    "reference model predicts from the facts", priority=2, per_answer=True))
-STATE = register(Oracle(
-    "state", "the prompt, the echo, the data reports (only from ports whose selection allows them, in "
-    "its form) and the drive duty show the state the model tracks", priority=3, per_answer=True))
-HYGIENE = register(Oracle(
-    "hygiene", "every output line is of a class this release prints in this state, none left "
-    "half-printed", priority=1, per_answer=True))
-DIFFERENTIAL = register(Oracle(
-    "differential", "with --against: both targets answer the same input alike (analogue values within "
-    "a tolerance)", priority=4, case=WITH_AGAINST))
-# A firmware in the loop (sil:) that died, or went on after a sanitizer report: only the firmware's doing.
-CRASH = register(Oracle(
-    "crash", "a firmware in the loop (sil:) does not die while it takes the input", priority=5,
-    case=WHERE_CHECKED, target_lost=True))
-SANITIZER = register(Oracle(
-    "sanitizer", "a firmware in the loop (sil:) reports no sanitizer error", priority=6,
-    case=WHERE_CHECKED))
+# What each checks, as `fuzz --help` says it.
+_HELP = {
+    "liveness": "every step's fence answers within its deadline, and no start-up banner (a reboot) comes",
+    "fate": "each line's answer (Error or not, the output of every command that ran) is the one the "
+            "reference model predicts from the facts",
+    "state": "the prompt, the echo, the data reports (only from ports whose selection allows them, in the "
+             "form it asks for) and the drive duty show the state the model tracks",
+    "hygiene": "every output line is of a class this release prints in this state, none left half-printed",
+    "differential": "with --against: both targets answer the same input alike (analogue values within a "
+                    "tolerance)",
+    "crash": "a firmware in the loop (sil:) does not die while it takes the input",
+    "sanitizer": "a firmware in the loop (sil:) reports no sanitizer error",
+}
+
+# Priority: of two problems in one answer, a reboot or a dead link says most, then a line of no known
+# class, then a wrong answer, then the state it shows. A firmware in the loop (sil:) that died, or went
+# on after a sanitizer report: only the firmware's doing, a case where it is checked.
+LIVENESS = register(Oracle("liveness", _HELP["liveness"], priority=0, target_lost=True))
+FATE = register(Oracle("fate", _HELP["fate"], priority=2, per_answer=True))
+STATE = register(Oracle("state", _HELP["state"], priority=3, per_answer=True))
+HYGIENE = register(Oracle("hygiene", _HELP["hygiene"], priority=1, per_answer=True))
+DIFFERENTIAL = register(Oracle("differential", _HELP["differential"], priority=4, case=WITH_AGAINST))
+CRASH = register(Oracle("crash", _HELP["crash"], priority=5, case=WHERE_CHECKED, target_lost=True))
+SANITIZER = register(Oracle("sanitizer", _HELP["sanitizer"], priority=6, case=WHERE_CHECKED))

@@ -1,7 +1,8 @@
 """The fuzzer's oracles as one registry: each oracle is one :class:`Oracle` object (its name, its
 priority, when it is a JUnit case, its check, the problems and the finding it reports, its help
-text), and the runner (fuzz/running/checked_run.py), the command line (``fuzz --help``), the JUnit
-file and the summary all read them from here.
+text). The runner (fuzz/running/checked_run.py), the command line (``fuzz --help``) and the JUnit
+file (fuzz/running/from_arguments.py) read them from here; the summary (fuzz/summary.py) prints the
+checks and findings the runner counted under their names.
 
 The fuzzer's own seven are declared in fuzz/oracles/built_in.py; their checks run where the runner
 reads an answer (the model's prediction matched in stream_match.py, the state in state_check.py, the

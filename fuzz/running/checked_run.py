@@ -384,8 +384,8 @@ class Runner:
             have = (list(rec.commands), list(rec.unknown), bool(rec.error), bool(rec.comment))
             if want != have:
                 self.fail(FATE.name, f"{side.label}: line {fate.raw!r} ran {have[0]} (unknown {have[1]}, "
-                                  f"Error {have[2]}, comment {have[3]}); the facts say {want[0]} "
-                                  f"(unknown {want[1]}, Error {want[2]}, comment {want[3]})",
+                                     f"Error {have[2]}, comment {have[3]}); the facts say {want[0]} "
+                                     f"(unknown {want[1]}, Error {want[2]}, comment {want[3]})",
                           {"step": fate.raw, "received": b""})
         if len(got) != len(fates):
             self.fail(FATE.name, f"{side.label}: {len(got)} lines processed, the model counts {len(fates)}",
