@@ -26,6 +26,7 @@ from ..plumbing.cli_options import RELEASE_HELP, add_hidden_alias
 from ..transcripts.script import ScriptError
 from .findings.reproduce import reproduce
 from .inputs.generate import FAMILIES
+from .oracles.registry import oracles
 from .running.from_arguments import DEFAULT_OUT, DEFAULT_TARGET, run
 from .running.target_kinds import is_fresh
 from .running.worker_count import AUTO_JOBS_MAX, JOBS_ENV, jobs_value, resolve_jobs
@@ -93,6 +94,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     from ..harness.lab.selection import add_lab_arguments
 
     add_lab_arguments(parser, "one campaign per place, into -o/<place>/")
+    # Read from the registry, so an added oracle is listed too (fuzz/oracles/registry.py).
+    parser.add_argument_group("oracles (each a finding of its own and a JUnit case)",
+                              "; ".join(f"{o.name}: {o.help}" for o in oracles()) + ".")
 
 
 def main(args: argparse.Namespace) -> int:

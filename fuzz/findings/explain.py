@@ -35,7 +35,7 @@ def sent_lines(blob: bytes) -> List[bytes]:
 
 def line_index(expected: Sequence[Expect], idx: int) -> int:
     """Which CR-terminated line produced ``expected[idx]``: every CR prints its CRLF first
-    (§1), so the CRLFs before the item count the lines ended; an echo belongs to the next one."""
+    (fb-cr), so the CRLFs before the item count the lines ended; an echo belongs to the next one."""
     crs = sum(1 for it in expected[:idx] if it.what == "CRLF after CR")
     if idx >= len(expected):
         return max(crs - 1, 0)

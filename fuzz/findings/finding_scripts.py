@@ -16,7 +16,7 @@ from xml.sax.saxutils import escape, quoteattr
 from ...harness.transcript import TranscriptWriter
 from ...protocol.devices import DEFAULT_LAYOUT
 from ...transcripts.script import Action, Script, format_action, parse_script
-from ..oracles.registry import ORACLES, Finding
+from ..oracles.registry import Finding, oracle_names
 from ..running.target_exchange import Trace
 
 __all__ = ["script_text", "script_from_trace", "write_finding", "write_transcript", "write_junit",
@@ -132,7 +132,7 @@ def write_junit(path: str, oracles: Sequence[str], findings: Sequence[Finding], 
     """One test case per oracle: a failure carries the finding, the files to replay it and the
     oracle's line in ``notes`` (how often it reproduced). A campaign that could not do its job
     (``not_done``) adds a ``campaign`` case in error saying why."""
-    unknown = set(oracles) - set(ORACLES)
+    unknown = set(oracles) - set(oracle_names())
     if unknown:
         raise ValueError(f"unknown oracles {sorted(unknown)}")
     by_oracle = {f.oracle: f for f in findings}

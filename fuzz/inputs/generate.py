@@ -9,7 +9,8 @@ microseconds, a run is a pure function of its seed (so nothing the target answer
 what is drawn), and a finding is shrunk by replaying reduced scripts (fuzz/findings/shrink.py), which
 works on every target, real ones included.
 
-Families (FIRMWARE-FACTS §1-§3 for why each is interesting):
+Families (docs/FIRMWARE-BEHAVIOUR.md §2-§4, #fb-line, #fb-matching, #fb-arguments, for why each is
+interesting):
 - ``valid``: one command in any resolving abbreviation, arguments at and past their clamp
   boundaries, both separators after the name;
 - ``multi``: several commands on one line with ``;``/space runs between them (no ``;`` needed);
@@ -68,7 +69,7 @@ _SHAPES = ("d", "d.d", ".d", "d.", "long", "boundary")
 _LONG = ("0.0027777778", "123456789012", "1234567890.5", "0.000000000001", "99999999999999999999",
          "3.14159265358979")
 _HEX_ODD = ("123", "fff", "FFFFFFFF", "100000000", "0")
-_AFTER_NAME = (" ", " ", ";", "  ")            # `set;0.25` = `set 0.25` (§2)
+_AFTER_NAME = (" ", " ", ";", "  ")            # `set;0.25` = `set 0.25` (fb-matching)
 _BETWEEN_ARGS = (" ", " ", "  ")
 _WRONG = ("x", "abc", "1.5", "ff", "0x12", "u1", "-", "+", ".", "-.", "", "1e3", "2E-2", "1e", "+-1",
           "- 1", "--1", "\u20131", "\u2013", "99999999999999999999", "4294967296", "-2147483649",
@@ -130,7 +131,7 @@ class InputGenerator:
             return sign + "." + self._digits(rng)
         if shape == "d.":
             return sign + self._digits(rng) + "."
-        if shape == "long":        # beyond the 9-digit accumulator (§3)
+        if shape == "long":        # beyond the 9-digit accumulator (fb-numbers)
             return sign + _pick(rng, _LONG)
         bounds = self._bounds.get(arg)
         if bounds is None:
@@ -230,7 +231,7 @@ class InputGenerator:
             body[i:i + 1] = _pick(rng, _INSERTS)
         elif how == "prefix_hash":
             body[0:0] = b"#"
-        elif how == "overlong":       # the 256-byte buffer: the tail is cut (§1)
+        elif how == "overlong":       # the 256-byte buffer: the tail is cut (fb-line-buffer)
             pad = max(_between(rng, 240, 300) - len(body), 0) * _pick(rng, (b" ", b";", b"x", b"0"))
             body = (pad + body) if rng.random() < 0.5 else (body + pad)
         elif how == "edit":           # type a wrong character and take it back (BS or DEL)
@@ -238,7 +239,7 @@ class InputGenerator:
             junk = bytes(_pick(rng, _NOT_CR) for _ in range(_between(rng, 1, 3)))
             rub = _pick(rng, (b"\x08", b"\x7f")) * _between(rng, len(junk), len(junk) + 2)
             body[i:i] = junk + rub
-        elif how == "lf_prefix":      # a host that ends lines with CRLF (§1)
+        elif how == "lf_prefix":      # a host that ends lines with CRLF (fb-control-bytes)
             body[0:0] = b"\n"
         return FuzzInput(bytes(body) + b"\r", "bytes", base.productions + ("bytes." + how,))
 

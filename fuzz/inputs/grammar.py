@@ -1,7 +1,8 @@
-"""The command language as data, built from a profile's command table (FIRMWARE-FACTS §2-§4).
+"""The command language as data, built from a profile's command table (docs/FIRMWARE-BEHAVIOUR.md §3-§5:
+#fb-matching, #fb-arguments, #fb-commands).
 
-The argument signatures below are a transcription of the clamping table (§3) and the command
-list (§4.1), written in a small notation so they read like the help text:
+The argument signatures below are a transcription of the clamping table (fb-clamping) and the command
+list (fb-commands), written in a small notation so they read like the help text:
 
 - ``name:kind[:lo:hi]`` one argument; ``kind`` is one of :data:`ARG_KINDS`; ``lo``/``hi`` is the
   range the firmware clamps to (the fuzzer aims at and just past these boundaries);
@@ -24,7 +25,7 @@ __all__ = ["ARG_KINDS", "Arg", "Repeat", "Form", "CommandRule", "Grammar", "gram
            "resolving_prefixes", "SIGNATURES"]
 
 # unsigned: digits only; signed: optional +/- then digits; float: sign, d / d. / .d / d.d, no
-# exponent; hex: one or more hex digits (low 8 bits kept); format: u1 s1 u2 s2 u4 s4 f4 (§3).
+# exponent; hex: one or more hex digits (low 8 bits kept); format: u1 s1 u2 s2 u4 s4 f4 (fb-numbers).
 ARG_KINDS = ("unsigned", "signed", "float", "hex", "format")
 FORMATS = ("u1", "s1", "u2", "s2", "u4", "s4", "f4")
 
@@ -32,7 +33,7 @@ _SVAR = "port:unsigned:0:3 mode:unsigned:0:15 offset:unsigned:0:127 format:forma
 _GAINS = "Kp:float Ki:float Kd:float windup:float"
 _WAVE = "min:float max:float period:float:0.02:1e30 phase:float:0:1"
 
-# Command -> its forms (§4.1). A form is one line of the help text's synopsis.
+# Command -> its forms (fb-commands). A form is one line of the help text's synopsis.
 SIGNATURES: Dict[str, Tuple[str, ...]] = {
     "help": ("",), "?": ("",), "clear_faults": ("",),
     "port": ("port:unsigned:0:3",),
@@ -50,12 +51,13 @@ SIGNATURES: Dict[str, Tuple[str, ...]] = {
     "combi": ("index:signed:0:7", "index:signed:0:7 *15(mode:signed:0:15 dataset:signed:0:15)"),
     "write1": ("header:hex:0:255 *128(byte:hex:0:255)",),
     "write2": ("header:hex:0:255 header2:hex:0:255 *128(byte:hex:0:255)",),
-    # Any non-zero echo enables echo and the prompt; debug is a bitmask (§7.4).
+    # Any non-zero echo enables echo and the prompt; debug is a bitmask (fb-debug).
     "echo": ("echo:signed:0:1",), "debug": ("debug:signed:0:63",),
     "version": ("",), "signature": ("",),
 }
 
-# The set keywords whose four numbers are a waveform; pulse/ramp read their 4th number too (§12.10).
+# The set keywords whose four numbers are a waveform; pulse/ramp read their 4th number too
+# (fb-doc-pulse-ramp).
 _WAVE_FORMS = {"square": _WAVE, "sine": _WAVE, "triangle": _WAVE,
                "pulse": "during:float after:float length:float:0.02:1e30 ignored:float:0:1",
                "ramp": "from:float to:float duration:float:0.02:1e30 phase:float:0:1"}
@@ -140,7 +142,7 @@ class Grammar:
 
 
 def resolving_prefixes(name: str, table: Tuple[str, ...]) -> Tuple[str, ...]:
-    """Prefixes of ``name`` that the first-match rule (§2) resolves to ``name``."""
+    """Prefixes of ``name`` that the first-match rule (fb-matching) resolves to ``name``."""
     out = []
     for n in range(1, len(name) + 1):
         p = name[:n]

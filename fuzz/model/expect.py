@@ -7,6 +7,8 @@ from dataclasses import dataclass, field
 from functools import lru_cache
 from typing import List, Optional
 
+from ..oracles.built_in import FATE, STATE
+
 __all__ = ["Expect", "LineFate", "joined", "exact_item", "prompt_item", "error_item", "CRLF_ITEM", "VIN_ITEM",
            "SIGNATURE_ITEM", "LISTING_ITEM"]
 
@@ -23,7 +25,7 @@ class Expect:
     kind: str                     # "exact" | "pattern" | "listing"
     data: bytes = b""
     pattern: str = ""
-    oracle: str = "fate"
+    oracle: str = FATE.name
     what: str = ""
 
     def describe(self) -> str:
@@ -34,7 +36,7 @@ class Expect:
         return "list dump of ports 0..3"
 
 
-def exact_item(data: bytes, what: str, oracle: str = "fate") -> Expect:
+def exact_item(data: bytes, what: str, oracle: str = FATE.name) -> Expect:
     return Expect("exact", data=data, oracle=oracle, what=what)
 
 
@@ -48,7 +50,7 @@ LISTING_ITEM = Expect("listing")
 
 @lru_cache(maxsize=16)
 def prompt_item(port: int) -> Expect:
-    return exact_item(f"P{port}>".encode(), "prompt", "state")
+    return exact_item(f"P{port}>".encode(), "prompt", STATE.name)
 
 
 @lru_cache(maxsize=1024)
@@ -77,5 +79,5 @@ def joined(first: List[Expect], second: List[Expect]) -> List[Expect]:
     unfinished line's echo that runs on into the second is one item, as :meth:`ReferenceModel.feed`
     of both would give (the echo only changes at a CR, which ends a run)."""
     if first and second and first[-1].what == "echo" and second[0].what == "echo":
-        return first[:-1] + [exact_item(first[-1].data + second[0].data, "echo", "state")] + second[1:]
+        return first[:-1] + [exact_item(first[-1].data + second[0].data, "echo", STATE.name)] + second[1:]
     return first + second

@@ -1,5 +1,6 @@
-"""The firmware's line parsing as the facts describe it (§2 the command matcher, §3 the number
-parsers), for the reference model (fuzz/model/reference_model.py): a cursor over one stored line."""
+"""The firmware's line parsing as docs/FIRMWARE-BEHAVIOUR.md describes it (fb-matching the command
+matcher, fb-numbers the number parsers), for the reference model (fuzz/model/reference_model.py): a
+cursor over one stored line."""
 from __future__ import annotations
 
 import re
@@ -9,7 +10,7 @@ from typing import Dict, Optional, Tuple
 
 __all__ = ["Cursor", "LineFailed", "prefix_table", "float_value", "clamp", "f32", "q16", "ACC_LIMIT"]
 
-ACC_LIMIT = 100000000     # the float parser's digit accumulator stops growing here (§3)
+ACC_LIMIT = 100000000     # the float parser's digit accumulator stops growing here (fb-numbers)
 
 
 def f32(x: float) -> float:
@@ -21,7 +22,7 @@ def f32(x: float) -> float:
 
 
 def q16(x: float) -> int:
-    """plimit/bias/pwmparams storage: clamp to [0,1], then floor(x*65536 + 0.5) (§3)."""
+    """plimit/bias/pwmparams storage: clamp to [0,1], then floor(x*65536 + 0.5) (fb-clamping)."""
     x = min(max(x, 0.0), 1.0)
     return int(f32(f32(x * 65536.0) + 0.5) // 1)
 
@@ -44,7 +45,7 @@ _FORMAT = re.compile(rb"(u1|s1|u2|s2|u4|s4|f4) *")   # exactly two characters; w
 
 @lru_cache(maxsize=64)
 def prefix_table(names: Tuple[str, ...]) -> Dict[bytes, str]:
-    """The matcher (§2) as a table: every non-empty prefix of a name -> the first name it starts."""
+    """The matcher (fb-matching) as a table: every non-empty prefix of a name -> the first name it starts."""
     table: Dict[bytes, str] = {}
     for name in names:
         encoded = name.encode()
@@ -54,7 +55,7 @@ def prefix_table(names: Tuple[str, ...]) -> Dict[bytes, str]:
 
 
 def float_value(whole: bytes, fraction: bytes) -> float:
-    """The float parser's accumulator (§3) over the digits before and after the point."""
+    """The float parser's accumulator (fb-numbers) over the digits before and after the point."""
     if len(whole) + len(fraction) <= 9:
         # Nine digits always fit (the accumulator stops only once it reaches 10^8).
         return f32(f32(float(int(whole + fraction))) / 10.0 ** len(fraction))
@@ -89,7 +90,7 @@ class Cursor:
             self.pos = m.end()
         return tok, name
 
-    # Number parsers (§3). Each returns None and leaves the position alone when no number
+    # Number parsers (fb-numbers). Each returns None and leaves the position alone when no number
     # starts here, and skips the spaces (not ';') after a number it read.
     def unsigned(self) -> Optional[int]:
         m = _UNSIGNED.match(self.s, self.pos)
@@ -139,7 +140,7 @@ class Cursor:
         return m.group(1)
 
     def word(self, prefixes: Dict[bytes, str]) -> Optional[str]:
-        """The matcher (§2): first name the token is a non-empty prefix of (``prefixes`` from
+        """The matcher (fb-matching): first name the token is a non-empty prefix of (``prefixes`` from
         :func:`_prefixes`)."""
         m = _WORD.match(self.s, self.pos)
         assert m is not None          # the pattern matches the empty string

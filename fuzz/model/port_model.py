@@ -1,4 +1,5 @@
-"""The reference model's view of one port, written from FIRMWARE-FACTS §5-§8: its selection and
+"""The reference model's view of one port, written from docs/FIRMWARE-BEHAVIOUR.md §6-§9 (#fb-async,
+#fb-data, #fb-controller, #fb-device-messages): its selection and
 combi table (which reports it may print, in which form), the drive settings (the duty it settles
 at), and what a device connecting or finishing its setup does to them. The parser that changes
 this state is :class:`~.model.ReferenceModel`.
@@ -30,19 +31,20 @@ class PortModel:
     offset: int = 0
     combi: Dict[int, int] = field(default_factory=dict)   # index -> number of recorded pairs
     # Indices whose entry the model has not seen set: a HAT kept open from an earlier run keeps
-    # its combi table through the prelude (only a new connection clears it, §6.1, §6.2).
+    # its combi table through the prelude (only a new connection clears it, fb-combi).
     combi_unknown: FrozenSet[int] = frozenset()
     known: bool = True            # False after an event the model cannot follow exactly
     pwmmode: int = 0              # 0 direct PWM, 1 PID, 2 PID on the derivative
     coast: bool = False
-    plimit: int = DEFAULT_PLIMIT  # R6+ per-port limit (Q16); reset with the port (§4.2)
+    plimit: int = DEFAULT_PLIMIT  # R6+ per-port limit (Q16); reset with the port (fb-port-reset)
     constant: Optional[float] = None  # the constant setpoint, when the generator holds one we know
     bias: int = 0                 # R1-R5 bias (Q16)
     pwmparams: Tuple[int, int] = (0, 0)   # R6+ (pwmthresh, minpwm), Q16
     device_modes: int = 0         # modes of the established active device here (0: none or unknown)
     tampered: bool = False        # write1/write2/combi reached the device: its mode is not ours to know
     # clear_faults flags every driver forwards and the firmware writes the direction only when the duty
-    # changes sign (§4.1): a negative duty may show as its opposite until a steady drive shows it is not.
+    # changes sign (fb-commands, `clear_faults`): a negative duty may show as its opposite until a
+    # steady drive shows it is not.
     forward_flag: bool = False
 
     def copy(self) -> PortModel:
@@ -56,12 +58,12 @@ class PortModel:
         return dup
 
     def reporting(self, selrate_engine: bool) -> bool:
-        if not 0 <= self.mode <= 7:     # modes 8..15 never report (§6.1)
+        if not 0 <= self.mode <= 7:     # modes 8..15 never report (fb-high-modes)
             return False
         return self.rate != -2 if selrate_engine else True
 
     def report_forms(self) -> Tuple[str, ...]:
-        """The data line this selection prints: ``V``, ``C<i>`` or ``M<m>`` (§6.1); both ``C<m>``
+        """The data line this selection prints: ``V``, ``C<i>`` or ``M<m>`` (fb-data-lines); both ``C<m>``
         and ``M<m>`` when the combi entry of the mode is not known."""
         if self.var:
             return ("V",)
@@ -94,15 +96,15 @@ class PortModel:
         self.combi_unknown = frozenset()
 
     def link_changed(self, type_id: Optional[int] = None) -> None:
-        """A device connected, went away or failed (§5): the select state resets (the model no
-        longer knows it) and the port reset (§4.2) drops the setpoint; short of ``established``,
+        """A device connected, went away or failed (fb-async): the select state resets (the model no
+        longer knows it) and the port reset (fb-port-reset) drops the setpoint; short of ``established``,
         it also puts the controller, bias, pwmparams and limit back to their defaults. ``type_id``: a device
         with this type id finished its setup (``established``)."""
         self.known = False
         self.constant = None
         if type_id is None:
             self.device_modes = 0
-            self.clear_combis()     # a new connection clears the table (§8); none reports before it
+            self.clear_combis()     # a new connection clears the table (fb-combi); none reports before it
             # The port reset (fb-port-reset): what a disconnect, or a scan of an empty port, puts back.
             self.pwmmode, self.coast, self.bias, self.pwmparams = 0, False, 0, (0, 0)
             self.plimit = DEFAULT_PLIMIT
@@ -111,7 +113,7 @@ class PortModel:
 
 
 def expected_duty(profile: Profile, p: PortModel, global_plimit: int) -> Optional[Union[int, str]]:
-    """The motor-driver duty (±255, or "coast") a port in direct-PWM mode settles at (§7.3), or
+    """The motor-driver duty (±255, or "coast") a port in direct-PWM mode settles at (fb-pwm-path), or
     None when the model does not know it (PID, a waveform, bias or pwmparams in play)."""
     if p.coast:
         return "coast"
@@ -137,10 +139,10 @@ def mode_count(type_id: int) -> int:
 
 
 def established(p: PortModel, type_id: int) -> None:
-    """An active device finished its setup on this port (§5). The connection cleared the combi
+    """An active device finished its setup on this port (fb-active). The connection cleared the combi
     table when it began; the facts do not say whether an entry set during the setup survives
-    (§8 keeps it in the slot of mode i's info, which the setup fills), so those entries, and any
-    the model did not see the connection begin after, are unknown."""
+    (the HAT keeps it in the slot of mode i's description, which the setup fills: fb-combi), so those
+    entries, and any the model did not see the connection begin after, are unknown."""
     p.device_modes = mode_count(type_id)
     p.tampered = False
     p.combi_unknown = p.combi_unknown | frozenset(p.combi)

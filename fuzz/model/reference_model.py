@@ -1,4 +1,5 @@
-"""A reference model of the firmware's command port, written from FIRMWARE-FACTS §1-§4 and §6.
+"""A reference model of the firmware's command port, written from docs/FIRMWARE-BEHAVIOUR.md §2-§5 and §7
+(#fb-line, #fb-matching, #fb-arguments, #fb-commands, #fb-data).
 
 It is deliberately independent of ``emulator/`` (the fuzzer's oracle must not share the
 emulator's bugs): its own line editor, matcher and number parsers. Fed the bytes the host sends,
@@ -16,6 +17,7 @@ from functools import cache
 from typing import Dict, List, Optional, Tuple
 
 from ...protocol.profiles import Profile
+from ..oracles.built_in import STATE
 from .expect import (
     CRLF_ITEM,
     LISTING_ITEM,
@@ -105,7 +107,7 @@ class ReferenceModel:
         not be used afterwards (its ports, buffer and lists become this model's)."""
         vars(self).update(vars(other))
 
-    # -- the line editor (§1) --------------------------------------------------------------
+    # -- the line editor (fb-line) --------------------------------------------------------------
     def feed(self, data: bytes) -> Tuple[List[Expect], List[LineFate]]:
         """Predict the answer to ``data`` and apply its effects."""
         out: List[Expect] = []
@@ -119,7 +121,7 @@ class ReferenceModel:
             if stop > pos:
                 echo = self._edit(data[pos:stop])
                 if echo and self.echo:
-                    out.append(exact_item(echo, "echo", "state"))
+                    out.append(exact_item(echo, "echo", STATE.name))
             if end < 0:
                 break
             out.append(CRLF_ITEM)
@@ -130,7 +132,7 @@ class ReferenceModel:
     def _edit(self, run: bytes) -> bytes:
         """Store a run of bytes that holds no CR; returns what the editor echoes for it."""
         if b"\x08" not in run and b"\x7f" not in run:
-            stored = run[:max(0, LINE_MAX - len(self.buffer))]   # the rest is dropped (§1)
+            stored = run[:max(0, LINE_MAX - len(self.buffer))]   # the rest is dropped (fb-line-buffer)
             self.buffer += stored
             return stored
         echo = bytearray()
@@ -184,7 +186,7 @@ class ReferenceModel:
             out.append(prompt_item(self.port))
         return fate
 
-    # -- commands (§4) ---------------------------------------------------------------------
+    # -- commands (fb-commands) ----------------------------------------------------------------
     def _cmd_help(self, cur: Cursor, out: List[Expect]) -> None:
         out.append(self._help_item)
 
@@ -231,7 +233,7 @@ class ReferenceModel:
 
     def _cmd_on(self, cur: Cursor, out: List[Expect]) -> None:
         p = self._here()
-        p.coast, p.constant = False, 1.0          # only the setpoint; the mode stays (§4.1)
+        p.coast, p.constant = False, 1.0          # only the setpoint; the mode stays (fb-on-off)
 
     def _cmd_off(self, cur: Cursor, out: List[Expect]) -> None:
         p = self._here()
@@ -248,7 +250,7 @@ class ReferenceModel:
             for _ in range(self._pid_extra):
                 cur.need(cur.float())
         except LineFailed:
-            p.pwmmode, p.coast = 0, False        # the error path forces direct PWM (§3)
+            p.pwmmode, p.coast = 0, False        # the error path forces direct PWM (fb-pid-error)
             raise
         p.pwmmode, p.coast = mode, False
 
@@ -270,7 +272,7 @@ class ReferenceModel:
             try:
                 self._svar(cur)
             except LineFailed:
-                # The shape and its four numbers are stored (§3); whether coast ends too the facts
+                # The shape and its four numbers are stored (fb-errors); whether coast ends too the facts
                 # do not say (the firmware in the loop ends it). Not coasting, with no constant set-point
                 # known, leaves the drive unjudged until a command the facts settle.
                 p.coast = False
@@ -308,13 +310,13 @@ class ReferenceModel:
             p.mode, p.var, p.once = -1, False, False
             p.rate = -2
             if once:
-                p.known = False                  # `selonce` alone: §6 names only `select`
+                p.known = False                  # `selonce` alone: fb-reporting names only `select`
             return
         p.mode, p.var, p.once = clamp(mode, 0, 15), False, once
         offset = cur.signed()
         if offset is not None:
             p.offset = clamp(offset, 0, 127)
-            if cur.format() is None:             # offset without format: reporting off (§3)
+            if cur.format() is None:             # offset without format: reporting off (fb-select-error)
                 p.mode = -1
                 raise LineFailed()
             p.var = True
@@ -336,7 +338,7 @@ class ReferenceModel:
         p.tampered = True
         selected = p.mode
         if self._combi_clears:
-            # §6.2 says combi sets the mode to -1; whether an odd list does so too is not said.
+            # fb-select-resend says combi deselects; whether an odd list does so too is not said.
             p.mode = -1
             p.known = False
         pairs = 0
@@ -373,11 +375,11 @@ class ReferenceModel:
 
     # -- what the world does (seen in asynchronous lines) ------------------------------------
     def saw_report(self, port: int) -> None:
-        """A data line for ``port`` arrived: once-selections end (§6.2)."""
+        """A data line for ``port`` arrived: once-selections end (fb-reporting)."""
         self.report_seen(self.ports[port])
 
     def report_seen(self, p: PortModel) -> None:
-        """The once-selection of ``p`` (a port's state) has reported: it ends (§6.2)."""
+        """The once-selection of ``p`` (a port's state) has reported: it ends (fb-reporting)."""
         if self.selrate_engine:
             if p.rate == -1:
                 p.rate = -2

@@ -15,7 +15,7 @@ from .reference_model import ReferenceModel
 
 __all__ = ["DEBUG_OFF", "StepPlan", "plan_step", "output_groups", "LISTING_MAX"]
 
-# Debug bit 1 is a raw serial trace with no line structure (§7.4): after any input that leaves
+# Debug bit 1 is a raw serial trace with no line structure (fb-debug): after any input that leaves
 # it set, this is sent at once so the line-level oracles stay meaningful.
 DEBUG_OFF = b"debug 0\r"
 
@@ -110,7 +110,7 @@ def plan_step(model: ReferenceModel, datas: Sequence[bytes], guard: int = 0) -> 
 def output_groups(model: ReferenceModel, datas: Sequence[bytes], limit: int) -> Tuple[List[List[bytes]],
                                                                                       Set[int]]:
     """``datas`` cut into consecutive groups whose predicted output stays within ``limit``
-    bytes (beyond what they send): a HAT drops output once its TX ring is full (§1), and on a
+    bytes (beyond what they send): a HAT drops output once its TX ring is full (fb-tx-ring), and on a
     115200-baud wire input arrives no faster than output leaves. An input whose own answer is
     over the limit (``help`` twice on one line) is left out: which of its bytes a HAT drops
     depends on timing no model predicts. Returns the groups and the indices of those left out;

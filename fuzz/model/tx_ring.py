@@ -1,4 +1,5 @@
-"""The HAT's TX ring, as far as the fuzzer must know it (FIRMWARE-FACTS §1, §6.2, §7.4).
+"""The HAT's TX ring, as far as the fuzzer must know it (docs/FIRMWARE-BEHAVIOUR.md#fb-tx-ring,
+#fb-reporting, #fb-debug).
 
 Output leaves through an 8192-byte ring at the wire's pace (11.52 bytes/ms at 115200 baud); an
 output byte written while the ring is full is dropped, silently. Data reports are held back
@@ -26,19 +27,19 @@ from .port_model import PortModel
 __all__ = ["RING_SIZE", "THROTTLE", "UNHELD_DEBUG", "WIRE_BYTES_PER_MS", "backlog", "headroom", "drain_ms",
            "input_ms"]
 
-RING_SIZE = 8192            # §1
-THROTTLE = 4096             # §6.2: no report is printed while the ring holds this much
+RING_SIZE = 8192            # fb-tx-ring
+THROTTLE = 4096             # fb-reporting-r5: no report is printed while the ring holds this much
 REPORT_LINE_MAX = 256       # a report line (held back as a whole, never cut) is shorter than this
 FENCE_ROOM = 128            # the fence's answer (CRLF, the version line, a prompt) fits in this
-WIRE_BYTES_PER_MS = 11.52   # 115200 baud, 8N1 (§1)
-UNHELD_DEBUG = 8 | 16      # DATA payloads and PID lines: printed whatever the ring holds (§7.4)
+WIRE_BYTES_PER_MS = 11.52   # 115200 baud, 8N1 (fb-uart)
+UNHELD_DEBUG = 8 | 16      # DATA payloads and PID lines: printed whatever the ring holds (fb-debug)
 
 
 def backlog(states: Sequence[Sequence[PortModel]], debug: int, selrate_engine: bool, throttle: bool) -> int:
     """The most the ring may hold, from what streams, when the step's output starts (its answer
     waits behind that on the wire). ``debug``: the bits set before or after the step;
-    ``throttle``: the release holds reports back at 4096 bytes (R5+, §11). Without it (R1-R4) a
-    port reports at most every 100 ms (§6.2), less than the wire carries: a line per port."""
+    ``throttle``: the release holds reports back at 4096 bytes (R5+, fb-reporting-r5). Without it (R1-R4) a
+    port reports at most every 100 ms (fb-reporting-r1), less than the wire carries: a line per port."""
     if debug & UNHELD_DEBUG:
         return RING_SIZE
     # A port whose state the model lost (a link change) may still report if a mode is selected.

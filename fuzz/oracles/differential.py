@@ -91,7 +91,7 @@ def _torn_apart(parts: List[bytes]) -> List[bytes]:
 def synchronous_part(data: bytes) -> Tuple[List[bytes], List[Event]]:
     """(pieces that answer commands, asynchronous events). Pieces are complete lines, or the
     unterminated rest (a prompt). Listing lines answer `list`, except the device dump a HAT
-    prints on connecting (§5): one port's header and block, then that port's ``established``
+    prints on connecting (fb-active): one port's header and block, then that port's ``established``
     line. Its time depends on each target's clock, so it is not compared."""
     sync, async_events = _split(data)
     return list(sync), list(async_events)

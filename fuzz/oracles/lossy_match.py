@@ -1,5 +1,6 @@
-"""Judging a step whose output may have met a full TX ring (fuzz/model/tx_ring.py, FIRMWARE-FACTS §1):
-what came must be the predicted answer with bytes missing, and nothing else.
+"""Judging a step whose output may have met a full TX ring (fuzz/model/tx_ring.py,
+docs/FIRMWARE-BEHAVIOUR.md#fb-tx-ring): what came must be the predicted answer with bytes missing, and
+nothing else.
 
 The answer is matched exactly from its start, skipping whole asynchronous lines, up to the first
 byte that differs: there the ring dropped output, which it can only do past the bytes that always

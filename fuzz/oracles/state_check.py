@@ -14,7 +14,8 @@ from typing import Callable, Dict, List, Optional, Sequence
 from ...harness.events import classify
 from ..model.port_model import PortModel, expected_duty
 from ..model.reference_model import ReferenceModel
-from .stream_match import MatchResult, Problem
+from .built_in import STATE
+from .stream_match import MatchResult
 
 __all__ = ["observe", "follow_links", "expect_reports", "check_drive"]
 
@@ -49,9 +50,9 @@ def observe(model: ReferenceModel, res: MatchResult, states: List[List[PortModel
         form_of = _REPORT_FORMS.get(ev.kind)
         if form_of is None:
             continue
-        count("state")
+        count(STATE.name)
         form = form_of(ev.fields)
-        # The form follows the HAT's own selection and combi table (§6.1), whatever the
+        # The form follows the HAT's own selection and combi table (fb-data-lines, fb-combi), whatever the
         # device was sent (write1/write2 change what it sends, not how the HAT prints it).
         sources = [s[port] for s in states
                    if not s[port].known or (s[port].reporting(model.selrate_engine)
@@ -59,11 +60,11 @@ def observe(model: ReferenceModel, res: MatchResult, states: List[List[PortModel
         if not sources:
             before, after = (_selection(s[port], model.selrate_engine) for s in (states[0], states[-1]))
             whose = before if before == after else f"{before} before the step, {after} after it"
-            res.problems.append(Problem(
-                "state", f"report {ev.text!r} from port {port}, whose selection is {whose}"))
+            res.problems.append(STATE.problem(f"report {ev.text!r} from port {port}, whose selection is "
+                                              f"{whose}"))
             continue
         # The report ends the once-selection that printed it, the first that could have: a
-        # report already due when a later select ran belongs to the earlier one (§6.2).
+        # report already due when a later select ran belongs to the earlier one (fb-reporting).
         for s in states:
             if s[port].selection == sources[0].selection:
                 model.report_seen(s[port])
@@ -75,7 +76,7 @@ _LEADING_PROMPTS = re.compile(rb"^(?:P[0-3]>)+")
 def follow_links(model: ReferenceModel, data: bytes, states: List[List[PortModel]]) -> None:
     """Link changes in output that no oracle matched (a step judged on liveness only, its raw
     serial trace around them): the model still follows them, as :func:`observe` does, or it
-    keeps judging a port by settings a disconnect's port reset has wiped (§4.2)."""
+    keeps judging a port by settings a disconnect's port reset has wiped (fb-port-reset)."""
     for raw in data.split(b"\r\n"):
         ev = classify(_LEADING_PROMPTS.sub(b"", raw))
         if ev.kind not in _LINK_KINDS or ev.port is None or not 0 <= ev.port <= 3:
@@ -90,7 +91,7 @@ def expect_reports(model: ReferenceModel, ms: int, before: List[PortModel], res:
                    count: Callable[[str], None]) -> None:
     """The other half of the state oracle: a plain `select <m>` on an established device that
     has mode m must report within a wait that is long enough (first report about one period
-    after the first data, §6.2). Only clear cases are judged: no combi, no raw writes to the
+    after the first data, fb-reporting). Only clear cases are judged: no combi, no raw writes to the
     device, no link change, a rate well inside the wait."""
     if ms < 300:
         return
@@ -106,21 +107,21 @@ def expect_reports(model: ReferenceModel, ms: int, before: List[PortModel], res:
                 continue
         elif p.once:
             continue
-        count("state")
+        count(STATE.name)
         forms = p.report_forms()
         if not any((port, form) in seen for form in forms):
             want = " or ".join(f"P{port}{form}" for form in forms)
-            res.problems.append(Problem(
-                "state", f"port {port} has mode {p.mode} selected (rate {p.rate}) on an "
-                         f"established device, but no {want} report came in {ms} ms"))
+            res.problems.append(STATE.problem(f"port {port} has mode {p.mode} selected (rate {p.rate}) on an "
+                                              f"established device, but no {want} report came in {ms} ms"))
 
 
 def check_drive(events: Optional[Sequence[dict]], model: ReferenceModel, ms: int, res: MatchResult,
                 count: Callable[[str], None]) -> None:
     """State oracle on the drive, for targets that show it (the in-process emulator's
     ``drive_events``): a port in direct-PWM mode with a known constant setpoint settles at the
-    duty §7.3 gives for it and the port's plimit (per release); a coasting port coasts. After a
-    ``clear_faults`` a negative duty may show forwards (§4.1) until the drive shows its own sign."""
+    duty fb-pwm-path gives for it and the port's plimit (per release); a coasting port coasts. After a
+    ``clear_faults`` a negative duty may show forwards (fb-commands, `clear_faults`) until the drive
+    shows its own sign."""
     if events is None or ms < 30:
         return
     changed = {ev.port for _i, ev in res.asynchronous if ev.kind in _LINK_KINDS}
@@ -134,13 +135,12 @@ def check_drive(events: Optional[Sequence[dict]], model: ReferenceModel, ms: int
         want = expected_duty(model.profile, p, model.plimit)
         if want is None:
             continue
-        count("state")
+        count(STATE.name)
         if p.forward_flag and isinstance(want, int) and want < 0 and last[port] == -want:
-            continue            # still flagged forwards since a clear_faults (§4.1)
+            continue            # still flagged forwards since a clear_faults (fb-commands)
         if last[port] == want:
             p.forward_flag = False      # the driver was written since: its direction is the duty's
             continue
         limit = p.plimit if model.per_port_plimit else model.plimit
-        res.problems.append(Problem(
-            "state", f"port {port} drives {last[port]!r}; direct PWM at setpoint "
-                     f"{p.constant} with plimit {limit}/65536 should drive {want!r}"))
+        res.problems.append(STATE.problem(f"port {port} drives {last[port]!r}; direct PWM at setpoint "
+                                          f"{p.constant} with plimit {limit}/65536 should drive {want!r}"))

@@ -16,11 +16,13 @@ from typing import List, Optional, Tuple
 from ...harness.events import Event, classify, line_kind
 from ...protocol.profiles import Profile
 from ..model.expect import Expect
+from .built_in import FATE, HYGIENE, LIVENESS, STATE
+from .registry import Problem
 
 __all__ = ["Problem", "MatchResult", "match_stream", "ASYNC_KINDS", "allowed_kinds", "split_lines",
            "without_torn"]
 
-# Lines the firmware prints on its own (§5, §6, §7.4); anything else must be predicted.
+# Lines the firmware prints on its own (fb-async, fb-data, fb-debug); anything else must be predicted.
 ASYNC_KINDS = frozenset({
     "mode_data", "combi_data", "var_data", "pid_debug", "data_debug", "signature_debug", "unknown_debug",
     "connecting", "baud", "established", "disconnected", "timeout", "checksum_error", "framing_error",
@@ -31,13 +33,6 @@ ASYNC_KINDS = frozenset({
 _DEBUG_BIT = {"signature_debug": 4, "data_debug": 8, "pid_debug": 16, "unknown_debug": 32}
 _LIST_HEADER = re.compile(rb"P([0-3]): (no device detected|connected to passive ID \d+|"
                           rb"connected to active ID [0-9A-F]{2})")
-
-
-@dataclass
-class Problem:
-    oracle: str       # liveness | fate | state | hygiene
-    message: str
-    at: Optional[Tuple[int, int]] = None    # (expected item, received byte) where the answer went wrong
 
 
 @dataclass
@@ -60,7 +55,7 @@ def without_torn(actual: bytes, res: MatchResult) -> bytes:
 
 
 def allowed_kinds(profile: Profile, debug: Optional[int]) -> frozenset:
-    """Asynchronous line kinds this release can print (§11), given the debug bits (None: any)."""
+    """Asynchronous line kinds this release can print (fb-versions), given the debug bits (None: any)."""
     kinds = set(ASYNC_KINDS)
     if not profile.feature("button_events"):
         kinds.discard("button")
@@ -123,10 +118,10 @@ def _show(data: bytes, limit: int = 120) -> str:
 def _asynchronous(res: MatchResult, idx: int, ev: Event, line: bytes, allowed: frozenset) -> None:
     res.asynchronous.append((idx, ev))
     if ev.kind == "banner":
-        res.problems.append(Problem("liveness", f"start-up line {line!r}: the HAT rebooted"))
+        res.problems.append(LIVENESS.problem(f"start-up line {line!r}: the HAT rebooted"))
     elif ev.kind not in allowed:
-        res.problems.append(Problem("hygiene", f"{ev.kind} line {line!r} is not one this release "
-                                               "prints in this state"))
+        res.problems.append(HYGIENE.problem(f"{ev.kind} line {line!r} is not one this release "
+                                            "prints in this state"))
 
 
 # How far back from where the echo and the output part the cut may be: the echo's next bytes can be
@@ -225,12 +220,12 @@ def match_stream(expected: List[Expect], actual: bytes, allowed: frozenset) -> M
             line = _line_at(actual, pos)
             kind = classify(line).kind if line is not None else None
             if line is not None and kind == "unknown" and not line.startswith(b"P"):
-                oracle = "hygiene"
+                oracle = HYGIENE.name
                 what = f"an output line of no known class {line!r}"
-            elif item.oracle == "state" and kind not in (None, "unknown"):
+            elif item.oracle == STATE.name and kind not in (None, "unknown"):
                 # A whole line (Error, an answer) where the prompt or echo was due: the line's
                 # fate is wrong, not the state the prompt shows.
-                oracle = "fate"
+                oracle = FATE.name
                 what = _show(actual[pos:])
             else:
                 oracle = item.oracle
@@ -241,7 +236,7 @@ def match_stream(expected: List[Expect], actual: bytes, allowed: frozenset) -> M
         pos = nxt
     rest = actual[pos:]
     if rest:
-        res.problems.append(Problem("hygiene", f"unexpected trailing output {_show(rest)}",
-                                    (len(expected), pos)))
+        res.problems.append(HYGIENE.problem(f"unexpected trailing output {_show(rest)}",
+                                            (len(expected), pos)))
     res.consumed = len(actual)
     return res

@@ -34,7 +34,7 @@ from ..findings.replay import replay_script
 from ..inputs.generate import FAMILIES, InputGenerator
 from ..inputs.grammar import grammar_for
 from ..model.step_plan import output_groups
-from ..oracles.registry import Finding
+from ..oracles.registry import Finding, oracle_named
 from ..oracles.setup_loss import for_target
 from .budget import Budget, parse_budget
 from .checked_run import Runner, Stats
@@ -231,7 +231,7 @@ class Campaign:
         failure it answered,
         and the next run's prelude (with a drain and a sync) brings it back to a known state:
         a restart would cost a kept-open target seconds per finding."""
-        if finding.oracle in ("liveness", "crash") or not self.config.keep_open:
+        if oracle_named(finding.oracle).target_lost or not self.config.keep_open:
             self.discard_targets()
 
     # -- findings -------------------------------------------------------------------------------

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from functools import cached_property
-from typing import Callable, Dict, FrozenSet, List, Optional, Sequence, Set, Tuple, Union
+from typing import Callable, Dict, FrozenSet, List, NoReturn, Optional, Sequence, Set, Tuple, Union
 
 from ...harness.events import classify, line_kind
 from ...harness.targets.base import Target, TargetError
@@ -17,6 +17,7 @@ from ..model.port_model import UNKNOWN_Q16, mode_count
 from ..model.reference_model import ReferenceModel
 from ..model.step_plan import plan_step
 from ..model.tx_ring import UNHELD_DEBUG, WIRE_BYTES_PER_MS, backlog, drain_ms, headroom, input_ms
+from ..oracles.built_in import CRASH, DIFFERENTIAL, FATE, LIVENESS, SANITIZER
 from ..oracles.differential import (
     first_difference,
     open_dump,
@@ -26,10 +27,10 @@ from ..oracles.differential import (
 )
 from ..oracles.lossy_match import match_lossy
 from ..oracles.reconnecting import for_target as reconnecting_on
-from ..oracles.registry import raise_finding
+from ..oracles.registry import Answer, Problem, oracle_named, oracles
 from ..oracles.setup_loss import for_target
 from ..oracles.state_check import check_drive, expect_reports, follow_links, observe
-from ..oracles.stream_match import Problem, allowed_kinds, match_stream, without_torn
+from ..oracles.stream_match import allowed_kinds, match_stream, without_torn
 from .target_exchange import FENCE, Link, LinkTimeout
 
 __all__ = ["Runner", "Side", "Stats", "PRELUDE"]
@@ -40,7 +41,6 @@ PRELUDE = b"echo 0\rdebug 0\rport 3\rselect\rport 2\rselect\rport 1\rselect\rpor
 # come): the prelude ends with `list`, and its answer says which active devices are there.
 LIST = b"list\r"
 LIST_ANSWER_MAX = 6000      # four ports' blocks (a motor's about 1 KB): the prelude's deadline allows it
-_PRIORITY = ("liveness", "hygiene", "fate", "state")
 
 
 @dataclass
@@ -152,6 +152,9 @@ class Runner:
         `cmd:` target, the firmware in the loop: fuzz/model/tx_ring.py); one flag for every side, or
         one per side (``--against``: our unpaced emulator has no ring to wait for)."""
         self.stats = stats or Stats()
+        # The oracles judging every answer (counted in this order: by priority), added ones included.
+        self._per_answer = sorted((o for o in oracles() if o.per_answer), key=lambda o: o.priority)
+        self._checks = [o.check for o in self._per_answer if o.check is not None]
         self.sides: List[Side] = []
         self.kinds_seen: Set[str] = set()
         self.fresh = fresh
@@ -170,7 +173,7 @@ class Runner:
             try:
                 target = opener()
             except TargetError as exc:
-                self.fail("liveness", f"{label}: the target could not be opened: {exc}", {"prelude": True})
+                self.fail(LIVENESS.name, f"{label}: the target could not be opened: {exc}", {"prelude": True})
             side = Side(label, target, profile, fence_s)
             if devices is not None and fresh:
                 # The layout the target booted with (known only for targets started fresh).
@@ -183,7 +186,7 @@ class Runner:
             try:
                 target.open()
             except TargetError as exc:
-                self.fail("liveness", f"{label}: the target could not be opened: {exc}", {"prelude": True})
+                self.fail(LIVENESS.name, f"{label}: the target could not be opened: {exc}", {"prelude": True})
 
     @cached_property
     def _identity(self) -> FrozenSet[bytes]:
@@ -207,7 +210,7 @@ class Runner:
             except LinkTimeout as exc:
                 self.firmware_reports(side, prelude, exc.received)    # it crashed: that is a finding
                 # Not a finding: no fuzzed input was sent yet (the campaign counts these apart).
-                self.fail("liveness", f"{side.label}: no answer after the prelude: {exc}",
+                self.fail(LIVENESS.name, f"{side.label}: no answer after the prelude: {exc}",
                           {"step": prelude, "received": exc.received, "prelude": True})
             self.firmware_reports(side, prelude, out)
             self._track(side, out)      # (what an earlier run's set-up printed may arrive here)
@@ -259,7 +262,7 @@ class Runner:
             side.link.send(data)
         except TargetError as exc:
             self.firmware_reports(side, blob, b"")
-            self.fail("liveness", f"{side.label}: the target went away: {exc}",
+            self.fail(LIVENESS.name, f"{side.label}: the target went away: {exc}",
                       {"step": blob, "received": b""})
 
     def exchange(self, datas: Sequence[bytes], guard: bool = False,
@@ -314,7 +317,7 @@ class Runner:
         compared: List[bytes] = []       # what the differential oracle compares (echo made whole)
         for side, plan, before, keep, ahead, queue, pause in zip(self.sides, plans, records, keeps, early,
                                                                  queued, pauses):
-            self.stats.count("liveness")
+            self.stats.count(LIVENESS.name)
             try:
                 # (fence lines that came during the pause count: a `version` among the inputs; the
                 # answer may wait behind what streams in the TX ring)
@@ -328,7 +331,7 @@ class Runner:
                 self.firmware_reports(side, plan.blob, ahead + exc.received)
                 message, more = liveness_message(side.label, str(exc), plan.blob, side.fence_line,
                                                  ahead + exc.received)
-                self.fail("liveness", message, dict(more, step=plan.blob, received=ahead + exc.received))
+                self.fail(LIVENESS.name, message, dict(more, step=plan.blob, received=ahead + exc.received))
             self.firmware_reports(side, plan.blob, got)
             if side is self.sides[0]:
                 self.stats.answered += 1
@@ -338,7 +341,7 @@ class Runner:
             self._dump_open[len(answers) - 1] = open_dump(_after_fence(got, side.fence_line))
             self._note_kinds(got)
             if plan.debug & 1 and side.link.timed:
-                # The raw serial trace (debug bit 1, §7.4) has no line structure; where input
+                # The raw serial trace (debug bit 1, fb-debug) has no line structure; where input
                 # takes time to arrive it runs until the guard's `debug 0` is read. Liveness only.
                 if not side.model.tainted:
                     follow_links(side.model, got, plan.states)
@@ -352,7 +355,8 @@ class Runner:
                 continue   # the facts do not say what this line does: liveness only
             res = match_stream(plan.expected, got, self._allowed(side, plan.debug))
             if res.problems and keep is not None:
-                # Bytes a full TX ring dropped are no finding (FIRMWARE-FACTS §1); anything else is.
+                # Bytes a full TX ring dropped are no finding (docs/FIRMWARE-BEHAVIOUR.md#fb-tx-ring);
+                # anything else is.
                 lossy = match_lossy(plan.expected, got, self._allowed(side, plan.debug), keep)
                 if lossy is not None:
                     res, lost = lossy, True
@@ -373,18 +377,18 @@ class Runner:
         if records is None or side.model.tainted:
             return
         got = records[start:]
-        self.stats.count("fate")
+        self.stats.count(FATE.name)
         for fate, rec in zip(fates, got):
             want = (fate.commands + ([fate.failed] if fate.failed and not fate.unknown else []),
                     [fate.unknown] if fate.unknown else [], fate.error, fate.comment)
             have = (list(rec.commands), list(rec.unknown), bool(rec.error), bool(rec.comment))
             if want != have:
-                self.fail("fate", f"{side.label}: line {fate.raw!r} ran {have[0]} (unknown {have[1]}, "
-                                  f"Error {have[2]}, comment {have[3]}); the facts say {want[0]} "
-                                  f"(unknown {want[1]}, Error {want[2]}, comment {want[3]})",
+                self.fail(FATE.name, f"{side.label}: line {fate.raw!r} ran {have[0]} (unknown {have[1]}, "
+                                     f"Error {have[2]}, comment {have[3]}); the facts say {want[0]} "
+                                     f"(unknown {want[1]}, Error {want[2]}, comment {want[3]})",
                           {"step": fate.raw, "received": b""})
         if len(got) != len(fates):
-            self.fail("fate", f"{side.label}: {len(got)} lines processed, the model counts {len(fates)}",
+            self.fail(FATE.name, f"{side.label}: {len(got)} lines processed, the model counts {len(fates)}",
                       {"step": b"", "received": b""})
 
     def wait(self, ms: int) -> None:
@@ -425,12 +429,18 @@ class Runner:
         return side.allowed(side.model.debug if debug is None else debug)
 
     def _judge(self, side: Side, problems: List[Problem], details: dict) -> None:
-        for oracle in ("hygiene", "fate", "state"):
-            self.stats.count(oracle)
+        """The problems the model's oracles found in one side's answer, with those of every added
+        oracle's check (registry.py): the first by priority is the finding."""
+        step = details["step"]
+        for judge in self._per_answer:
+            self.stats.count(judge.name)
+        if self._checks:
+            answer = Answer(side.label, side.profile.name, step if isinstance(step, bytes) else b"",
+                            details["received"])
+            problems = problems + [p for check in self._checks for p in check(answer)]
         if not problems:
             return
-        first = sorted(problems, key=lambda p: _PRIORITY.index(p.oracle))[0]
-        step = details["step"]
+        first = min(problems, key=lambda p: oracle_named(p.oracle).priority)
         blob = step if isinstance(step, bytes) else step.encode()
         message, more = stream_message(side.label, first.message, first.at, blob, details.get("expected", ()),
                                        details["received"])
@@ -462,7 +472,7 @@ class Runner:
         ring may have dropped the rest unjudged (None: all of it counts)."""
         a_side, b_side = self.sides
         a, b = answers
-        self.stats.count("differential")
+        self.stats.count(DIFFERENTIAL.name)
         # The fence's own answer names each release: compare up to it.
         a_cut = leading[0] + (a[:a.rfind(a_side.fence_line)] if a_side.fence_line in a else a)
         b_cut = leading[1] + (b[:b.rfind(b_side.fence_line)] if b_side.fence_line in b else b)
@@ -497,7 +507,7 @@ class Runner:
         if diff is not None:
             step = b"".join(datas) + FENCE
             message, more = differential_message((a_side.label, b_side.label), step, *diff)
-            self.fail("differential", message, dict(more, step=step, received=a, received_other=b))
+            self.fail(DIFFERENTIAL.name, message, dict(more, step=step, received=a, received_other=b))
 
     def _first_difference(self, a: bytes, b: bytes, also: FrozenSet[int]
                           ) -> Optional[Tuple[int, Optional[bytes], Optional[bytes]]]:
@@ -519,20 +529,21 @@ class Runner:
         take = getattr(side.link.target, "take_firmware_reports", None)
         if take is None:
             return
-        self.stats.count("crash")
-        self.stats.count("sanitizer")
+        self.stats.count(CRASH.name)
+        self.stats.count(SANITIZER.name)
         found = [r for r in take() if r.suppressed_by is None]
         if not found:
             return
         fatal = next((r for r in found if r.fatal), None)
         message = found[0].first + (f" (then the firmware crashed: {fatal.first})"
                                     if fatal is not None and fatal is not found[0] else "")
-        self.fail("crash" if fatal is not None else "sanitizer", f"{side.label}: {message}",
+        self.fail((CRASH if fatal is not None else SANITIZER).name, f"{side.label}: {message}",
                   {"step": blob, "received": received, "reports": [r.text for r in found]})
 
-    def fail(self, oracle: str, message: str, details: dict) -> None:
+    def fail(self, oracle: str, message: str, details: dict) -> NoReturn:
+        """Raises the finding of the oracle named ``oracle`` (fuzz/oracles/registry.py)."""
         traces = [s.link.trace.copy() for s in self.sides]
         profiles = [s.profile.name for s in self.sides]
         # ``fresh``: the run began on a freshly started target (not one earlier runs left open).
-        raise_finding(oracle, message, traces, dict(details, profiles=profiles, fresh=self.fresh))
+        oracle_named(oracle).fail(message, traces, dict(details, profiles=profiles, fresh=self.fresh))
 

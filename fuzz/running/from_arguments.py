@@ -16,6 +16,7 @@ from ..findings.explain import header_lines
 from ..findings.finding_scripts import write_finding, write_junit
 from ..inputs.generate import check_families
 from ..inputs.grammar import grammar_for
+from ..oracles.registry import oracles
 from ..summary import KEPT_OPEN, Progress, print_summary
 from .budget import check_limit
 from .campaign import Budget, CampaignConfig, CampaignResult, Confirmed, new_seed, parse_budget, run_campaign
@@ -157,9 +158,11 @@ def _report(args: argparse.Namespace, config: CampaignConfig, budget: Budget,
             *header_lines(f.finding.details), f"finding: {f.finding.message}"]
         layout = config.devices if config.fresh else None
         files[f.oracle] = write_finding(f.finding, args.out, header, meta, layout)
-    oracles = ["liveness", "fate", "state", "hygiene"] + (["differential"] if config.open_secondary else [])
-    # (a firmware in the loop's crashes and sanitizer reports: a case each where they are checked)
-    oracles += [o for o in ("crash", "sanitizer") if stats.checks.get("sanitizer") or result.finding(o)]
+    # A case per oracle, as each says (fuzz/oracles/registry.py): differential with --against, a firmware
+    # in the loop's crashes and sanitizer reports where they are checked.
+    against = config.open_secondary is not None
+    cases = [o.name for o in oracles()
+             if o.has_case(against, stats.checks, found=result.finding(o.name) is not None)]
     junit = args.junit or os.path.join(args.out, "junit.xml")
     properties = {"target": target, "against": args.against or "", "release": config.profile.name,
                   "seed": str(seed), "budget": str(budget), "inputs": str(stats.executions),
@@ -168,7 +171,7 @@ def _report(args: argparse.Namespace, config: CampaignConfig, budget: Budget,
         properties["partial"] = "true"        # stopped by Ctrl-C or SIGTERM: what ran until then
     notes = {f.oracle: f"reproduced: {_reproduced(f)}" + (f"; checking cut short: {f.cut}" if f.cut else "")
              for f in result.findings}
-    write_junit(junit, oracles, [f.finding for f in result.findings], stats.checks, result.elapsed,
+    write_junit(junit, cases, [f.finding for f in result.findings], stats.checks, result.elapsed,
                 properties, files, result.not_done, notes)
     # The share of the wire is a wall-clock figure: not for in-process targets (virtual time).
     wire = is_wire(target) and scheme(target) != "inprocess"

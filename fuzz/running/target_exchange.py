@@ -20,7 +20,7 @@ from ...harness.targets.base import Target, TargetError
 __all__ = ["Link", "Trace", "FENCE", "LinkTimeout", "WIRE_BYTES_PER_S"]
 
 FENCE = b"version\r"
-WIRE_BYTES_PER_S = 11520     # 115200 baud, 8N1 (§1)
+WIRE_BYTES_PER_S = 11520     # 115200 baud, 8N1 (fb-uart)
 
 
 class LinkTimeout(Exception):
