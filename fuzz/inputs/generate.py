@@ -9,7 +9,7 @@ microseconds, a run is a pure function of its seed (so nothing the target answer
 what is drawn), and a finding is shrunk by replaying reduced scripts (fuzz/findings/shrink.py), which
 works on every target, real ones included.
 
-Families (docs/FIRMWARE-BEHAVIOUR.md §2-§4, #fb-line, #fb-matching, #fb-arguments, for why each is
+Families (docs/FIRMWARE-BEHAVIOUR.md#fb-line, #fb-matching, #fb-arguments, for why each is
 interesting):
 - ``valid``: one command in any resolving abbreviation, arguments at and past their clamp
   boundaries, both separators after the name;

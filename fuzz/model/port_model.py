@@ -1,4 +1,4 @@
-"""The reference model's view of one port, written from docs/FIRMWARE-BEHAVIOUR.md §6-§9 (#fb-async,
+"""The reference model's view of one port, written from docs/FIRMWARE-BEHAVIOUR.md (#fb-async,
 #fb-data, #fb-controller, #fb-device-messages): its selection and
 combi table (which reports it may print, in which form), the drive settings (the duty it settles
 at), and what a device connecting or finishing its setup does to them. The parser that changes

@@ -1,4 +1,4 @@
-"""A reference model of the firmware's command port, written from docs/FIRMWARE-BEHAVIOUR.md §2-§5 and §7
+"""A reference model of the firmware's command port, written from docs/FIRMWARE-BEHAVIOUR.md
 (#fb-line, #fb-matching, #fb-arguments, #fb-commands, #fb-data).
 
 It is deliberately independent of ``emulator/`` (the fuzzer's oracle must not share the
