@@ -29,7 +29,7 @@ __all__ = ["FirmwareProcess", "FirmwareDied", "HANG_S"]
 # loop inside an interrupt handler never gives the clock back).
 HANG_S = 20.0
 _SANITIZER_EXIT = 86
-# What the stand-in prints as a fatal signal no sanitizer handles kills the program (link.c).
+# What the stand-in prints as a fatal signal no sanitizer handles kills the program (standin/frame_transport.c).
 _SAID_SIGNAL = re.compile(r"sil: the firmware was killed by (SIG[A-Z]+)")
 
 

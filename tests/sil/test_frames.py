@@ -1,6 +1,6 @@
 """Frames between the world and the firmware (sil/frames.py), laid out by hand from the module's
 documented header (type letter, port, payload length, 4 spare bytes, virtual ns; little-endian) and
-checked against the C end's struct (sil/standin/link.c, our stand-in's code)."""
+checked against the C end's struct (sil/standin/frame_transport.c, our stand-in's code)."""
 from __future__ import annotations
 
 import re
@@ -32,7 +32,7 @@ def test_a_payload_longer_than_the_length_field_is_refused():
 
 
 def test_the_c_end_has_the_same_header_fields_in_the_same_order():
-    source = (REPO / "sil" / "standin" / "link.c").read_text(encoding="utf-8")
+    source = (REPO / "sil" / "standin" / "frame_transport.c").read_text(encoding="utf-8")
     body = re.search(r"struct header \{(.*?)\};", source, re.S)
     assert body is not None
     types = [kind for kind, names in re.findall(r"(uint\d+_t)\s+([\w\s,]+);", body.group(1))
