@@ -55,7 +55,8 @@ def _js_frame_types() -> dict:
     runner = (REPO / "rp2040" / "runner.mjs").read_text(encoding="utf-8")
     body = re.search(r"const FRAME = Object\.freeze\(\{(.*?)\}\);", runner, re.S)
     assert body is not None, "runner.mjs has no `const FRAME = Object.freeze({...});`"
-    lines = [ln.strip() for ln in body.group(1).splitlines() if ln.strip() and not ln.strip().startswith("//")]
+    lines = [ln.strip() for ln in body.group(1).splitlines()]
+    lines = [ln for ln in lines if ln and not ln.startswith("//")]
     pairs = [re.fullmatch(r"(\w+): '(.)',?", ln) for ln in lines]
     assert all(pairs), [ln for ln, m in zip(lines, pairs) if not m]
     return dict(m.groups() for m in pairs if m)
@@ -76,4 +77,5 @@ def test_the_ends_use_the_names_not_the_letters():
     assert not re.findall(r"case '.'|emit\('.'", runner)
     for module in ("process.py", "port_world.py", "hat.py"):
         source = (REPO / "sil" / module).read_text(encoding="utf-8")
-        assert not re.findall(r"""encode\(["'].["']|_until\(["'].["']|kind (?:==|in) \(?["'].["']""", source), module
+        letters = r"""encode\(["'].["']|_until\(["'].["']|kind (?:==|in) \(?["'].["']"""
+        assert not re.findall(letters, source), module

@@ -31,8 +31,9 @@ def objects(tmp_path_factory) -> Dict[str, Path]:
     out = {}
     for src in SOURCES:
         obj = folder / f"{src.stem}.o"
-        done = subprocess.run([cc, "-std=gnu11", "-O1", "-Wall", "-Wextra", "-Werror", "-I", str(STANDIN / "include"),
-                               "-I", str(STANDIN), "-c", str(src), "-o", str(obj)], capture_output=True, text=True)
+        flags = ["-std=gnu11", "-O1", "-Wall", "-Wextra", "-Werror",
+                 "-I", str(STANDIN / "include"), "-I", str(STANDIN)]
+        done = subprocess.run([cc, *flags, "-c", str(src), "-o", str(obj)], capture_output=True, text=True)
         assert done.returncode == 0, f"{src.name}: {done.stderr}"
         out[src.name] = obj
     return out
