@@ -20,7 +20,7 @@ void sil_boot_signature_map(void) {
     void *pad = mmap((void *)(uintptr_t)SIGNATURE_PAGE, PAGE_SIZE, PROT_READ | PROT_WRITE,
                      MAP_PRIVATE | MAP_ANONYMOUS | MAP_FIXED_NOREPLACE, -1, 0);
     if (pad == MAP_FAILED || pad != (void *)(uintptr_t)SIGNATURE_PAGE)
-        fprintf(stderr, "sil: could not map the bootloader pad at 0x2003F000\n");
+        fprintf(stderr, "sil: could not map the bootloader pad at 0x%X\n", SIGNATURE_PAGE);
 }
 
 void sil_boot_signature_store(const uint8_t *bytes, size_t count) {

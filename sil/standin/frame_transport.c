@@ -83,7 +83,9 @@ static void yield(void) {
     obey();
 }
 
-static void host_bytes(uint64_t t, const uint8_t *bytes, uint16_t count) { emit(FRAME_TO_HOST, 0, t, bytes, count); }
+static void host_bytes(uint64_t t, const uint8_t *bytes, uint16_t count) {
+    emit(FRAME_TO_HOST, 0, t, bytes, count);
+}
 
 static void port_byte(int port, uint64_t t, uint32_t baud, uint8_t byte) {
     uint8_t payload[5];
@@ -98,7 +100,9 @@ static void port_receiver(int port, uint64_t t, bool on, uint32_t baud) {
     emit(FRAME_RECEIVER, (uint8_t)port, t, payload, sizeof payload);
 }
 
-static void port_byte_lost(int port, uint64_t t, uint8_t byte) { emit(FRAME_BYTE_LOST, (uint8_t)port, t, &byte, 1); }
+static void port_byte_lost(int port, uint64_t t, uint8_t byte) {
+    emit(FRAME_BYTE_LOST, (uint8_t)port, t, &byte, 1);
+}
 
 static void drive(int port, uint64_t t, int16_t duty, bool driven) {
     uint8_t payload[3];
@@ -195,7 +199,8 @@ static void obey(void) {
             return;
         case FRAME_HOST_BYTES: sil_uart_host_bytes(header.t, payload, len); break;
         case FRAME_PORT_BYTES:                    /* baud (u32), bytes */
-            if (len >= 4) sil_pio_port_bytes(header.port, header.t, u32_at(payload), payload + 4, (uint16_t)(len - 4));
+            if (len >= 4)
+                sil_pio_port_bytes(header.port, header.t, u32_at(payload), payload + 4, (uint16_t)(len - 4));
             break;
         case FRAME_PORT_CUT: sil_pio_port_cut(header.port, header.t); break;
         case FRAME_ID_LINES:                      /* signature (u16), RX line level when idle (u8) */
@@ -241,7 +246,8 @@ static void catch_fatal_signals(void) {
     for (size_t i = 0; i < sizeof fatal / sizeof fatal[0]; i++) {
         struct sigaction now;
         /* a sanitizer's own handler (it says more) is left in place */
-        if (sigaction(fatal[i], NULL, &now) == 0 && now.sa_handler == SIG_DFL) signal(fatal[i], say_fatal_signal);
+        if (sigaction(fatal[i], NULL, &now) == 0 && now.sa_handler == SIG_DFL)
+            signal(fatal[i], say_fatal_signal);
     }
 }
 

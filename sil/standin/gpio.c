@@ -103,7 +103,8 @@ uint8_t sil_gpio_id_pins(int port) {
     else if (rx == FLOATING && tx != FLOATING) way = BIASES + tx;
     else return 0;
     uint16_t signature = ids[port].signature;
-    return (uint8_t)((((signature >> way) & 1) << ID_PIN5_BIT) | (((signature >> (8 + way)) & 1) << ID_PIN6_BIT));
+    uint8_t pin5 = (signature >> way) & 1, pin6 = (signature >> (8 + way)) & 1;   /* low byte, high byte */
+    return (uint8_t)(pin5 << ID_PIN5_BIT | pin6 << ID_PIN6_BIT);
 }
 
 void sil_gpio_set_id(int port, uint16_t signature, uint8_t rx_idle_level) {

@@ -70,7 +70,9 @@ static uint8_t driver_read(int port, uint8_t reg) {
     return regs[port][reg];
 }
 
-static int is_accelerometer(const i2c_inst_t *i2c, uint8_t addr) { return i2c->bus == ACCEL_BUS && addr == ACCEL_ADDR; }
+static int is_accelerometer(const i2c_inst_t *i2c, uint8_t addr) {
+    return i2c->bus == ACCEL_BUS && addr == ACCEL_ADDR;
+}
 
 i2c_inst_t sil_i2c[2] = {{0}, {1}};
 

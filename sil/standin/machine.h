@@ -2,8 +2,8 @@
  * peripheral asks of it, and the terms of the run the world set. Not seen by the firmware.
  *
  * The machine knows the peripherals and the world only through the two interfaces it is
- * given at power-on (peripheral_interface.h, world_interface.h), so nothing it calls calls back into a file that
- * calls it: the peripherals and the transport sit above it. */
+ * given at power-on (peripheral_interface.h, world_interface.h), so nothing it calls calls
+ * back into a file that calls it: the peripherals and the transport sit above it. */
 #ifndef SIL_MACHINE_H
 #define SIL_MACHINE_H
 

@@ -222,8 +222,10 @@ static void port_byte_arrives(int port, uint8_t byte, uint32_t baud) {
             uint32_t want = sm_baud(block, sm);
             uint32_t diff = want > baud ? want - baud : baud - want;
             if (diff * BAUD_TOLERANCE > want) return;
-            if (machine->rx_count < FIFO_DEPTH) machine->rxf[machine->rx_count++] = (uint32_t)byte << RX_BYTE_SHIFT;
-            else sil_world->port_byte_lost(port, sil_now, byte);
+            if (machine->rx_count < FIFO_DEPTH)
+                machine->rxf[machine->rx_count++] = (uint32_t)byte << RX_BYTE_SHIFT;
+            else
+                sil_world->port_byte_lost(port, sil_now, byte);
             sil_touch();
             return;
         }
@@ -238,8 +240,10 @@ static uint64_t next_event(void) {
         if (arrival < t) t = arrival;
     }
     for (int block = 0; block < PIO_BLOCKS; block++)
-        for (int sm = 0; sm < SMS_PER_PIO; sm++)
-            if (machines[block][sm].shifting && machines[block][sm].shift_done < t) t = machines[block][sm].shift_done;
+        for (int sm = 0; sm < SMS_PER_PIO; sm++) {
+            const struct state_machine *machine = &machines[block][sm];
+            if (machine->shifting && machine->shift_done < t) t = machine->shift_done;
+        }
     return t;
 }
 

@@ -13,7 +13,11 @@
 #include "peripherals.h"
 
 /* In this order: their events run in it each time the clock is due (the command port first). */
-static const struct sil_peripheral *const timed_peripherals[] = {&sil_uart_peripheral, &sil_pio_peripheral, NULL};
+static const struct sil_peripheral *const timed_peripherals[] = {
+    &sil_uart_peripheral,
+    &sil_pio_peripheral,
+    NULL,
+};
 
 /* Early (priority 101): instrumented constructors of the firmware's objects (gcov's) must find
  * the clock stopped until the world has said how to run. */

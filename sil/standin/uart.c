@@ -68,7 +68,8 @@ uint8_t sil_uart_host_status(void) {
 
 /* ---- from the host ---------------------------------------------------------------------- */
 void sil_uart_host_bytes(uint64_t t, const uint8_t *bytes, uint16_t count) {
-    sil_wire_push(&command_port.rx, t, (uint32_t)(SIL_NS_PER_BYTE_AT_1_BAUD / command_port.byte_ns), bytes, count);
+    uint32_t baud = (uint32_t)(SIL_NS_PER_BYTE_AT_1_BAUD / command_port.byte_ns);
+    sil_wire_push(&command_port.rx, t, baud, bytes, count);
 }
 
 /* ---- events and the interrupt ----------------------------------------------------------- */
@@ -81,7 +82,7 @@ static uint64_t next_event(void) {
 static void run_events(void) {
     while (sil_wire_next(&command_port.rx) <= sil_now) {
         uint8_t byte = sil_wire_take(&command_port.rx, NULL);
-        if (!command_port.rx_full) {                           /* else overrun: the new byte is lost */
+        if (!command_port.rx_full) {       /* else overrun: the new byte is lost */
             command_port.rx_full = 1;
             command_port.rx_byte = byte;
         }
@@ -122,7 +123,7 @@ static void irq_enter(uint num) {
      * of the TX ring left unsent until the firmware queued another byte. */
     command_port.entered_rx = command_port.rx_full && (hw->imsc & IMSC_RXIM);
     if (command_port.entered_rx) {
-        command_port.rx_full = 0;                              /* the holding register is read */
+        command_port.rx_full = 0;          /* the holding register is read */
         SIL_SET_REG(hw->fr) = 0;                       /* RX not empty; TX not empty */
         SIL_SET_REG(hw->dr) = command_port.rx_byte;
     } else {
@@ -139,7 +140,7 @@ static void irq_exit(uint num) {
     if (command_port.entered_rx) return;
     command_port.entered_tx = 0;
     uint32_t dr = hw->dr;
-    if (dr != DR_UNTOUCHED && !command_port.tx_busy) {        /* the handler wrote a byte to send */
+    if (dr != DR_UNTOUCHED && !command_port.tx_busy) {   /* the handler wrote a byte to send */
         command_port.tx_byte = (uint8_t)dr;
         command_port.tx_busy = 1;
         command_port.tx_done = sil_now + command_port.byte_ns;
