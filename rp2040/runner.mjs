@@ -189,6 +189,35 @@ mcu.logger.warn = (component, message) => {
 
 // ---- frames -------------------------------------------------------------------------------
 
+// The frame types, one letter each (upper case from the world, lower case to it), named as in
+// sil/frames.py (FrameType) and sil/standin/frame_types.h; tests/sil/test_frames.py checks the three agree.
+const FRAME = Object.freeze({
+  // world -> firmware
+  RUN: 'R',
+  HOST_BYTES: 'H',
+  PORT_BYTES: 'P',
+  PORT_CUT: 'C',
+  ID_LINES: 'I',
+  FAULT_PINS: 'G',
+  FAULT_REGS: 'F',
+  ADC: 'A',
+  DRIVE_STOPS: 'W',
+  SIGNATURE: 'S',
+  QUIT: 'Q',
+  COPY: 'K',
+  // firmware -> world
+  YIELD: 'y',
+  COPY_MADE: 'k',
+  TO_HOST: 'h',
+  TO_PORT: 'p',
+  RECEIVER: 'u',
+  DRIVE: 'd',
+  FAULTS_CLEARED: 'f',
+  POWER: 'o',
+  LEDS: 'l',
+  BYTE_LOST: 'r',
+});
+
 const HEADER = 16;
 const out = [];
 function emit(type, port, t, payload = Buffer.alloc(0)) {
@@ -302,7 +331,7 @@ function driveChanged(p) {
   const msg = Buffer.alloc(3);
   msg.writeInt16LE(duty, 0);
   msg.writeUInt8(mode, 2);
-  emit('d', p, clock.nanos, msg);
+  emit(FRAME.DRIVE, p, clock.nanos, msg);
   if (world.driveStops & (1 << p)) yieldWanted = true;
 }
 function driverWrite(p, r, v) {
@@ -311,7 +340,7 @@ function driverWrite(p, r, v) {
     regs[p].fill(0);
     driveChanged(p);
   } else if (r === 0x4c) {
-    if ((v & 0x0f) === 0) emit('f', p, clock.nanos);
+    if ((v & 0x0f) === 0) emit(FRAME.FAULTS_CLEARED, p, clock.nanos);
     driveChanged(p);
   } else if (r === 0xa1) {
     driveChanged(p);
@@ -350,12 +379,12 @@ let powerSeen = -1, ledsSeen = -1;
 function outputsChanged() {
   const power = mcu.gpio[PIN_PORTON].outputEnable && mcu.gpio[PIN_PORTON].outputValue ? 1 : 0;
   if (power !== powerSeen && powerSeen !== -1 || power && powerSeen === -1) {
-    emit('o', 0, clock.nanos, Buffer.from([power]));
+    emit(FRAME.POWER, 0, clock.nanos, Buffer.from([power]));
     yieldWanted = true;
   }
   powerSeen = power;
   const leds = (mcu.gpio[PIN_LED0].outputValue ? 1 : 0) | (mcu.gpio[PIN_LED1].outputValue ? 2 : 0);
-  if (leds !== ledsSeen) emit('l', 0, clock.nanos, Buffer.from([leds]));
+  if (leds !== ledsSeen) emit(FRAME.LEDS, 0, clock.nanos, Buffer.from([leds]));
   ledsSeen = leds;
 }
 for (const pin of mcu.gpio) {
@@ -407,7 +436,7 @@ function hostBytes(t, bytes) {
 }
 function flushHost() {
   if (hostOut.length) {
-    emit('h', 0, hostOutT, Buffer.from(hostOut));
+    emit(FRAME.TO_HOST, 0, hostOutT, Buffer.from(hostOut));
     hostOut = [];
   }
 }
@@ -513,7 +542,7 @@ function run() {
     process.stderr.write(`rp2040: ${stopped} (virtual time ${(clock.nanos / 1e6).toFixed(3)} ms)\n`);
     process.kill(process.pid, 'SIGABRT');
   }
-  emit('y', 0, clock.nanos, Buffer.from([hostStatus()]));
+  emit(FRAME.YIELD, 0, clock.nanos, Buffer.from([hostStatus()]));
   flush();
 }
 
@@ -525,28 +554,28 @@ function obey() {
     const t = Number(h.readBigUInt64LE(8));
     const payload = readExactly(len);
     switch (type) {
-      case 'R':
+      case FRAME.RUN:
         limit = t;
         yieldOnHostIdle = len > 0 && (payload[0] & 1) === 1;
         return;
-      case 'H': hostBytes(t, payload); break;
-      case 'S': mcu.sram.set(payload.subarray(0, 256), 0x3ff00); break;
-      case 'I':
+      case FRAME.HOST_BYTES: hostBytes(t, payload); break;
+      case FRAME.SIGNATURE: mcu.sram.set(payload.subarray(0, 256), 0x3ff00); break;
+      case FRAME.ID_LINES:
         if (len >= 3) world.ids[h.readUInt8(1)] = { signature: payload.readUInt16LE(0), rxIdle: payload[2] };
         settlePins();
         break;
-      case 'G':
+      case FRAME.FAULT_PINS:
         if (len >= 2) [world.portOk, world.motorOk] = [payload[0], payload[1]];
         settlePins();
         break;
-      case 'F': if (len >= 3) world.faultRegs[h.readUInt8(1)] = [...payload.subarray(0, 3)]; break;
-      case 'A': if (len >= 2) mcu.adc.channelValues[ADC_VIN] = payload.readUInt16LE(0); break;
-      case 'W': if (len >= 1) world.driveStops = payload[0]; break;
-      case 'Q': flush(); process.exit(0); break;
-      case 'K': {      // a copy of a running chip: not available here (the harness starts a new one)
+      case FRAME.FAULT_REGS: if (len >= 3) world.faultRegs[h.readUInt8(1)] = [...payload.subarray(0, 3)]; break;
+      case FRAME.ADC: if (len >= 2) mcu.adc.channelValues[ADC_VIN] = payload.readUInt16LE(0); break;
+      case FRAME.DRIVE_STOPS: if (len >= 1) world.driveStops = payload[0]; break;
+      case FRAME.QUIT: flush(); process.exit(0); break;
+      case FRAME.COPY: {      // a copy of a running chip: not available here (the harness starts a new one)
         const e = Buffer.alloc(4);
         e.writeInt32LE(-38);
-        emit('k', 0, clock.nanos, e);
+        emit(FRAME.COPY_MADE, 0, clock.nanos, e);
         flush();
         break;
       }
@@ -557,7 +586,7 @@ function obey() {
 }
 
 settlePins();
-emit('y', 0, 0, Buffer.from('SIL1'));
+emit(FRAME.YIELD, 0, 0, Buffer.from('SIL1'));
 flush();
 for (;;) {
   obey();

@@ -1,8 +1,10 @@
 """Frames between the world (this package, Python) and a firmware built with the stand-in (C).
 
 Both directions use one header, ``<BBHIQ``: type (one ASCII letter), port, payload length,
-4 spare bytes, time in virtual nanoseconds; the payload follows. ``standin/link.c`` is the
-other end. The firmware runs only between a run frame and the yield frame that answers it.
+4 spare bytes, time in virtual nanoseconds; the payload follows. ``standin/frame_transport.c`` is
+the other end. The firmware runs only between a run frame and the yield frame that answers it.
+Each type is named once per language: :class:`FrameType` here, ``standin/frame_types.h`` in C,
+``FRAME`` in ``rp2040/runner.mjs`` (tests/sil/test_frames.py checks that the three agree).
 
 World -> firmware (upper case):
 
@@ -42,17 +44,47 @@ Firmware -> world (lower case):
 from __future__ import annotations
 
 import struct
+from enum import Enum
 from typing import Iterator, NamedTuple
 
-__all__ = ["HEADER", "HELLO", "Frame", "encode", "decode", "NS_PER_MS"]
+__all__ = ["HEADER", "HELLO", "Frame", "FrameType", "encode", "decode", "NS_PER_MS"]
 
 HEADER = struct.Struct("<BBHIQ")
 HELLO = b"SIL1"
 NS_PER_MS = 1_000_000
 
 
+class FrameType(str, Enum):
+    """The frame types of the tables above, by name (each is its one-letter string)."""
+
+    # world -> firmware
+    RUN = "R"
+    HOST_BYTES = "H"
+    PORT_BYTES = "P"
+    PORT_CUT = "C"
+    ID_LINES = "I"
+    FAULT_PINS = "G"
+    FAULT_REGS = "F"
+    ADC = "A"
+    DRIVE_STOPS = "W"
+    SIGNATURE = "S"
+    QUIT = "Q"
+    COPY = "K"
+    # firmware -> world
+    YIELD = "y"
+    COPY_MADE = "k"
+    TO_HOST = "h"
+    TO_PORT = "p"
+    RECEIVER = "u"
+    DRIVE = "d"
+    FAULTS_CLEARED = "f"
+    POWER = "o"
+    LEDS = "l"
+    BYTE_LOST = "r"
+
+
 class Frame(NamedTuple):
-    kind: str
+    kind: str       # a FrameType's letter (FrameType members compare equal to it)
     port: int
     t: int          # virtual ns
     payload: bytes

@@ -21,7 +21,7 @@ from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence
 from ..emulator.command_uart import WIRE_AHEAD, WIRE_AHEAD_MS
 from ..emulator.world_actions import WorldError, perform_line
 from ..protocol.devices import DEFAULT_LAYOUT, parse_device_spec
-from .frames import NS_PER_MS, encode
+from .frames import NS_PER_MS, FrameType, encode
 from .port_world import SilWorld
 from .process import FirmwareDied, FirmwareProcess
 from .sanitizer_reports import FirmwareReport
@@ -84,7 +84,7 @@ class SilHat:
         self.outside = SilWorld(self.devices, seed=self.seed, features=self.features, event=self._event)
         self.outside.base_ns = self._base_ns
         if self.signature:
-            self.outside.send(encode("S", 0, bytes(self.signature)[:64]))
+            self.outside.send(encode(FrameType.SIGNATURE, 0, bytes(self.signature)[:64]))
         self.died, self.hung = None, False
         try:
             self.proc: Optional[FirmwareProcess] = FirmwareProcess(self.program, env=self.env,
@@ -131,7 +131,7 @@ class SilHat:
                 return
 
     def _take(self, frame) -> None:
-        if frame.kind == "h":
+        if frame.kind == FrameType.TO_HOST:
             self._out += frame.payload
             if len(self._seen) < SEEN_LIMIT:      # the start-up's lines, for settled(); no more
                 self._seen += frame.payload
@@ -184,7 +184,8 @@ class SilHat:
     def write(self, data: bytes) -> None:
         if self.proc is not None and self.died is None and not self.hung:
             for i in range(0, len(data), 4096):
-                self.outside.send(encode("H", self._now_ns - self._base_ns, bytes(data[i:i + 4096])))
+                start = self._now_ns - self._base_ns
+                self.outside.send(encode(FrameType.HOST_BYTES, start, bytes(data[i:i + 4096])))
             # The stand-in queues them on the command port's wire, one byte time each (sil/README.md).
             self._host_free_ns = max(self._host_free_ns, self._now_ns) + len(data) * HOST_BYTE_NS
 

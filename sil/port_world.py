@@ -28,7 +28,7 @@ from ..emulator.devices.port_actions import PortActions
 from ..emulator.ports import lpf2
 from ..emulator.ports.port import SIGNATURE_ACTIVE, SIGNATURE_EMPTY
 from ..emulator.power_faults import FaultCauses
-from .frames import NS_PER_MS, Frame, encode
+from .frames import NS_PER_MS, Frame, FrameType, encode
 
 __all__ = ["SilWorld", "SilPort", "SETUP_BAUD", "SHAFT_MODES", "shows_shaft"]
 
@@ -99,7 +99,7 @@ class SilPort(PortActions):
         lines = self.id_lines()
         if lines != self._id_sent:
             self._id_sent = lines
-            self.world.send(encode("I", 0, struct.pack("<HB", *lines), port=self.index))
+            self.world.send(encode(FrameType.ID_LINES, 0, struct.pack("<HB", *lines), port=self.index))
 
     # -- world actions (emulator/world_actions.py names) -------------------------------------------
     def plug(self, spec) -> None:
@@ -118,7 +118,8 @@ class SilPort(PortActions):
 
     def cut(self) -> None:
         """The device stops what it was sending (unplugged, or starting its link over)."""
-        self.world.send(encode("C", self.world.now_ms * NS_PER_MS - self.world.base_ns, port=self.index))
+        now_ns = self.world.now_ms * NS_PER_MS - self.world.base_ns
+        self.world.send(encode(FrameType.PORT_CUT, now_ns, port=self.index))
 
     def unplug(self) -> None:
         if isinstance(self.device, ActiveDevice):
@@ -136,7 +137,7 @@ class SilPort(PortActions):
         now = frame.t // NS_PER_MS
         kind = frame.kind
         dev = self.device
-        if kind == "p":
+        if kind == FrameType.TO_PORT:
             # A device's receiver starts over after a pause in the bytes, as the emulator's does
             # at each frame the HAT sends (emulator/ports/device_uart.py): a frame whose header promises
             # more bytes than came does not swallow the next one.
@@ -152,7 +153,7 @@ class SilPort(PortActions):
                 dev.receive(msg, now)
                 dev.inputs_changed()
                 self.wake()
-        elif kind == "u":
+        elif kind == FrameType.RECEIVER:
             self.listening = bool(frame.payload[0])
             self._from_hat.reset()
             if isinstance(dev, ActiveDevice):
@@ -163,7 +164,7 @@ class SilPort(PortActions):
                 else:
                     dev.reset_link()
                 self.wake()
-        elif kind == "d":
+        elif kind == FrameType.DRIVE:
             duty, driven = struct.unpack("<hB", frame.payload[:3])
             value: Duty = int(duty) if driven else "coast"
             if value != self.duty:
@@ -188,7 +189,8 @@ class SilPort(PortActions):
                 self.world.event("devrx", now, port=self.index, hex=frame.hex(" ").upper())
             for i in range(0, len(data), 4096):
                 chunk = struct.pack("<I", dev.baud) + data[i:i + 4096]
-                self.world.send(encode("P", now * NS_PER_MS - self.world.base_ns, chunk, port=self.index))
+                start = now * NS_PER_MS - self.world.base_ns
+                self.world.send(encode(FrameType.PORT_BYTES, start, chunk, port=self.index))
         self.sync_id()                   # a device that stopped talking lets the line go
         self.due = dev.next_due(now)
         if isinstance(dev, MotorDevice) and self.due <= now + 1:
@@ -216,10 +218,11 @@ class _FaultLatches(FaultCauses):
 
     def _sync(self) -> None:
         motor_ok = all(f is None for f in self.latched)
-        self.world.send(encode("G", 0, bytes([0 if self.port_fault_low else 1, 1 if motor_ok else 0])))
+        pins = bytes([0 if self.port_fault_low else 1, 1 if motor_ok else 0])
+        self.world.send(encode(FrameType.FAULT_PINS, 0, pins))
         for p in range(4):
             flags = self.latched[p] or (0, 0, 0)
-            self.world.send(encode("F", 0, bytes(int(f) & 0xFF for f in flags), port=p))
+            self.world.send(encode(FrameType.FAULT_REGS, 0, bytes(int(f) & 0xFF for f in flags), port=p))
             self.world.ports[p].wake()
 
     def _fault_changed(self, ports: Sequence[int]) -> None:
@@ -266,7 +269,7 @@ class SilWorld:
             if spec is not None:
                 self.ports[int(index)].plug(spec)
         self.sync_drive_stops()
-        self.send(encode("A", 0, struct.pack("<H", DEFAULT_ADC)))
+        self.send(encode(FrameType.ADC, 0, struct.pack("<H", DEFAULT_ADC)))
 
     # -- what the device models and the world actions call ------------------------------------
     def send(self, frame: bytes) -> None:
@@ -291,22 +294,22 @@ class SilWorld:
         mask = sum(1 << p.index for p in getattr(self, "ports", ()) if isinstance(p.device, ActiveDevice))
         if mask != self._drive_stops:
             self._drive_stops = mask
-            self.send(encode("W", 0, bytes([mask])))
+            self.send(encode(FrameType.DRIVE_STOPS, 0, bytes([mask])))
 
     def set_adc(self, raw: int) -> None:
         if not 0 <= int(raw) <= 4095:
             raise ValueError(f"ADC reading must be 0..4095, got {raw}")
-        self.send(encode("A", 0, struct.pack("<H", int(raw))))
+        self.send(encode(FrameType.ADC, 0, struct.pack("<H", int(raw))))
 
     # -- time ------------------------------------------------------------------------------
     def from_firmware(self, frame: Frame) -> None:
-        if frame.kind in ("p", "u", "d") and frame.port < 4:
+        if frame.kind in (FrameType.TO_PORT, FrameType.RECEIVER, FrameType.DRIVE) and frame.port < 4:
             self.ports[frame.port].from_firmware(frame)
-        elif frame.kind == "f" and frame.port < 4:
+        elif frame.kind == FrameType.FAULTS_CLEARED and frame.port < 4:
             self.faults.cleared(frame.port, frame.t // NS_PER_MS)
-        elif frame.kind == "l":
+        elif frame.kind == FrameType.LEDS:
             self.event("led", frame.t // NS_PER_MS, value=frame.payload[0])
-        elif frame.kind == "r" and frame.payload:
+        elif frame.kind == FrameType.BYTE_LOST and frame.payload:
             # A real HAT loses such a byte without a word; here it is said, so that a set-up the
             # firmware took only in part is explained (sil/README.md).
             self.event("note", frame.t // NS_PER_MS,

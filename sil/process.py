@@ -20,7 +20,7 @@ import subprocess
 import tempfile
 from typing import List, Optional, Sequence, Tuple
 
-from .frames import HEADER, HELLO, Frame, encode
+from .frames import HEADER, HELLO, Frame, FrameType, encode
 from .sanitizer_reports import FirmwareReport, crash_report, split_reports
 
 __all__ = ["FirmwareProcess", "FirmwareDied", "HANG_S"]
@@ -29,7 +29,8 @@ __all__ = ["FirmwareProcess", "FirmwareDied", "HANG_S"]
 # loop inside an interrupt handler never gives the clock back).
 HANG_S = 20.0
 _SANITIZER_EXIT = 86
-# What the stand-in prints as a fatal signal no sanitizer handles kills the program (link.c).
+# What the stand-in prints as a fatal signal no sanitizer handles kills the program
+# (standin/frame_transport.c).
 _SAID_SIGNAL = re.compile(r"sil: the firmware was killed by (SIG[A-Z]+)")
 
 
@@ -103,9 +104,9 @@ class FirmwareProcess:
         self._buf = bytearray()
         self.now = 0
         self.ended: Optional[FirmwareDied] = None
-        # At the last yield nothing was leaving or arriving on the command port (protocol.py 'y').
+        # At the last yield nothing was leaving or arriving on the command port (frames.py, FrameType.YIELD).
         self.host_quiet = False
-        hello, _frames = self._until("y")
+        hello, _frames = self._until(FrameType.YIELD)
         if hello.payload[:4] != HELLO:
             self.kill()
             raise FirmwareDied("exited", f"{self.program} is not a firmware built with the stand-in "
@@ -123,8 +124,8 @@ class FirmwareProcess:
             listener.listen(1)
             listener.settimeout(HANG_S)
             stderr_path = os.path.join(tmp, "stderr.txt")
-            self.send(encode("K", 0, path.encode() + b"\0" + stderr_path.encode()))
-            answer, _frames = self._until("k")
+            self.send(encode(FrameType.COPY, 0, path.encode() + b"\0" + stderr_path.encode()))
+            answer, _frames = self._until(FrameType.COPY_MADE)
             pid = struct.unpack("<i", answer.payload[:4])[0]
             if pid < 0:
                 raise FirmwareDied("exited", f"the firmware could not be copied (fork: {os.strerror(-pid)})")
@@ -156,8 +157,8 @@ class FirmwareProcess:
         """Send ``inputs`` (encoded frames), run to ``limit_ns`` or the firmware's own yield,
         and return its frames (``self.now`` is where it stopped)."""
         flags = b"\x01" if yield_on_host_idle else b"\x00"
-        self.send(b"".join(inputs) + encode("R", limit_ns, flags))
-        y, frames = self._until("y")
+        self.send(b"".join(inputs) + encode(FrameType.RUN, limit_ns, flags))
+        y, frames = self._until(FrameType.YIELD)
         self.now = y.t
         self.host_quiet = y.payload[:1] == b"\x03"
         self._read_reports()
@@ -304,7 +305,7 @@ class FirmwareProcess:
         gone = False
         try:
             if self.ended is None:
-                self.send(encode("Q"))
+                self.send(encode(FrameType.QUIT))
                 if self.proc is not None:
                     self.proc.wait(timeout=timeout)
                     gone = True

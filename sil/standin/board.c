@@ -1,7 +1,7 @@
 /* Where the Build HAT wires its four LPF2 ports and status pins, from the board's published
  * pin-out (the same facts any Build HAT schematic gives). The stand-in needs them to know
  * which port a PIO pin or a motor-driver I2C address belongs to. */
-#include "sil.h"
+#include "board.h"
 
 struct port_wiring {
     uint tx_pin, rx_pin;     /* the RP2040 GPIOs of the port's UART lines */

@@ -16,7 +16,7 @@
  * polling, and the clock jumps again at once. See sil/README.md for why this keeps behaviour
  * unchanged.
  */
-#include "sil.h"
+#include "machine.h"
 
 #include <stdio.h>
 #include <stdlib.h>
@@ -39,13 +39,21 @@ static uint64_t ns_per_block = NS_PER_BLOCK_DEFAULT;
 #endif
 
 uint64_t sil_now;
+const struct sil_world *sil_world;
+
+/* The peripherals with events or interrupts, in the order their events run (power-on's). */
+static const struct sil_peripheral *const no_peripherals[] = {NULL};
+static const struct sil_peripheral *const *attached = no_peripherals;
+/* The world's run frame (sil_run_until). */
+static uint64_t run_limit;
+static int stop_on_host_idle;
 
 static uint64_t blocks;
 static uint64_t handler_blocks;         /* of those, run inside interrupt handlers */
 static uint64_t next_due = UINT64_MAX;  /* when sil_service must run next (never before power-on) */
 static int in_service, in_irq, yield_wanted;
 static irq_handler_t handlers[SIL_NUM_IRQS];
-static uint8_t enabled[SIL_NUM_IRQS], pending[SIL_NUM_IRQS];
+static uint8_t is_enabled[SIL_NUM_IRQS], pending[SIL_NUM_IRQS];
 static uint32_t armed;                  /* interrupts enabled with a handler: the only ones to ask */
 
 /* Timer-read idling (see above). Intervals count the main loop's blocks only: a handler that
@@ -62,19 +70,64 @@ void sil_request_yield(void) {
     next_due = sil_now;
 }
 
+void sil_run_until(uint64_t limit_ns, int yield_on_host_idle) {
+    run_limit = limit_ns;
+    stop_on_host_idle = yield_on_host_idle;
+}
+
+int sil_yields_on_host_idle(void) { return stop_on_host_idle; }
+
+/* ---- what the peripherals say (peripheral_interface.h) -------------------------------------------- */
+static uint64_t next_event(void) {
+    uint64_t next = UINT64_MAX;
+    for (const struct sil_peripheral *const *each = attached; *each; each++) {
+        uint64_t t = (*each)->next_event ? (*each)->next_event() : UINT64_MAX;
+        if (t < next) next = t;
+    }
+    return next;
+}
+
+static void run_events(void) {
+    for (const struct sil_peripheral *const *each = attached; *each; each++)
+        if ((*each)->run_events) (*each)->run_events();
+}
+
+static int irq_level(uint num) {
+    for (const struct sil_peripheral *const *each = attached; *each; each++)
+        if ((*each)->irq_level && (*each)->irq_level(num)) return 1;
+    return 0;
+}
+
+static int irq_kept_pending(uint num) {
+    for (const struct sil_peripheral *const *each = attached; *each; each++)
+        if ((*each)->irq_pend && (*each)->irq_pend(num)) return 1;
+    return 0;
+}
+
+static void irq_enter(uint num) {
+    for (const struct sil_peripheral *const *each = attached; *each; each++)
+        if ((*each)->irq_enter) (*each)->irq_enter(num);
+}
+
+static void irq_exit(uint num) {
+    for (const struct sil_peripheral *const *each = attached; *each; each++)
+        if ((*each)->irq_exit) (*each)->irq_exit(num);
+}
+
+/* ---- the clock and interrupts ----------------------------------------------------------- */
 void sil_wake(void) {
-    uint64_t e = periph_next_event();
-    next_due = e < link_limit ? e : link_limit;
+    uint64_t next = next_event();
+    next_due = next < run_limit ? next : run_limit;
     if (yield_wanted) next_due = sil_now;
 }
 
 static void rearm(uint num) {
     uint32_t bit = 1u << num;
-    armed = (enabled[num] && handlers[num]) ? (armed | bit) : (armed & ~bit);
+    armed = (is_enabled[num] && handlers[num]) ? (armed | bit) : (armed & ~bit);
 }
 
 static int irq_wanted(uint num) {
-    return (armed >> num & 1u) && (pending[num] || periph_irq_level(num));
+    return (armed >> num & 1u) && (pending[num] || irq_level(num));
 }
 
 /* Take one interrupt, lowest number first (the NVIC's order at equal priority). */
@@ -85,12 +138,12 @@ static int take_interrupt(void) {
         pending[num] = 0;
         in_irq = 1;
         in_service = 0;                /* events and the world go on during a long handler */
-        periph_irq_enter(num);
+        irq_enter(num);
         stat_irqs++;
         uint64_t start = blocks;
         handlers[num]();
         handler_blocks += blocks - start;
-        periph_irq_exit(num);
+        irq_exit(num);
         in_service = 1;
         in_irq = 0;
         touched = 1;
@@ -103,11 +156,11 @@ void sil_service(void) {
     if (in_service) return;
     in_service = 1;
     for (;;) {
-        periph_run_events();
-        if (yield_wanted || sil_now >= link_limit) {
+        run_events();
+        if (yield_wanted || sil_now >= run_limit) {
             yield_wanted = 0;
-            link_yield();
-            if (link_limit <= sil_now) link_limit = sil_now + 1;
+            sil_world->yield();
+            if (run_limit <= sil_now) run_limit = sil_now + 1;
             continue;
         }
         if (!in_irq && take_interrupt()) continue;
@@ -220,17 +273,17 @@ void irq_set_exclusive_handler(uint num, irq_handler_t handler) {
     rearm(num);
 }
 
-void irq_set_enabled(uint num, bool on) {
+void irq_set_enabled(uint num, bool enabled) {
     if (num >= SIL_NUM_IRQS) return;
-    enabled[num] = on;
+    is_enabled[num] = enabled;
     rearm(num);
     sil_touch();
-    if (on) sil_service();
+    if (enabled) sil_service();
 }
 
 void irq_set_pending(uint num) {
     if (num >= SIL_NUM_IRQS) return;
-    if (!periph_irq_pend(num)) pending[num] = 1;
+    if (!irq_kept_pending(num)) pending[num] = 1;
     sil_touch();
     sil_service();
 }
@@ -261,19 +314,11 @@ static void write_stats(void) {
     fclose(f);
 }
 
-/* Early (priority 101): instrumented constructors of the firmware's objects (gcov's) must find
- * the clock stopped until the world has said how to run. */
-__attribute__((constructor(101))) static void sil_power_on(void) {
+void sil_machine_power_on(const struct sil_peripheral *const *peripherals, const struct sil_world *world) {
     const char *cost = getenv("BUILDHAT_SIL_NS_PER_BLOCK");
     if (cost && atoi(cost) > 0) ns_per_block = (uint64_t)atoi(cost);
     stats_path = getenv("BUILDHAT_SIL_STATS");
     if (stats_path && *stats_path) atexit(write_stats);
-    periph_init();
-    link_start();                      /* the world's set-up frames, then its first run */
-    sil_wake();
-    /* BUILDHAT_SIL_START_NS: the chip starts its program that much later after power-on (a
-     * real one is not exact to the microsecond). Every later instant moves by it against the
-     * world's: sil mutate's phase controls learn which output depends on such a phase. */
-    const char *start = getenv("BUILDHAT_SIL_START_NS");
-    if (start && atoll(start) > 0) sil_spend((uint64_t)atoll(start));
+    attached = peripherals;
+    sil_world = world;
 }

@@ -1,6 +1,6 @@
 """Frames between the world and the firmware (sil/frames.py), laid out by hand from the module's
 documented header (type letter, port, payload length, 4 spare bytes, virtual ns; little-endian) and
-checked against the C end's struct (sil/standin/link.c, our stand-in's code)."""
+checked against the C end's struct (sil/standin/frame_transport.c, our stand-in's code)."""
 from __future__ import annotations
 
 import re
@@ -8,7 +8,7 @@ import re
 import pytest
 from repo_paths import REPO
 
-from buildhat_conformance.sil.frames import HEADER, decode, encode
+from buildhat_conformance.sil.frames import HEADER, FrameType, decode, encode
 
 
 def test_a_frame_is_the_documented_header_then_the_payload():
@@ -32,9 +32,50 @@ def test_a_payload_longer_than_the_length_field_is_refused():
 
 
 def test_the_c_end_has_the_same_header_fields_in_the_same_order():
-    source = (REPO / "sil" / "standin" / "link.c").read_text(encoding="utf-8")
+    source = (REPO / "sil" / "standin" / "frame_transport.c").read_text(encoding="utf-8")
     body = re.search(r"struct header \{(.*?)\};", source, re.S)
     assert body is not None
     types = [kind for kind, names in re.findall(r"(uint\d+_t)\s+([\w\s,]+);", body.group(1))
              for _name in names.split(",")]
     assert types == ["uint8_t", "uint8_t", "uint16_t", "uint32_t", "uint64_t"] and HEADER.size == 16
+
+
+# -- the frame types, named once in each language ------------------------------------------------
+
+def _c_frame_types() -> dict:
+    header = (REPO / "sil" / "standin" / "frame_types.h").read_text(encoding="utf-8")
+    body = re.search(r"enum sil_frame_type \{(.*?)\};", header, re.S)
+    assert body is not None, "frame_types.h has no enum sil_frame_type"
+    pairs = re.findall(r"\bFRAME_(\w+)\s*=\s*'(.)'", body.group(1))
+    assert len(pairs) == len(re.findall(r"=", body.group(1))), "an enum entry that is not FRAME_NAME = 'x'"
+    return dict(pairs)
+
+
+def _js_frame_types() -> dict:
+    runner = (REPO / "rp2040" / "runner.mjs").read_text(encoding="utf-8")
+    body = re.search(r"const FRAME = Object\.freeze\(\{(.*?)\}\);", runner, re.S)
+    assert body is not None, "runner.mjs has no `const FRAME = Object.freeze({...});`"
+    lines = [ln.strip() for ln in body.group(1).splitlines()]
+    lines = [ln for ln in lines if ln and not ln.startswith("//")]
+    pairs = [re.fullmatch(r"(\w+): '(.)',?", ln) for ln in lines]
+    assert all(pairs), [ln for ln, m in zip(lines, pairs) if not m]
+    return dict(m.groups() for m in pairs if m)
+
+
+def test_the_frame_types_are_the_same_in_python_c_and_the_rp2040_runner():
+    python = {t.name: t.value for t in FrameType}
+    assert len(python) == 22 and len(set(python.values())) == len(python)
+    assert _c_frame_types() == python
+    assert _js_frame_types() == python
+
+
+def test_the_ends_use_the_names_not_the_letters():
+    # A bare letter where a frame type is meant is a second place that knows it.
+    transport = (REPO / "sil" / "standin" / "frame_transport.c").read_text(encoding="utf-8")
+    assert not re.findall(r"case '.'|emit\('.'", transport)
+    runner = (REPO / "rp2040" / "runner.mjs").read_text(encoding="utf-8")
+    assert not re.findall(r"case '.'|emit\('.'", runner)
+    for module in ("process.py", "port_world.py", "hat.py"):
+        source = (REPO / "sil" / module).read_text(encoding="utf-8")
+        letters = r"""encode\(["'].["']|_until\(["'].["']|kind (?:==|in) \(?["'].["']"""
+        assert not re.findall(letters, source), module

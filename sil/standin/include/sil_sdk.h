@@ -3,8 +3,8 @@
  * Written from the SDK's public API (names, types, register layouts of the RP2040 datasheet),
  * so that a firmware tree compiles unchanged for the host. Every SDK header the firmware
  * includes (pico/stdlib.h, hardware/uart.h, ...) is a one-line include of this file.
- * The behaviour behind these declarations lives in machine.c (time, interrupts) and
- * periph.c (UART, PIO, GPIO, I2C, ADC); see sil/README.md.
+ * The behaviour behind these declarations lives in machine.c (time, interrupts) and one file
+ * per peripheral: uart.c, pio.c, gpio.c, i2c.c, adc.c, clocks.c; see sil/README.md.
  */
 #ifndef SIL_SDK_H
 #define SIL_SDK_H
@@ -130,13 +130,13 @@ typedef struct {
 } pio_sm_config;
 
 pio_sm_config sil_pio_default_config(uint offset);
-void sm_config_set_out_shift(pio_sm_config *c, bool shift_right, bool autopull, uint threshold);
-void sm_config_set_in_shift(pio_sm_config *c, bool shift_right, bool autopush, uint threshold);
-void sm_config_set_out_pins(pio_sm_config *c, uint out_base, uint out_count);
-void sm_config_set_sideset_pins(pio_sm_config *c, uint sideset_base);
-void sm_config_set_in_pins(pio_sm_config *c, uint in_base);
-void sm_config_set_jmp_pin(pio_sm_config *c, uint pin);
-void sm_config_set_clkdiv(pio_sm_config *c, float div);
+void sm_config_set_out_shift(pio_sm_config *config, bool shift_right, bool autopull, uint threshold);
+void sm_config_set_in_shift(pio_sm_config *config, bool shift_right, bool autopush, uint threshold);
+void sm_config_set_out_pins(pio_sm_config *config, uint out_base, uint out_count);
+void sm_config_set_sideset_pins(pio_sm_config *config, uint sideset_base);
+void sm_config_set_in_pins(pio_sm_config *config, uint in_base);
+void sm_config_set_jmp_pin(pio_sm_config *config, uint pin);
+void sm_config_set_clkdiv(pio_sm_config *config, float div);
 int pio_add_program(PIO pio, const pio_program_t *program);
 void pio_clear_instruction_memory(PIO pio);
 int pio_sm_init(PIO pio, uint sm, uint initial_pc, const pio_sm_config *config);
