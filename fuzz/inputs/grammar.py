@@ -1,4 +1,5 @@
-"""The command language as data, built from a profile's command table (docs/FIRMWARE-BEHAVIOUR.md#fb-matching, #fb-arguments, #fb-commands).
+"""The command language as data, built from a profile's command table
+(docs/FIRMWARE-BEHAVIOUR.md#fb-matching, #fb-arguments, #fb-commands).
 
 The argument signatures below are a transcription of the clamping table (fb-clamping) and the command
 list (fb-commands), written in a small notation so they read like the help text:

@@ -72,6 +72,6 @@ PASS_MARGIN_MS = 5
 
 
 def input_ms(sent: int) -> int:
-    """HAT ms before a pause may end early (:meth:`fuzz.link.Link.settle`): the ``sent`` bytes
-    have crossed the wire and the last line has been read and begun answering."""
+    """HAT ms before a pause may end early (``TargetExchange.settle``, fuzz/running/target_exchange.py):
+    the ``sent`` bytes have crossed the wire and the last line has been read and begun answering."""
     return math.ceil(sent / WIRE_BYTES_PER_MS) + PASS_MARGIN_MS

@@ -11,8 +11,8 @@ the other lists it connected, or has not even dropped it yet (a sil finding, `--
 ``inprocess``). Timing, not behaviour: the differential oracle leaves out the `list` block of such
 a port until the side has established it again, for at most :data:`WINDOW_MS` of that side's HAT
 time after its last set-up line (a device that never comes back is compared again after that).
-That time is the HAT's own clock (``Link.target_now``), which goes on from run to run on a target kept
-open, so a set-up begun in one run is still left out in the next.
+That time is the HAT's own clock (``TargetExchange.target_now``), which goes on from run to run on a
+target kept open, so a set-up begun in one run is still left out in the next.
 """
 from __future__ import annotations
 

@@ -31,7 +31,7 @@ from ..oracles.registry import Answer, Problem, oracle_named, oracles
 from ..oracles.setup_loss import for_target
 from ..oracles.state_check import check_drive, expect_reports, follow_links, observe
 from ..oracles.stream_match import allowed_kinds, match_stream, without_torn
-from .target_exchange import FENCE, Link, LinkTimeout
+from .target_exchange import FENCE, ExchangeTimeout, TargetExchange
 
 __all__ = ["Runner", "Side", "Stats", "PRELUDE"]
 
@@ -88,7 +88,7 @@ class Side:
 
     def __init__(self, label: str, target: Target, profile: Profile, fence_s: float):
         self.label, self.profile = label, profile
-        self.link = Link(target, label, fence_s)
+        self.link = TargetExchange(target, label, fence_s)
         self.model = ReferenceModel(profile)
         self.fence_line = f"Firmware version: {profile.version_string}\r\n".encode()
         self._allowed: Dict[Optional[int], frozenset] = {}
@@ -207,7 +207,7 @@ class Runner:
                     drained = side.link.drain()
                     side.link.sync(side.fence_line)
                 out = drained + side.link.exchange(prelude, side.fence_line, 1, listing)
-            except LinkTimeout as exc:
+            except ExchangeTimeout as exc:
                 self.firmware_reports(side, prelude, exc.received)    # it crashed: that is a finding
                 # Not a finding: no fuzzed input was sent yet (the campaign counts these apart).
                 self.fail(LIVENESS.name, f"{side.label}: no answer after the prelude: {exc}",
@@ -327,7 +327,7 @@ class Runner:
                                                 plan.size + queue, len(plan.blob),
                                                 prompt=None if side.model.tainted else bool(side.model.echo),
                                                 at_least=1 if keep is not None and pause else None)
-            except LinkTimeout as exc:
+            except ExchangeTimeout as exc:
                 self.firmware_reports(side, plan.blob, ahead + exc.received)
                 message, more = liveness_message(side.label, str(exc), plan.blob, side.fence_line,
                                                  ahead + exc.received)
@@ -398,7 +398,7 @@ class Runner:
         for i, side in enumerate(self.sides):
             try:
                 out = side.link.wait(ms)
-            except (LinkTimeout, TargetError) as exc:
+            except (ExchangeTimeout, TargetError) as exc:
                 self.firmware_reports(side, b"", getattr(exc, "received", b""))
                 raise
             self.firmware_reports(side, b"", out)

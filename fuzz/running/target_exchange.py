@@ -3,7 +3,7 @@
 A fence is ``version`` + CR: its answer (``Firmware version: ...``) proves that everything sent
 before it was processed. Over a slow link (pty, serial) several inputs, each with its own
 fence, are written back to back so the link never waits idle; the answers are then cut apart at
-the fence lines (:meth:`Link.exchange_batch`).
+the fence lines (:meth:`TargetExchange.exchange_batch`).
 
 Every byte sent and received is kept in a :class:`Trace` (for the finding's script and transcript).
 Times are HAT milliseconds: virtual time on the in-process target, scaled wall-clock otherwise.
@@ -17,13 +17,13 @@ from typing import List, Optional, Sequence, Tuple
 
 from ...harness.targets.base import Target, TargetError
 
-__all__ = ["Link", "Trace", "FENCE", "LinkTimeout", "WIRE_BYTES_PER_S"]
+__all__ = ["TargetExchange", "Trace", "FENCE", "ExchangeTimeout", "WIRE_BYTES_PER_S"]
 
 FENCE = b"version\r"
 WIRE_BYTES_PER_S = 11520     # 115200 baud, 8N1 (fb-uart)
 
 
-class LinkTimeout(Exception):
+class ExchangeTimeout(Exception):
     """The fence did not answer within the deadline; carries what did arrive."""
 
     def __init__(self, message: str, received: bytes):
@@ -42,7 +42,7 @@ class Trace:
         return Trace(self.label, list(self.entries))
 
 
-class Link:
+class TargetExchange:
     def __init__(self, target: Target, label: str, fence_s: float = 2.0):
         self.target = target
         self.trace = Trace(label)
@@ -117,7 +117,7 @@ class Link:
                 if fence_line in buf:
                     self.drain()
                     return
-        raise LinkTimeout(f"no answer to `version` after {attempts} attempts", b"")
+        raise ExchangeTimeout(f"no answer to `version` after {attempts} attempts", b"")
 
     def wait(self, ms: int) -> bytes:
         """Let ``ms`` HAT milliseconds pass; returns the output that arrived meanwhile."""
@@ -190,12 +190,12 @@ class Link:
             if self.now - start > deadline_ms:
                 if at_least is not None and buf.count(fence_line) >= at_least:
                     break
-                raise LinkTimeout(f"no answer to the fence within {deadline_ms:.0f} ms (HAT time): "
+                raise ExchangeTimeout(f"no answer to the fence within {deadline_ms:.0f} ms (HAT time): "
                                   f"{buf.count(fence_line)} of {want} fence line(s) arrived", bytes(buf))
             try:
                 data = self.target.read(slice_s)
             except TargetError as exc:
-                raise LinkTimeout(f"the target went away: {exc}", bytes(buf)) from None
+                raise ExchangeTimeout(f"the target went away: {exc}", bytes(buf)) from None
             self._got(data)
             buf += data
         # A prompt may follow the last fence line; on a real link give it a moment to arrive.

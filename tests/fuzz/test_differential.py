@@ -152,7 +152,7 @@ def test_a_port_one_side_sets_up_again_is_not_compared_until_it_is_established()
     runner._differential([b"list\r"], [MOTOR_GONE, MOTOR_LISTED.replace(b"P3: no device", b"P3: no  device")])
     assert runner.found == ["differential"] * 2  # type: ignore[attr-defined]
     # established again: compared again
-    target.link.target_now = 2500.0   # type: ignore[misc]  # a SimpleNamespace standing in for the Link
+    target.link.target_now = 2500.0   # type: ignore[misc]  # a SimpleNamespace standing in for the TargetExchange
     runner._track(target, b"P0: connecting to active device\r\n"
                           b"P0: established serial communication with active ID 30\r\n")
     runner._differential([b"list\r"], [MOTOR_GONE, MOTOR_LISTED])

@@ -7,7 +7,7 @@ from types import SimpleNamespace
 
 from buildhat_conformance.emulator.api import Emulator
 from buildhat_conformance.emulator.targets.in_process import InProcessTarget
-from buildhat_conformance.fuzz.running.target_exchange import FENCE, Link
+from buildhat_conformance.fuzz.running.target_exchange import FENCE, TargetExchange
 
 EMPTY = {0: None, 1: None, 2: None, 3: None}
 
@@ -17,7 +17,7 @@ def test_fuzz_link_completes_a_prompt_split_by_the_wire() -> None:
     # later, and a line still crossing at the fence belongs to the next answer.
     target = InProcessTarget(firmware="R7", devices=EMPTY, baud=115200)
     target.open()
-    link = Link(target, "paced")
+    link = TargetExchange(target, "paced")
     link.drain()
     assert isinstance(target.emulator, Emulator) and target.emulator.hat is not None
     fence_line = b"Firmware version: " + target.emulator.hat.version_string.encode() + b"\r\n"
@@ -62,7 +62,7 @@ class _RestingHat(_PlainHat):
 def test_a_pause_ends_when_the_port_is_at_rest_and_the_trace_keeps_what_passed() -> None:
     # A replayed finding waits the trace's @wait in full, so it must be what really passed.
     hat = _RestingHat(rest_ms=40)
-    link = Link(hat, "sil")  # type: ignore[arg-type]
+    link = TargetExchange(hat, "sil")  # type: ignore[arg-type]
     link.settle(10, 500)
     assert hat.now == 40 and hat.calls == [("settle", 10, 500)]
     assert link.trace.entries[-1] == ("wait", 0.0, 40)
@@ -70,7 +70,7 @@ def test_a_pause_ends_when_the_port_is_at_rest_and_the_trace_keeps_what_passed()
 
 def test_a_target_that_cannot_tell_waits_the_whole_pause() -> None:
     hat = _PlainHat()
-    link = Link(hat, "plain")  # type: ignore[arg-type]
+    link = TargetExchange(hat, "plain")  # type: ignore[arg-type]
     link.settle(10, 500)
     assert hat.now == 500 and hat.calls == [("advance", 500)]
     assert link.trace.entries[-1] == ("wait", 0.0, 500)
@@ -78,13 +78,13 @@ def test_a_target_that_cannot_tell_waits_the_whole_pause() -> None:
 
 def test_target_now_goes_on_from_link_to_link_of_one_target():
     """What outlives a run on a kept-open target is timed by it (fuzz/oracles/reconnecting.py): each run has a
-    Link of its own, whose ``now`` starts anew on a wall-clock target."""
+    TargetExchange of its own, whose ``now`` starts anew on a wall-clock target."""
     hat = _RestingHat(rest_ms=0)
     hat.now = 1234
-    assert Link(hat, "target").target_now == 1234.0  # type: ignore[arg-type]  # virtual: the HAT's clock
+    assert TargetExchange(hat, "target").target_now == 1234.0  # type: ignore[arg-type]  # virtual: the HAT's clock
     wall = SimpleNamespace(time_scale=10.0, capabilities=frozenset())
-    first = Link(wall, "target")   # type: ignore[arg-type]  # a stand-in: only its clock is read
+    first = TargetExchange(wall, "target")   # type: ignore[arg-type]  # a stand-in: only its clock is read
     at = first.target_now
-    second = Link(wall, "target")  # type: ignore[arg-type]
+    second = TargetExchange(wall, "target")  # type: ignore[arg-type]
     # a new link's now starts at 0, the target's clock goes on
     assert second.now < 1000.0 <= at <= second.target_now
