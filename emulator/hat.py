@@ -203,6 +203,8 @@ class Hat:
                     # The ports' state machines start 3 ms after `Done initialising ports` (the
                     # firmware in the loop: connect lines 2 ms later than a start at once would give).
                     port.due = now + PORTS_START_MS
+                for controller in self.controllers:
+                    controller.start(now)
             return
         if self._busy_until:
             if now < self._busy_until:
