@@ -34,9 +34,9 @@ _IDLE_SKIP = ("the stand-in's idle skip moves the firmware in the loop's timelin
               "skip_idle; measured with it off in a scratch copy): ")
 OPEN = {
     "hotplug.script": _IDLE_SKIP + "boot()'s 10 ms stops make the empty-port scan cycle 99 ms instead of "
-                      "98, so at scenario time 0 port 3's scan is 21 ms later and `connecting` comes "
-                      "about 20 ms later; without the skip 2-4 ms remain (the `connecting` line 2 ms "
-                      "earlier, the data-phase timeout 3 ms), not settled",
+                      "98, so at scenario time 0 port 3's scan is 23 ms later and `connecting` comes "
+                      "22-23 ms later; with the skip off every line agrees but 6 of the motor's "
+                      "set-up dump, 2 ms later on the firmware (its dump's cost, not modelled)",
     "pid-debug16.script": _IDLE_SKIP + "in stretches the PID pass runs a millisecond late (after the "
                           "ms edge of its tick), and a debug line then comes 2 ms after the emulator's; "
                           "with the skip off every line agrees",
@@ -70,6 +70,8 @@ def test_same_world(path):
     assert result.ok, f"{path.name}: {result.summary()}\n" + "\n".join(result.differences[:20])
 
 
+@pytest.mark.xfail(strict=True, reason=_IDLE_SKIP + "the connect lines and everything after them come "
+                   "2 ms later than with the skip off, where the emulator puts them")
 def test_start_up_timeline_from_power_on():
     # The banner, the driver dumps, `Done initialising ports`, the connect lines, the set-ups at
     # 2400 baud and the first data, all on the scenario's clock from power-on.
