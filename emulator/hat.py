@@ -39,7 +39,7 @@ __all__ = ["Hat", "LineRecord", "DEFAULT_ADC", "NPORTS"]
 
 NPORTS = 4
 DEFAULT_ADC = 1742  # SCENARIO-SCRIPT `@adc` default: 8.00 V
-PORTS_START_MS = 3  # docs/EMULATOR-MODELS.md "Start-up timeline"
+PORTS_START_MS = 1  # docs/EMULATOR-MODELS.md "Start-up timeline"
 _HASH = 0x23
 
 
@@ -201,9 +201,11 @@ class Hat:
             if startup.done:
                 self._early_bytes = uart.rx_available()
                 for port in self.ports:
-                    # The ports' state machines start 3 ms after `Done initialising ports` (the
-                    # firmware in the loop: connect lines 2 ms later than a start at once would give).
+                    # The ports' state machines start in the next millisecond (the firmware in
+                    # the loop, its stand-in's idle skip off: docs/EMULATOR-MODELS.md "Start-up timeline").
                     port.due = now + PORTS_START_MS
+                for controller in self.controllers:
+                    controller.start(now)
             return
         if self._busy_until:
             if now < self._busy_until:

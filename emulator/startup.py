@@ -10,7 +10,7 @@ docs/EMULATOR-MODELS.md "Start-up timeline"): each driver's digit of the two dum
 comes as that driver's register dump is read over I2C (about 23.2 ms each), and the four
 drivers are set up between the two lines (about 1.9 ms each). ``Done initialising ports``
 thus comes about 393 ms after ``Initialising ports`` (403.4 ms after power-on), and the main
-loop's 10 ms controller tick counts from the millisecond after it.
+loop's 10 ms controller tick counts from its millisecond (tick 404: updates at 414, 424 ...).
 """
 from __future__ import annotations
 

@@ -116,12 +116,17 @@ class PortController:
         """Virtual time of the next 10 ms update (None before the first tick)."""
         return self._next_update
 
+    def start(self, now: int) -> None:
+        """The main loop starts in millisecond ``now`` (the one of ``Done initialising ports``):
+        the firmware's update timer counts from there, so the updates fall on ``now + 10k``
+        (docs/EMULATOR-MODELS.md "Controller")."""
+        self._next_update = now + PWM_UPDATE_MS
+        self.due = self._next_update
+
     def tick(self, now: int) -> None:
         """Called every 1 ms; runs :meth:`update` every 10 ms without drift."""
         if self._next_update is None:
-            # The first tick is the main loop's first millisecond: the updates fall on
-            # ``done + 1 + 10k``, the phase of the firmware's (docs/EMULATOR-MODELS.md "Controller").
-            self._next_update = now + PWM_UPDATE_MS
+            self._next_update = now + PWM_UPDATE_MS     # not started by a HAT (a bare controller)
         while now >= self._next_update:
             self._next_update += PWM_UPDATE_MS
             self.update()

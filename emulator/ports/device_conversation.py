@@ -176,7 +176,7 @@ class ActiveLink:
             return None
         if msg.msg_class == lpf2.DATA:
             mode = msg.code
-            self.modes.store(mode, msg.payload)
+            self.modes.store(mode, msg.payload, now)
             if self.hat.debug & 8:
                 self._line(f"DATA mode={mode:X} payload={_payload_hex(msg.payload)}")
             self.reporter.on_data(mode)

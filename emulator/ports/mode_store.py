@@ -3,8 +3,9 @@
 Each DATA message from the active device overwrites the start of its mode's 132-byte buffer
 (offsets up to 127 plus a 4-byte value) and records how long it was; the rest of the buffer
 keeps what earlier, longer messages left. The report engine (emulator/ports/data_reports.py) reads the
-buffer and the length; the motor controller's sensor variables read the latest payload.
-The store is emptied when an active device starts connecting.
+buffer and the length; the motor controller's sensor variables read the buffer as it was when the
+millisecond began (:meth:`ModeStore.at_tick_start`). The store is emptied when an active device
+starts connecting.
 """
 from __future__ import annotations
 
@@ -19,15 +20,32 @@ class ModeStore:
     def __init__(self) -> None:
         self._data: Dict[int, bytearray] = {}
         self._length: Dict[int, int] = {}
+        # mode -> (the ms of its first store in that ms, the buffer before it; None: no data)
+        self._before: Dict[int, Tuple[int, Optional[bytes]]] = {}
 
     def clear(self) -> None:
         self._data.clear()
         self._length.clear()
+        self._before.clear()
 
-    def store(self, mode: int, payload: bytes) -> None:
-        buf = self._data.setdefault(mode, bytearray(MODE_BUFFER))
+    def store(self, mode: int, payload: bytes, now: Optional[int] = None) -> None:
+        """A DATA message for ``mode`` handled in millisecond ``now`` (it arrived during it)."""
+        buf = self._data.get(mode)
+        if now is not None and self._before.get(mode, (None,))[0] != now:
+            self._before[mode] = (now, None if buf is None else bytes(buf))
+        if buf is None:
+            buf = self._data[mode] = bytearray(MODE_BUFFER)
         buf[:len(payload)] = payload
         self._length[mode] = len(payload)
+
+    def at_tick_start(self, mode: int, now: int) -> Optional[bytes]:
+        """The padded buffer of ``mode`` as the firmware's timer pass at the start of millisecond
+        ``now`` sees it: what messages that arrived during ``now`` stored comes after that pass
+        (docs/EMULATOR-MODELS.md "Controller"). None if there was no data then."""
+        before = self._before.get(mode)
+        if before is not None and before[0] == now:
+            return before[1]
+        return self.latest(mode)
 
     def latest(self, mode: int) -> Optional[bytes]:
         """The padded buffer of ``mode``, None if nothing arrived for it since the last clear."""

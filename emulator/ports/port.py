@@ -8,7 +8,9 @@ the device's rate), and frames the HAT sends reach the device at once. Phases:
 
 - ``scan``: each pass through *state 0* resets the port's controller (``port_initpwm``), prints
   ``P<p>: disconnected`` if something was connected (profile ``disconnected_line``) and starts an
-  ID scan of ``passive_scan_ms``. An empty port repeats this every ``empty_port_reset_ms``.
+  ID scan of ``passive_scan_ms``. An empty port repeats this every ``empty_port_reset_ms``. The scan
+  samples the ID lines eight times; a device plugged in or out meanwhile gives a mixed signature
+  (an active device counts only when it was there for the first sample).
 - passive: a non-zero ID read on 6 scans in a row (back to back) prints
   ``P<p>: connected to passive ID <n>``; then the port is rescanned after a 100 ms pause (no
   pause for the button, ID 5). A scan that reads another ID or none goes back to state 0.
@@ -63,6 +65,10 @@ DETECT_MATCHES = 6          # scans in a row that must read the same passive ID
 RESCAN_PAUSE_MS = 100       # pause between rescans of a connected passive device (not ID 5)
 ACTIVE_DETECT_MS = 100      # RX held low this long -> "connecting to active device"
 UART_BEFORE_LINE_MS = 2     # the receiver is on (the device sets up) this long before that line
+# A scan reads the ID lines 8 times: the first sample SCAN_SETTLE_MS + 1 ms after the scan starts,
+# then one every (scan - SCAN_SETTLE_MS) / 8 ms (docs/EMULATOR-MODELS.md "Device set-up timing").
+SCAN_SETTLE_MS = 10
+SCAN_SAMPLES = 8
 # ID-pin signatures the scan reads (debug 4) when nothing, or an active device, is attached.
 SIGNATURE_EMPTY = 0x0CC0
 SIGNATURE_ACTIVE = 0x00CF
@@ -97,8 +103,10 @@ class Port(PortActions):
         self.modes = ModeStore()                # DATA payloads of the active device
         self.uart = PortUart(hat, index)
         self._phase = "state0"
-        self._plugged_mid_scan = False   # a device came during the scan running now
+        # ID-line changes during the scan running now: (ms of the change, signature before it)
+        self._scan_changes: List[Tuple[int, int]] = []
         self._next = 0          # when a waiting phase (_WAITING) ends
+        self._scan_start = 0
         self._cycle_start = 0
         self._matches = 0
         self._scan_id = 0
@@ -134,8 +142,9 @@ class Port(PortActions):
         return self.established or dev.dead
 
     def mode_data(self, mode: int) -> Optional[bytes]:
-        """The latest payload stored for ``mode`` (padded store), None if none since connect."""
-        return self.modes.latest(mode)
+        """The payload stored for ``mode`` (padded store) as the controllers' pass at the start of
+        this millisecond sees it, None if none since connect."""
+        return self.modes.at_tick_start(mode, self.hat.now)
 
     def stored(self, mode: int) -> Tuple[bytes, int]:
         """(payload store, received length) of ``mode``; zeros and 0 when nothing arrived."""
@@ -174,16 +183,23 @@ class Port(PortActions):
             return
         if isinstance(device, ActiveDevice):
             device.port = self         # it reads the motor drive and notes through its port
+        self._note_pin_change()
         self.device = device
-        self._plugged_mid_scan = self._phase == "scan"
         self.wake()
 
     def unplug(self) -> None:
         if isinstance(self.device, ActiveDevice):
             self.device.port = None
+        if self.device is not None:
+            self._note_pin_change()
         self.device = None
         self._wire.clear()
         self.wake()
+
+    def _note_pin_change(self) -> None:
+        """The ID lines are about to change: the scan running now read the old ones until now."""
+        if self._phase == "scan":
+            self._scan_changes.append((self.hat.now, self._signature()))
 
     # -- time ------------------------------------------------------------------------------------
     def tick(self, now: int) -> None:
@@ -259,7 +275,8 @@ class Port(PortActions):
         self._begin_scan(now)
 
     def _begin_scan(self, now: int) -> None:
-        self._plugged_mid_scan = False
+        self._scan_changes = []
+        self._scan_start = now
         self._phase = "scan"
         self._next = now + self.scan_ms
 
@@ -271,25 +288,44 @@ class Port(PortActions):
             self._cycle_start = now
         self._begin_scan(now)
 
+    def _signature(self) -> int:
+        """The signature the ID lines show now."""
+        dev = self.device
+        if isinstance(dev, PassiveDevice):
+            return dev.signature_in(self._signature_ids)
+        if isinstance(dev, ActiveDevice) and dev.talking:
+            return SIGNATURE_ACTIVE
+        return SIGNATURE_EMPTY
+
+    def _scanned_signature(self) -> int:
+        """The signature the scan read, sample by sample: sample k gives bit k (pin 5) and bit
+        8+k (pin 6) of the lines as they were then, so a device plugged in or out during the
+        scan gives a mix (an active device plugged in after the first sample is no ID 99)."""
+        signature = self._signature()
+        if not self._scan_changes:
+            return signature
+        pitch = (self.scan_ms - SCAN_SETTLE_MS) // SCAN_SAMPLES
+        mixed = 0
+        for k in range(SCAN_SAMPLES):
+            at = self._scan_start + SCAN_SETTLE_MS + 1 + k * pitch
+            # A change in ms t (between two ticks) is seen from the sample of tick t + 1 on.
+            seen = next((before for t, before in self._scan_changes if t >= at), signature)
+            mixed |= seen & ((1 << k) | (1 << (8 + k)))
+        return mixed
+
     def _read_pins(self) -> Tuple[int, int]:
         """(signature, table ID) as the scan reads them: the ID from the release's table,
         ``_active_id`` (99) for a possible active device, 0 for unknown codes (#fb-debug-signatures)."""
-        dev = self.device
-        if isinstance(dev, PassiveDevice):
-            signature = dev.signature_in(self._signature_ids)
-        elif isinstance(dev, ActiveDevice) and dev.talking:
-            signature = SIGNATURE_ACTIVE
-        else:
-            signature = SIGNATURE_EMPTY
+        signature = self._scanned_signature()
         if signature & self._active_mask == self._active_value:
             return signature, self._active_id
         return signature, self._signature_ids.get(signature, 0)
 
     def _scan_done(self, now: int) -> None:
         signature, table_id = self._read_pins()
-        if self._plugged_mid_scan and table_id != self._active_id:
-            # A passive device plugged in during a scan: its samples before the plug read an
-            # empty port, so the scan does not count towards the six (docs/FIRMWARE-BEHAVIOUR.md#fb-passive).
+        if self._scan_changes and table_id not in (0, self._active_id):
+            # A passive ID read by a scan during which a device came or went: the scan does not
+            # count towards the six (**model**: a mix of two signatures may read as a third ID).
             signature, table_id = SIGNATURE_EMPTY, 0
         if self.hat.debug & 4:
             self._line(f"D5 signature={signature:04X} id={table_id}")

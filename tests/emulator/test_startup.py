@@ -93,3 +93,16 @@ def test_line_observer_sees_early_line_as_not_ready():
         (b"vin", False, False, ["vin"], []),
         (b"port 1 zz", True, True, ["port"], ["zz"]),
     ]
+
+
+def test_the_controller_tick_counts_from_the_main_loops_first_millisecond():
+    # issue 37: the firmware's 10 ms update timer adds up the ticks from the main loop's start, the
+    # millisecond of `Done initialising ports` (403.4 ms after power-on: tick 404); the firmware in
+    # the loop writes a square wave's drive in (…3, …4] ms of its clock, so at ticks 414, 424 ...
+    emu = Emulator(firmware="R7", devices={**EMPTY, 0: "passive 8"})   # a light: the drive shows
+    emu.advance(1200)
+    assert emu.hat.startup.done_at == 404 and emu.hat.ports[0].connected
+    emu.write(b"pwm ; set square 0 1 0.02 0\r")
+    emu.advance(100)
+    drives = [e["t"] for e in emu.events if e["dir"] == "pwm" and e["port"] == 0]
+    assert drives and {t % 10 for t in drives} == {4}

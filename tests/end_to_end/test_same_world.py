@@ -8,7 +8,8 @@ firmware writes inside its millisecond, the emulator on its tick); device data (
 whose values differ, from the motor's noise the script does not fix, when the line is of the same
 kind and in time (the wire's byte time is allowed for a length difference); a line that lands inside
 another's echo a few bytes apart, and the run's last line cut a few bytes apart (the wire carries 11.5
-bytes a millisecond). Known open differences are listed with their reason and marked ``xfail(strict)``:
+bytes a millisecond). Scripts whose device data ``@data`` fixes (``EXACT``) allow no device noise: every
+line equal. Known open differences are listed with their reason and marked ``xfail(strict)``:
 the test fails the day they go away, so the list stays true."""
 from __future__ import annotations
 
@@ -26,15 +27,26 @@ pytestmark = pytest.mark.timeout(600)
 
 DATA = pathlib.Path(__file__).resolve().parents[2] / "transcripts" / "data"
 SCRIPTS = sorted(DATA.glob("*.script")) + sorted((DATA / "timing").glob("*.script"))
+# The firmware in the loop's stand-in skips the idle polling of the main loop (sil/README.md "How time
+# works"); the skip moves the firmware's own timeline, which the emulator does not copy: with it turned
+# off in a scratch copy of the stand-in, these scripts agree with the emulator (issue 37's measurement).
+_IDLE_SKIP = ("the stand-in's idle skip moves the firmware in the loop's timeline (sil/standin/machine.c "
+              "skip_idle; measured with it off in a scratch copy): ")
 OPEN = {
-    "pid-tick.script": "a @data step 2 ms before a controller tick: the firmware's PID sees it one tick "
-                       "later than the emulator's (the integrator then differs by one step); not settled",
-    "pid-nan.script": "the first tick after `pid` on a variable whose data does not change prints nothing "
-                      "on the firmware (its lines start 10 ms later); the NaN signs agree "
-                      "(test_nan_signs_follow_the_firmware)",
-    "hotplug.script": "a motor plugged into an empty port: the firmware says `connecting` about 120 ms later "
-                      "than the emulator (its empty-port scan); the set-up itself takes the same time",
+    "hotplug.script": _IDLE_SKIP + "boot()'s 10 ms stops make the empty-port scan cycle 99 ms instead of "
+                      "98, so at scenario time 0 port 3's scan is 23 ms later and `connecting` comes "
+                      "22-23 ms later; with the skip off every line agrees but 6 of the motor's "
+                      "set-up dump, 2 ms later on the firmware (its dump's cost, not modelled)",
+    "pid-debug16.script": _IDLE_SKIP + "in stretches the PID pass runs a millisecond late (after the "
+                          "ms edge of its tick), and a debug line then comes 2 ms after the emulator's; "
+                          "with the skip off every line agrees",
+    "waveform-timing.script": _IDLE_SKIP + "in stretches the PID pass runs a millisecond late (after the "
+                              "ms edge of its tick), and a debug line then comes 2 ms after the "
+                              "emulator's; with the skip off every line agrees",
 }
+# Scripts whose device data is all fixed by @data: no device noise to allow for, so every line must be
+# equal (the PID lines' integrator values included, issue 37).
+EXACT = {"pid-tick.script", "pid-nan.script"}
 
 
 def firmware(script: Script):
@@ -54,10 +66,14 @@ def _param(path: pathlib.Path):
 def test_same_world(path):
     script = load_script(path)
     fw, emu = run_lines(firmware(script), script), run_lines(emulator(script), script)
-    result = compare(fw, emu, noise=DATA_LINE)
+    result = compare(fw, emu, noise=None if path.name in EXACT else DATA_LINE)
     assert result.ok, f"{path.name}: {result.summary()}\n" + "\n".join(result.differences[:20])
 
 
+@pytest.mark.xfail(strict=True, reason=_IDLE_SKIP + "the connect lines and everything after them come "
+                   "2 ms later than with the skip off, where the emulator puts them; with the skip "
+                   "off 8 lines of the set-up dumps remain 2 ms later on the firmware (the dump's "
+                   "cost, not modelled)")
 def test_start_up_timeline_from_power_on():
     # The banner, the driver dumps, `Done initialising ports`, the connect lines, the set-ups at
     # 2400 baud and the first data, all on the scenario's clock from power-on.

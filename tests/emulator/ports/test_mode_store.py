@@ -28,3 +28,22 @@ def test_clear_forgets_everything():
     store.store(3, b"\x01\x02")
     store.clear()
     assert store.latest(3) is None and store.stored(3)[1] == 0
+
+
+def test_the_controllers_see_the_buffer_as_the_millisecond_began():
+    # issue 37: the firmware's timer pass (the PID) runs at the start of its millisecond, before a
+    # message that arrives during it is handled (the firmware in the loop, pid-tick.script).
+    def first(buf):
+        assert buf is not None
+        return buf[:1]
+
+    store = ModeStore()
+    store.store(2, b"\x01", now=10)
+    assert store.at_tick_start(2, 10) is None                   # nothing before the first message
+    assert first(store.at_tick_start(2, 11)) == b"\x01"
+    store.store(2, b"\x02", now=20)
+    store.store(2, b"\x03", now=20)                             # two in one ms: the one before both
+    assert first(store.at_tick_start(2, 20)) == b"\x01"
+    assert first(store.at_tick_start(2, 21)) == b"\x03" and first(store.latest(2)) == b"\x03"
+    store.clear()
+    assert store.at_tick_start(2, 20) is None

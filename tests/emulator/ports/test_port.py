@@ -349,3 +349,43 @@ def test_bad_world_actions_give_clear_errors():
     with pytest.raises(ValueError, match="must be >= 0"):
         ports[0].set_data_rate(-1)
     ports[3].press_button(True)                      # the button itself works
+
+
+def _scan_lines(tap: Tap, port: int):
+    return [(t, line) for t, line in tap.lines if line.startswith(f"P{port}: D5 signature=")]
+
+
+@pytest.mark.parametrize("late_ms, signature", [(1, "00CE"), (23, "04C8"), (45, "0CC0")])
+def test_an_active_device_plugged_mid_scan_gives_a_mixed_signature(late_ms, signature):
+    # issue 37, seen on the firmware in the loop (`debug 4`): a motor plugged in after the scan's
+    # first sample (11 ms after the scan starts, then every 11 ms) leaves the samples before it
+    # reading an empty port: `D5 signature=04C8 id=0` for a plug 3 samples late (00CE: 1 sample),
+    # so the port scans again and `connecting` comes a scan later.
+    scan = get_profile("R7").feature("passive_scan_ms")
+    tap = booted("R7")
+    emu = tap.emu
+    tap.send("debug 4")
+    tap.run(scan + 2)
+    start = _scan_lines(tap, 3)[-1][0]                         # a scan starts as this one ends
+    tap.run(start + 11 + late_ms - 1 - emu.now)                 # the plug comes after sample 0's tick
+    emu.world("@plug 3 0x30")
+    tap.run(scan + 1)
+    (t, line) = _scan_lines(tap, 3)[-1]
+    assert line == f"P3: D5 signature={signature} id=0"
+    tap.run(scan + 100 + 2)
+    (t_conn,) = tap.times("P3: connecting to active device")
+    assert t_conn == t + scan + 100                              # the next scan finds it
+
+
+def test_an_active_device_there_for_the_first_sample_counts():
+    scan = get_profile("R7").feature("passive_scan_ms")
+    tap = booted("R7")
+    emu = tap.emu
+    tap.send("debug 4")
+    tap.run(scan + 2)
+    start = _scan_lines(tap, 3)[-1][0]
+    tap.run(start + 10 - emu.now)                               # before the first sample's tick
+    emu.world("@plug 3 0x30")
+    tap.run(scan)
+    (t, line) = _scan_lines(tap, 3)[-1]
+    assert (t - start, line) == (scan, "P3: D5 signature=00CF id=99")
