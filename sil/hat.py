@@ -28,6 +28,9 @@ from .sanitizer_reports import FirmwareReport
 
 __all__ = ["SilHat", "FirmwareDied", "BOOT_LIMIT_MS"]
 
+# A run stops at the first block boundary past its limit: a few blocks (80 ns each) at most.
+STOP_OVERSHOOT_NS = 1_000
+
 BOOT_LIMIT_MS = 20000
 # The command port's byte time at 115200 baud 8N1 (docs/FIRMWARE-BEHAVIOUR.md#fb-uart), as the
 # stand-in reckons it (whole ns): host bytes reach the firmware no faster than this.
@@ -227,8 +230,9 @@ class SilHat:
             if self.died is not None or self.hung:
                 break
             self._run(end, stop_on_output=True, once=True)
-        # (whole ms, as a script's @wait says; the firmware stops a block past a limit)
-        ms = min(-(-(self._now_ns - start) // NS_PER_MS), max(min_ms, max_ms))
+        # (whole ms, as a script's @wait says; the firmware stops a few blocks past a limit, which
+        # does not make another millisecond)
+        ms = min(-(-(self._now_ns - start - STOP_OVERSHOOT_NS) // NS_PER_MS), max(min_ms, max_ms))
         self._run(start + ms * NS_PER_MS, stop_on_output=False)
         return ms
 

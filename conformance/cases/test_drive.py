@@ -268,3 +268,19 @@ def test_a_plimit_out_of_range_drives_as_its_edge(hat: HatUnderTest, world: Port
     assert levels[outside] == levels[edge], (
         f"sent: plimit {outside} ; set 0.4, expected the drive of plimit {edge} (clamped to [0,1]): "
         f"{sorted(levels[edge], key=str)}; came: {sorted(levels[outside], key=str)}")
+
+
+@pytest.mark.req("CMD-PWM", "FW-NO-DEVICE-NO-DRIVE")
+def test_a_port_without_a_device_is_not_driven(hat: HatUnderTest, world: PortNeeds, empty_port: int) -> None:
+    # docs/FIRMWARE-BEHAVIOUR.md#fb-controller: at every controller tick a port with no device is driven
+    # 0, whatever its set-point and limit say.
+    p = empty_port
+    drive(hat, p, "pwm ; plimit 1 ; set 1")
+    try:
+        hat.wait_ms(30)
+        levels = world.drive_levels(p, 100)
+    finally:
+        drive(hat, p, "set 0 ; plimit 0.1")
+    seen = {d for _t, d in levels[:-1]}
+    assert seen == {0}, f"sent: pwm ; plimit 1 ; set 1 on port {p}, which has no device: expected drive 0; " \
+                        f"came drive levels {sorted(seen, key=str)}"

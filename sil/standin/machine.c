@@ -10,11 +10,14 @@
  * Idling: a main loop that polls the timer and finds nothing to do would burn host CPU for
  * every virtual microsecond. When two timer reads in a row were separated by the same number
  * of blocks and nothing outside the CPU changed in between, the loop is polling; the clock
- * then jumps to the next event or the next millisecond edge of the timer, whichever comes
- * first. An event taken while the loop stood at its timer read (the jump lands on it) was seen
- * by the whole pass after it: if that pass is as long as the polling pass, the loop is still
- * polling, and the clock jumps again at once. See sil/README.md for why this keeps behaviour
- * unchanged.
+ * then jumps over whole polling passes: to the first pass end at or after the next millisecond
+ * edge of the timer, or to the last pass end before the next event, whichever comes first. So
+ * the loop reads the timer at the very instants it would have read it pass by pass, and its
+ * phase against the events does not depend on when the world stops it (landing exactly on
+ * the edge or the event would move the phase by part of a pass at every jump). An event taken
+ * while the loop stood at its timer read (the jump lands on it) was seen by the whole pass
+ * after it: if that pass is as long as the polling pass, the loop is still polling, and the
+ * clock jumps again at once. See sil/README.md for why this keeps behaviour unchanged.
  */
 #include "machine.h"
 
@@ -60,6 +63,7 @@ static uint32_t armed;                  /* interrupts enabled with a handler: th
  * ran in between is an event, not a longer pass. */
 static int touched = 1, touched_at_read, quiet_reads;
 static uint64_t last_read_blocks, last_interval, idle_interval, first_read_us;
+static uint64_t last_read_ns;           /* sil_now at the last timer read, after any jump */
 static int have_first_read;
 static uint64_t stat_reads, stat_jumps, stat_jumped_ns, stat_irqs;   /* BUILDHAT_SIL_STATS, below */
 
@@ -112,6 +116,11 @@ static void irq_enter(uint num) {
 static void irq_exit(uint num) {
     for (const struct sil_peripheral *const *each = attached; *each; each++)
         if ((*each)->irq_exit) (*each)->irq_exit(num);
+}
+
+static void timer_read(void) {
+    for (const struct sil_peripheral *const *each = attached; *each; each++)
+        if ((*each)->timer_read) (*each)->timer_read();
 }
 
 /* ---- the clock and interrupts ----------------------------------------------------------- */
@@ -210,26 +219,33 @@ void sil_spend(uint64_t ns) {
     }
 }
 
-/* Jump over a polling loop's idle time (see the file comment). */
-static void skip_idle(void) {
+/* Jump over a polling loop's idle time, whole passes of pass_ns each (see the file comment). */
+static void skip_idle(uint64_t pass_ns) {
     sil_service();                    /* an interrupt that is due comes first */
-    if (touched) return;
+    if (touched || pass_ns == 0) return;
     /* The timer's millisecond edges are 1 us past each whole ms since the first read (a
      * tick counts when the time is *greater* than the last edge); jump to the next one only:
      * a loop that waits for a tick value must see every tick. */
     uint64_t d = sil_now / 1000 - first_read_us;
     uint64_t edge = (first_read_us + (d + 999) / 1000 * 1000 + 1) * 1000;
-    uint64_t target = edge < next_due ? edge : next_due;
-    if (target > sil_now) {
+    uint64_t passes;
+    if (edge <= next_due && edge > sil_now)
+        passes = (edge - sil_now + pass_ns - 1) / pass_ns;       /* the first pass end past the edge */
+    else
+        passes = 0;
+    if (sil_now + passes * pass_ns > next_due)                    /* the event first: the last pass */
+        passes = next_due > sil_now ? (next_due - sil_now) / pass_ns : 0;    /* end before it */
+    if (passes) {
         stat_jumps++;
-        stat_jumped_ns += target - sil_now;
-        sil_now = target;
+        stat_jumped_ns += passes * pass_ns;
+        sil_now += passes * pass_ns;
     }
     if (sil_now >= next_due) sil_service();
 }
 
 uint64_t time_us_64(void) {
     stat_reads++;
+    timer_read();
     uint64_t main_blocks = blocks - handler_blocks;
     uint64_t interval = main_blocks - last_read_blocks;
     last_read_blocks = main_blocks;
@@ -244,13 +260,15 @@ uint64_t time_us_64(void) {
     if (quiet_reads == 0) idle_interval = 0;
     last_interval = interval;
     touched = 0;
+    uint64_t pass_ns = sil_now - last_read_ns;    /* this pass, timer read included */
     if (!have_first_read) {
         have_first_read = 1;
         first_read_us = sil_now / 1000;
     } else if (quiet_reads >= 2) {
         idle_interval = interval;
-        skip_idle();
+        skip_idle(pass_ns);
     }
+    last_read_ns = sil_now;
     sil_spend(NS_PER_TIMER_READ);
     touched_at_read = touched;        /* events and interrupts the jump landed on */
     touched = 0;

@@ -13,6 +13,8 @@ struct sil_peripheral {
     int (*irq_pend)(uint num);         /* software set num pending: 1 if the peripheral keeps it */
     void (*irq_enter)(uint num);       /* set registers the handler reads */
     void (*irq_exit)(uint num);        /* take what the handler wrote */
+    void (*timer_read)(void);          /* the CPU read the timer: a peripheral the firmware drives by
+                                        * plain register writes looks at them (once a main-loop pass) */
 };
 
 #endif

@@ -35,6 +35,7 @@ void sil_i2c_set_drive_stops(uint8_t mask);   /* ports whose drive changes stop 
 
 /* adc.c: the input voltage */
 void sil_adc_init(void);
+extern const struct sil_peripheral sil_adc_peripheral;    /* conversions seen at timer reads */
 void sil_adc_set_vin(uint16_t raw);
 
 #endif

@@ -16,6 +16,7 @@
 static const struct sil_peripheral *const timed_peripherals[] = {
     &sil_uart_peripheral,
     &sil_pio_peripheral,
+    &sil_adc_peripheral,
     NULL,
 };
 

@@ -27,22 +27,15 @@ pytestmark = pytest.mark.timeout(600)
 
 DATA = pathlib.Path(__file__).resolve().parents[2] / "transcripts" / "data"
 SCRIPTS = sorted(DATA.glob("*.script")) + sorted((DATA / "timing").glob("*.script"))
-# The firmware in the loop's stand-in skips the idle polling of the main loop (sil/README.md "How time
-# works"); the skip moves the firmware's own timeline, which the emulator does not copy: with it turned
-# off in a scratch copy of the stand-in, these scripts agree with the emulator (issue 37's measurement).
-_IDLE_SKIP = ("the stand-in's idle skip moves the firmware in the loop's timeline (sil/standin/machine.c "
-              "skip_idle; measured with it off in a scratch copy): ")
 OPEN = {
-    "hotplug.script": _IDLE_SKIP + "boot()'s 10 ms stops make the empty-port scan cycle 99 ms instead of "
-                      "98, so at scenario time 0 port 3's scan is 23 ms later and `connecting` comes "
-                      "22-23 ms later; with the skip off every line agrees but 6 of the motor's "
-                      "set-up dump, 2 ms later on the firmware (its dump's cost, not modelled)",
-    "pid-debug16.script": _IDLE_SKIP + "in stretches the PID pass runs a millisecond late (after the "
-                          "ms edge of its tick), and a debug line then comes 2 ms after the emulator's; "
-                          "with the skip off every line agrees",
-    "waveform-timing.script": _IDLE_SKIP + "in stretches the PID pass runs a millisecond late (after the "
-                              "ms edge of its tick), and a debug line then comes 2 ms after the "
-                              "emulator's; with the skip off every line agrees",
+    "hotplug.script": "`connecting` and every line after it come 12-13 ms later on the firmware in the "
+                      "loop than on the emulator (port 3's scan phase at scenario time 0); not yet "
+                      "explained: with the stand-in's idle skip off (a scratch copy, before the skip "
+                      "kept the polling phase) every line agreed but 6 of the motor's set-up dump",
+    "adc.script": "the emulator runs a line in the millisecond after its CR lands (its output timed to "
+                  "match the firmware's), so a `vin` sent in the millisecond of an `@adc` reads the "
+                  "conversion one tick later than the firmware, which reads the conversion its tick "
+                  "before the CR started (docs/FIRMWARE-BEHAVIOUR.md#fb-vin): the new level 1 ms early",
 }
 # Scripts whose device data is all fixed by @data: no device noise to allow for, so every line must be
 # equal (the PID lines' integrator values included, issue 37).
@@ -70,10 +63,9 @@ def test_same_world(path):
     assert result.ok, f"{path.name}: {result.summary()}\n" + "\n".join(result.differences[:20])
 
 
-@pytest.mark.xfail(strict=True, reason=_IDLE_SKIP + "the connect lines and everything after them come "
-                   "2 ms later than with the skip off, where the emulator puts them; with the skip "
-                   "off 8 lines of the set-up dumps remain 2 ms later on the firmware (the dump's "
-                   "cost, not modelled)")
+@pytest.mark.xfail(strict=True, reason="8 lines of the devices' set-up dumps come 2 ms later on the "
+                   "firmware: what printing the dump costs the firmware's main loop, which the "
+                   "emulator does not model")
 def test_start_up_timeline_from_power_on():
     # The banner, the driver dumps, `Done initialising ports`, the connect lines, the set-ups at
     # 2400 baud and the first data, all on the scenario's clock from power-on.
