@@ -128,7 +128,7 @@ class PortServices(Output, EventLog, Scheduler, Clock, Firmware, DebugBits, Prot
 
 
 class LinkServices(Output, DebugBits, Protocol):
-    """``ActiveLink`` (emulator/ports/device_conversation.py)."""
+    """``DeviceConversation`` (emulator/ports/device_conversation.py)."""
 
 
 class UartServices(Output, EventLog, DebugBits, Protocol):

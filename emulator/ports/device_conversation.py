@@ -2,7 +2,7 @@
 (FIRMWARE-BEHAVIOUR.md#fb-active, #fb-device-messages).
 
 ``Port`` (emulator/ports/port.py) detects the device and prints ``connecting to active device``; it
-then starts an ``ActiveLink`` and ticks it every millisecond until the link ends. Setup
+then starts an ``DeviceConversation`` and ticks it every millisecond until the link ends. Setup
 messages fill a :class:`DeviceInfo`; the device's ACK starts the handshake: +10 ms SPEED,
 +100 ms ACK, +10 ms baud switch (``set baud rate to <baud>``, no prefix), +1 ms the ``list``
 dump and ``P<p>: established serial communication with active ID xx``. In the data phase the
@@ -10,7 +10,7 @@ HAT sends NACK every 100 ms and handles one queued message per main-loop pass, r
 report engine after each (DATA payloads go to the port's mode store).
 
 The link fails on a bad checksum during setup, after more than 2000 ms (setup) or 500 ms (data
-phase) without a message, or on more than 5 bad messages in the data phase. :meth:`ActiveLink.tick`
+phase) without a message, or on more than 5 bad messages in the data phase. :meth:`DeviceConversation.tick`
 says how the millisecond ended and the port acts on it: None (carry on), ``ESTABLISHED``,
 ``RESTART`` (an ACK before any TYPE message: back to state 0 silently) or a :class:`Failure`,
 whose text the port prints before it disconnects.
@@ -29,7 +29,7 @@ from .data_reports import Reporter
 from .device_uart import PortUart
 from .mode_store import ModeStore
 
-__all__ = ["ActiveLink", "Failure", "ESTABLISHED", "RESTART", "SETUP_TIMEOUT_MS", "DATA_TIMEOUT_MS",
+__all__ = ["DeviceConversation", "Failure", "ESTABLISHED", "RESTART", "SETUP_TIMEOUT_MS", "DATA_TIMEOUT_MS",
            "NACK_PERIOD_MS", "MAX_ERRORS", "HANDSHAKE_SPEED_MS", "HANDSHAKE_ACK_MS",
            "HANDSHAKE_SWITCH_MS", "HANDSHAKE_DUMP_MS"]
 
@@ -54,7 +54,7 @@ class Failure:
 Outcome = Union[None, str, Failure]
 
 
-class ActiveLink:
+class DeviceConversation:
     """Setup, handshake and data phase of one connection (see the module docstring)."""
 
     def __init__(self, hat: LinkServices, index: int, uart: PortUart, modes: ModeStore,

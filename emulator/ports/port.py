@@ -19,7 +19,7 @@ the device's rate), and frames the HAT sends reach the device at once. Phases:
   Button (ID 5, ``button_events``): ``P<p>: button pressed/released`` when the state changes.
 - active: a scan that sees an active device waits 100 ms (RX held low), prints
   ``P<p>: connecting to active device``, turns the UART on at the set-up rate and hands over to an
-  ``ActiveLink`` (``emulator/ports/device_conversation.py``: setup, handshake, data phase, timeouts). When the
+  ``DeviceConversation`` (``emulator/ports/device_conversation.py``: setup, handshake, data phase, timeouts). When the
   link fails the port prints why and disconnects (R2+: ``disconnected`` on the next pass).
 
 Beside it: the port's UART (receive sync, LPF2 framing, the 4-slot message queue, debug-1
@@ -54,7 +54,7 @@ from ..devices.port_actions import PortActions
 from ..services import PortServices
 from . import lpf2
 from .data_reports import Reporter
-from .device_conversation import RESTART, ActiveLink, Failure
+from .device_conversation import RESTART, DeviceConversation, Failure
 from .device_uart import PortUart
 from .mode_store import ModeStore
 
@@ -114,7 +114,7 @@ class Port(PortActions):
         # The wire from the device: (arrival ms, byte), paced at the device's baud rate.
         self._wire: Deque[Tuple[float, int]] = deque()
         self._wire_free = 0.0
-        self.link: Optional[ActiveLink] = None   # the conversation with an active device
+        self.link: Optional[DeviceConversation] = None   # the conversation with an active device
         self.due: float = 0     # the Hat ticks the port from this virtual ms on (0: at once)
 
     def wake(self) -> None:
@@ -390,7 +390,7 @@ class Port(PortActions):
         # The port's receiver went on, and the device began its set-up, 2 ms before the line
         # (the firmware in the loop: docs/EMULATOR-MODELS.md "Start-up timeline").
         now -= UART_BEFORE_LINE_MS
-        self.link = ActiveLink(self.hat, self.index, self.uart, self.modes, self.reporter,
+        self.link = DeviceConversation(self.hat, self.index, self.uart, self.modes, self.reporter,
                                self.send_to_device, now)
         self.info = self.link.info
         self.combis = {}
@@ -401,7 +401,7 @@ class Port(PortActions):
         self._phase = "active"
         dev.begin_setup(now)
 
-    def _link_tick(self, link: ActiveLink, now: int) -> None:
+    def _link_tick(self, link: DeviceConversation, now: int) -> None:
         outcome = link.tick(now)
         if outcome is None:
             return
