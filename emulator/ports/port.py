@@ -18,10 +18,10 @@ the device's rate), and frames the HAT sends reach the device at once. Phases:
   connected flag cleared during the scan) and the connect line repeats after each scan.
   Button (ID 5, ``button_events``): ``P<p>: button pressed/released`` when the state changes.
 - active: a scan that sees an active device waits 100 ms (RX held low), prints
-  ``P<p>: connecting to active device``, turns the UART on at the set-up rate and hands over to an
-  ``DeviceConversation`` (``emulator/ports/device_conversation.py``: setup, handshake, data phase, timeouts).
-  When the
-  link fails the port prints why and disconnects (R2+: ``disconnected`` on the next pass).
+  ``P<p>: connecting to active device``, turns the UART on at the set-up rate and hands over to a
+  ``DeviceConversation`` (``emulator/ports/device_conversation.py``: setup, handshake, data phase,
+  timeouts). When the conversation fails the port prints why and disconnects (R2+: ``disconnected``
+  on the next pass).
 
 Beside it: the port's UART (receive sync, LPF2 framing, the 4-slot message queue, debug-1
 trace) is ``emulator/ports/device_uart.py``; the per-mode payload store ``emulator/ports/mode_store.py``.
