@@ -54,6 +54,8 @@ LONG_TESTS = (
     "end_to_end/test_conformance_case_order.py::test_two_shuffled_orders_give_the_suite_s_own_verdicts",
     "end_to_end/test_sil_crashes.py::test_r7_sanitized_gives_the_plain_verdicts",
     "end_to_end/test_sil_crashes.py::test_fuzzing_the_sanitized_r7_keeps_its_findings",
+    # the plain build's variant stays in `make test`; the sanitized build alone costs a CI minute
+    "end_to_end/test_sil_crashes.py::test_a_planted_null_store_fails_its_case_and_the_run_goes_on[sanitized]",
     "end_to_end/test_firmware_example_workflow.py::test_the_steps_run_on_a_tree_with_a_stray_test_program",
     "end_to_end/test_sil_bisect.py::test_bisect_skips_a_commit_that_does_not_build",
 )
