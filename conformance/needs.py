@@ -14,7 +14,7 @@ from typing import Any, Dict, List, Optional, Tuple
 import pytest
 
 from ..protocol.devices import active_device, format_device_spec, passive_device
-from . import operator_prompt as operator
+from . import operator_prompt
 from .oracles.listing import PortEntry, parse_list
 
 __all__ = ["PortNeeds", "device_name", "missing_text"]
@@ -218,7 +218,7 @@ class PortNeeds:
         if self.operator:
             what = (f"unplug whatever is on port {port}" if spec is None else
                     f"connect a {device_name(spec)} to port {port} (and nothing else there)")
-            if operator.ask(self.config, what):
+            if operator_prompt.ask(self.config, what):
                 self._wait_for(port, spec)
                 return
         pytest.skip(missing or missing_text(spec, []))

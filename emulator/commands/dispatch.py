@@ -1,7 +1,7 @@
 """The command dispatcher (FIRMWARE-BEHAVIOUR.md#fb-matching, #fb-errors).
 
 The table is the profile's command order; the functions come from the ``COMMANDS`` dict of
-``commands_core``, ``commands_device`` and ``commands_drive`` (``name -> fn(hat, cur)``).
+``core_commands``, ``device_commands`` and ``drive_commands`` (``name -> fn(hat, cur)``).
 
 A line is a run of commands. Before each command, spaces and ``;`` are skipped; a command
 need not be followed by ``;`` (``port 1 vin`` runs both). A token that matches no command,
@@ -13,16 +13,14 @@ from __future__ import annotations
 from functools import cache
 from typing import Callable, Dict, List, Tuple
 
-from . import core_commands as commands_core
-from . import device_commands as commands_device
-from . import drive_commands as commands_drive
+from . import core_commands, device_commands, drive_commands
 from .context import CommandContext
 from .parser import CommandError, Cursor, prefix_table
 
 __all__ = ["run_line", "command_table", "ERROR_LINE", "COMMAND_MODULES"]
 
 ERROR_LINE = b"Error"
-_MODULES = (commands_core, commands_device, commands_drive)
+_MODULES = (core_commands, device_commands, drive_commands)
 COMMAND_MODULES = tuple(m.__name__.rsplit(".", 1)[-1] for m in _MODULES)
 
 Command = Callable[[CommandContext, Cursor], None]

@@ -35,7 +35,7 @@ def test_the_score_counts_killed_of_judged():
 
 
 def test_a_phase_control_runs_the_suite_on_a_chip_started_later(tmp_path, monkeypatch):
-    from buildhat_conformance.campaigns import mutation as mutate
+    from buildhat_conformance.campaigns import mutation
     seen = []
 
     class Done:
@@ -44,7 +44,7 @@ def test_a_phase_control_runs_the_suite_on_a_chip_started_later(tmp_path, monkey
     def fake_run(argv, **kw):
         seen.append((kw.get("env") or {}).get("BUILDHAT_SIL_START_NS"))
         return Done()
-    monkeypatch.setattr(mutate.subprocess, "run", fake_run)
-    mutate._control("/prog", tmp_path / "c0", None, None)
-    mutate._control("/prog", tmp_path / "c1", None, None, mutate.PHASE_CONTROLS_NS[0])
-    assert seen == [None, str(mutate.PHASE_CONTROLS_NS[0])]
+    monkeypatch.setattr(mutation.subprocess, "run", fake_run)
+    mutation._control("/prog", tmp_path / "c0", None, None)
+    mutation._control("/prog", tmp_path / "c1", None, None, mutation.PHASE_CONTROLS_NS[0])
+    assert seen == [None, str(mutation.PHASE_CONTROLS_NS[0])]

@@ -149,7 +149,7 @@ def test_a_finding_is_confirmed_shell_quoted_and_saved_to_the_database_with_a_se
 
     from buildhat_conformance.emulator.targets.in_process import InProcessTarget
     from buildhat_conformance.fuzz import cli
-    from buildhat_conformance.fuzz.running import from_arguments as command
+    from buildhat_conformance.fuzz.running import from_arguments
 
     empty = {0: None, 1: None, 2: None, 3: None}
     url = "inprocess:R7?device=2=passive 8&seed=3"
@@ -160,7 +160,7 @@ def test_a_finding_is_confirmed_shell_quoted_and_saved_to_the_database_with_a_se
                               "--families", "valid", "--confirm", "2", "--shrink-time", "1", "--waits", "",
                               "--out", str(out), "--quiet", "--profile", "R7"])
     args.devices = empty
-    result, files = command.run(args, primary=lambda: InProcessTarget("R7", devices=empty,
+    result, files = from_arguments.run(args, primary=lambda: InProcessTarget("R7", devices=empty,
                                                                   factory=FAULTS["wrong"]))
     assert result.findings
     finding = result.findings[0]

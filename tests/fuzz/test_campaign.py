@@ -17,7 +17,7 @@ from buildhat_conformance.emulator.targets.in_process import InProcessTarget
 from buildhat_conformance.fuzz import cli
 from buildhat_conformance.fuzz.findings.replay import replay_script
 from buildhat_conformance.fuzz.findings.shrink import steps_of
-from buildhat_conformance.fuzz.running import from_arguments as command
+from buildhat_conformance.fuzz.running import from_arguments
 from buildhat_conformance.protocol.profiles import get_profile
 from buildhat_conformance.transcripts.script import load_script
 
@@ -42,7 +42,7 @@ def _opener(factory=None, devices=None):
 
 def test_short_campaign_against_the_emulator_has_no_findings(tmp_path):
     args = _args(tmp_path, "--budget", "12x", "--seed", "7", "--steps", "15")
-    result, files = command.run(args, primary=_opener())
+    result, files = from_arguments.run(args, primary=_opener())
     assert not result.findings, "\n".join(f"{f.oracle}: {f.finding.message}" for f in result.findings)
     junit = ET.parse(tmp_path / "junit.xml").getroot()
     names = {c.get("name") for c in junit.iter("testcase")}
@@ -60,7 +60,7 @@ def test_planted_fault_gives_a_shrunk_replayable_finding(tmp_path, kind, oracles
     args = _args(tmp_path, "--budget", "60x", "--seed", "3", "--families", "valid", "--steps", "8",
                  "--shrink-time", "60", "--waits", "")
     args.devices = EMPTY
-    result, files = command.run(args, primary=_opener(factory, EMPTY))
+    result, files = from_arguments.run(args, primary=_opener(factory, EMPTY))
     assert result.findings, f"the planted '{kind}' fault was not found"
     finding = result.findings[0]
     assert finding.oracle in oracles, finding.finding.message

@@ -16,7 +16,7 @@ from buildhat_conformance.emulator.targets.in_process import InProcessTarget
 from buildhat_conformance.fuzz import cli
 from buildhat_conformance.fuzz.findings.confirm import Check, CheckClock, check_finding
 from buildhat_conformance.fuzz.findings.shrink import steps_of
-from buildhat_conformance.fuzz.running import from_arguments as command
+from buildhat_conformance.fuzz.running import from_arguments
 from buildhat_conformance.fuzz.running.campaign import Campaign
 
 EMPTY = {0: None, 1: None, 2: None, 3: None}
@@ -34,7 +34,7 @@ def _run(tmp_path: pathlib.Path, *extra: str, opens: List[int]):
     def opener():
         opens.append(1)
         return InProcessTarget("R7", devices=EMPTY, factory=factory)
-    return command.run(args, primary=opener)
+    return from_arguments.run(args, primary=opener)
 
 
 def test_confirm_0_replays_nothing_and_the_finding_says_it_was_not_checked(tmp_path):

@@ -14,7 +14,7 @@ from buildhat_conformance.fuzz.oracles.differential import (
     open_dump,
     parted_matrix,
 )
-from buildhat_conformance.fuzz.running import from_arguments as command
+from buildhat_conformance.fuzz.running import from_arguments
 from buildhat_conformance.fuzz.running.checked_run import Runner, Stats
 from buildhat_conformance.protocol.profiles import get_profile
 from buildhat_conformance.transcripts.script import load_script
@@ -47,7 +47,7 @@ def _opener(release):
 def test_two_copies_of_one_release_agree(tmp_path):
     args = _args(tmp_path, "--target", "inprocess:R7", "--against", "inprocess:R7", "--budget", "4x",
                  "--seed", "5", "--steps", "8")
-    result, _files = command.run(args, primary=_opener("R7"), secondary=_opener("R7"))
+    result, _files = from_arguments.run(args, primary=_opener("R7"), secondary=_opener("R7"))
     assert not result.findings, [f.finding.message for f in result.findings]
 
 
@@ -55,7 +55,7 @@ def test_two_releases_differ_and_the_difference_replays(tmp_path):
     # R5 still has `bias` and a 10-number `pid`; R7 has pwmparams, pid_diff, a new help text ...
     args = _args(tmp_path, "--target", "inprocess:R7", "--against", "inprocess:R5", "--budget", "40x",
                  "--seed", "5", "--steps", "8", "--families", "valid", "--shrink-time", "60")
-    result, files = command.run(args, primary=_opener("R7"), secondary=_opener("R5"))
+    result, files = from_arguments.run(args, primary=_opener("R7"), secondary=_opener("R5"))
     finding = result.finding("differential")
     assert finding is not None, [f.finding.message for f in result.findings]
     script = load_script(files["differential"]["script"])

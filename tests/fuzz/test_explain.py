@@ -12,7 +12,7 @@ from planted.faults import FAULTS
 from buildhat_conformance.emulator.targets.in_process import InProcessTarget
 from buildhat_conformance.fuzz import cli
 from buildhat_conformance.fuzz.oracles.registry import Finding
-from buildhat_conformance.fuzz.running import from_arguments as command
+from buildhat_conformance.fuzz.running import from_arguments
 from buildhat_conformance.fuzz.running.checked_run import Runner
 from buildhat_conformance.protocol.profiles import get_profile
 
@@ -27,7 +27,7 @@ def test_a_finding_line_and_its_script_name_the_step_and_the_differing_lines(tmp
                               "--out", str(tmp_path), "--quiet", "--no-database"])
     args.devices = EMPTY
     # the planted fault: `coast` also prints Error
-    result, files = command.run(args, primary=lambda: InProcessTarget("R7", devices=EMPTY,
+    result, files = from_arguments.run(args, primary=lambda: InProcessTarget("R7", devices=EMPTY,
                                                                       factory=FAULTS["wrong"]))
     finding = result.finding("fate")
     assert finding is not None, [f.finding.message for f in result.findings]

@@ -12,7 +12,7 @@ import sys
 
 from buildhat_conformance.fuzz import cli
 from buildhat_conformance.fuzz.oracles.registry import finding_class
-from buildhat_conformance.fuzz.running import from_arguments as command
+from buildhat_conformance.fuzz.running import from_arguments
 from buildhat_conformance.fuzz.running.campaign import CampaignResult, Confirmed
 from buildhat_conformance.fuzz.running.checked_run import Stats
 from buildhat_conformance.fuzz.running.workers import merge_results, merge_stats
@@ -31,11 +31,11 @@ def _args(out: pathlib.Path, *extra: str) -> argparse.Namespace:
 
 def test_a_run_budget_over_two_workers_runs_the_same_runs(tmp_path, monkeypatch):
     seen = []
-    summary = command.print_summary
-    monkeypatch.setattr(command, "print_summary", lambda result, stats, *rest: (seen.append(stats),
+    summary = from_arguments.print_summary
+    monkeypatch.setattr(from_arguments, "print_summary", lambda result, stats, *rest: (seen.append(stats),
                                                                             summary(result, stats, *rest)))
-    one, _ = command.run(_args(tmp_path / "one", "--budget", "6x"))
-    two, _ = command.run(_args(tmp_path / "two", "--budget", "6x", "--jobs", "2"))
+    one, _ = from_arguments.run(_args(tmp_path / "one", "--budget", "6x"))
+    two, _ = from_arguments.run(_args(tmp_path / "two", "--budget", "6x", "--jobs", "2"))
     one_stats, two_stats = seen
     assert not one.findings and not two.findings
     assert (one.runs, two.runs, two.workers) == (6, 6, 2)
@@ -74,16 +74,16 @@ def test_jobs_need_targets_started_anew_and_say_so_in_one_line(tmp_path):
 
 
 def _auto(monkeypatch, cpus: int, *argv: str, env: str = "") -> int:
-    from buildhat_conformance.fuzz.running import worker_count as job_count
+    from buildhat_conformance.fuzz.running import worker_count
 
-    monkeypatch.setattr(job_count, "_usable_cpus", lambda: cpus)
+    monkeypatch.setattr(worker_count, "_usable_cpus", lambda: cpus)
     if env:
-        monkeypatch.setenv(job_count.JOBS_ENV, env)
+        monkeypatch.setenv(worker_count.JOBS_ENV, env)
     else:
-        monkeypatch.delenv(job_count.JOBS_ENV, raising=False)
+        monkeypatch.delenv(worker_count.JOBS_ENV, raising=False)
     parser = argparse.ArgumentParser()
     cli.add_arguments(parser)
-    return job_count.resolve_jobs(parser.parse_args(list(argv)), command.DEFAULT_TARGET)
+    return worker_count.resolve_jobs(parser.parse_args(list(argv)), from_arguments.DEFAULT_TARGET)
 
 
 def test_jobs_auto_is_a_worker_per_cpu_for_hats_this_program_starts(monkeypatch):
