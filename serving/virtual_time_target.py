@@ -116,8 +116,9 @@ class VirtualTimeTarget(Target):
     def _booted_copy(self) -> HatModel:
         if not self.boot:
             return self._new()
-        key = (self.factory, self.firmware, tuple(sorted(self.devices.items())), self.seed, self.baud,
-               self.version_string, self.fast_setup)
+        # The class too: a target kind that makes its own model must not get another kind's copy.
+        key = (type(self), self.factory, self.firmware, tuple(sorted(self.devices.items())), self.seed,
+               self.baud, self.version_string, self.fast_setup)
         booted = _BOOTED.get(key)
         if booted is None:
             booted = self._new()

@@ -6,6 +6,7 @@ from typing import Any, Callable, Dict, List
 
 import pytest
 
+from buildhat_conformance.emulator.targets.in_process import InProcessTarget
 from buildhat_conformance.harness.targets.base import TargetError
 from buildhat_conformance.serving.hat_model import HatModel, WorldError
 from buildhat_conformance.serving.virtual_time_target import VirtualTimeTarget
@@ -78,4 +79,12 @@ def test_world_actions_reach_the_model_and_its_refusal_is_one_target_error() -> 
 
 def test_without_a_model_the_target_says_so() -> None:
     with pytest.raises(TargetError, match="test:none: no HAT model to serve"):
+        VirtualTimeTarget(url="test:none").open()
+
+
+def test_a_booted_copy_is_never_another_target_kinds() -> None:
+    # A booted model is kept per kind of target: an emulator booted for `inprocess:` with the same
+    # options must not be served to a kind that has no model of its own (this process once did).
+    InProcessTarget(url="inprocess").open()
+    with pytest.raises(TargetError, match="no HAT model to serve"):
         VirtualTimeTarget(url="test:none").open()
